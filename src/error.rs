@@ -1,0 +1,143 @@
+//! The library's error type.
+//!
+//! Every variant carries the data a user needs to act on it: which particle, which node, which
+//! field, which value. User data (particle states, grid parameters, files) never causes a panic;
+//! it produces one of these.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// Everything that can go wrong with user data.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum MpmError {
+    /// A grid parameter is unusable (non-positive cell size, no cells, non-finite origin …).
+    InvalidGrid {
+        /// What is wrong, in words.
+        reason: String,
+    },
+    /// Node coordinate vectors do not describe a uniform grid in a supported node order.
+    NotAUniformGrid {
+        /// What is wrong, naming the offending node (0-based) where there is one.
+        reason: String,
+    },
+    /// Two inputs that must have the same length do not.
+    LengthMismatch {
+        /// The field whose length is wrong.
+        field: &'static str,
+        /// The length it must have.
+        expected: usize,
+        /// The length it has.
+        found: usize,
+    },
+    /// A particle's field holds an unusable value (NaN, infinity, non-positive mass …).
+    InvalidParticleValue {
+        /// 0-based particle index.
+        particle: usize,
+        /// The field (`"mass"`, `"x"`, `"sigma_xx"` …).
+        field: &'static str,
+        /// The offending value.
+        value: f64,
+        /// Why it is rejected.
+        reason: &'static str,
+    },
+    /// A particle lies outside the background grid, so it has no shape-function support.
+    ParticleOutsideGrid {
+        /// 0-based particle index.
+        particle: usize,
+        /// Particle position.
+        position: [f64; 2],
+        /// Grid bounds `[x_min, x_max, y_min, y_max]`.
+        bounds: [f64; 4],
+    },
+    /// A material or step parameter is unusable.
+    InvalidParameter {
+        /// The parameter's name.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// The admissible range, in words.
+        reason: &'static str,
+    },
+    /// The consistent mass matrix restricted to the active nodes is singular (or so close to it
+    /// that a solve would return garbage).
+    SingularMassMatrix {
+        /// The node (grid numbering, 0-based) at which the Cholesky factorization broke down.
+        node: usize,
+        /// The particles whose shape functions touch that node.
+        particles: Vec<usize>,
+        /// Pivot found at that node divided by the node's diagonal entry `M_ii`.
+        relative_pivot: f64,
+        /// Why this happens, in words.
+        cause: String,
+    },
+    /// A sparse factorization failed for a reason other than singularity (out of memory …).
+    Solver {
+        /// The solver's message.
+        reason: String,
+    },
+    /// Reading or writing a file failed.
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+}
+
+impl fmt::Display for MpmError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MpmError::InvalidGrid { reason } => write!(f, "invalid grid: {reason}"),
+            MpmError::NotAUniformGrid { reason } => {
+                write!(f, "node coordinates do not form a uniform grid: {reason}")
+            }
+            MpmError::LengthMismatch { field, expected, found } => write!(
+                f,
+                "`{field}` has {found} entries but {expected} are required (one per particle)"
+            ),
+            MpmError::InvalidParticleValue {
+                particle,
+                field,
+                value,
+                reason,
+            } => write!(f, "particle {particle}: `{field}` = {value} is invalid: {reason}"),
+            MpmError::ParticleOutsideGrid {
+                particle,
+                position,
+                bounds,
+            } => write!(
+                f,
+                "particle {particle} at ({}, {}) lies outside the grid [{}, {}] x [{}, {}]",
+                position[0], position[1], bounds[0], bounds[1], bounds[2], bounds[3]
+            ),
+            MpmError::InvalidParameter { name, value, reason } => {
+                write!(f, "parameter `{name}` = {value} is invalid: {reason}")
+            }
+            MpmError::SingularMassMatrix {
+                node,
+                particles,
+                relative_pivot,
+                cause,
+            } => write!(
+                f,
+                "the consistent mass matrix is singular at node {node} (relative pivot {relative_pivot:.3e}; \
+                 particles touching it: {particles:?}): {cause}"
+            ),
+            MpmError::Solver { reason } => write!(f, "sparse solver failed: {reason}"),
+            MpmError::Io { path, source } => write!(f, "{}: {source}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for MpmError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            MpmError::Io { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
+
+/// Shorthand for results whose error is [`MpmError`].
+pub type Result<T> = std::result::Result<T, MpmError>;

@@ -1,0 +1,323 @@
+//! The sparse operators N, Gx, Gy (nodes × particles) and the products with them.
+//!
+//! ```text
+//! N[I, p]  = S_I(x_p)            Gx[I, p] = ∂S_I/∂x (x_p)            Gy[I, p] = ∂S_I/∂y (x_p)
+//! ```
+//!
+//! Column `p` holds particle `p`'s weights: `support²` entries (4 for bilinear), row indices
+//! ascending. The three matrices share one sparsity pattern, stored once. Every column has
+//! exactly `support²` stored entries, even where a weight is exactly zero (a particle on a grid
+//! line), so the pattern depends only on which cell each particle is in.
+//!
+//! The arrays are compressed sparse column (CSC) data, assembled directly into buffers that are
+//! reused from one assembly to the next: no triplets, no sorting, no allocation once the
+//! buffers have grown to size. This module is the one place with index arithmetic.
+//!
+//! Two tiers, as in faer:
+//! - matrices for users' own algebra: [`Operators::n_matrix`] (a nalgebra-sparse
+//!   [`CscMatrix`]) and [`Operators::n_faer`] (a borrowed faer view), likewise for Gx, Gy;
+//! - the kernels the time step uses: [`Operators::scatter`] (`op · X`, particle → grid) and
+//!   [`Operators::gather`] (`opᵀ · Y`, grid → particle), moving `K` fields in one pass.
+
+use std::path::Path;
+
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use nalgebra_sparse::CscMatrix;
+
+use crate::error::{MpmError, Result};
+use crate::grid::{Grid, NodeOrder};
+use crate::particles::Particles;
+use crate::shape::ShapeFunction;
+
+/// Which of the three operators a product uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Operator {
+    /// Shape-function values N.
+    N,
+    /// x derivatives Gx.
+    Gx,
+    /// y derivatives Gy.
+    Gy,
+}
+
+/// N, Gx, Gy for one particle configuration, in compressed-column form with a shared pattern.
+#[derive(Debug, Clone, Default)]
+pub struct Operators {
+    num_nodes: usize,
+    shape: ShapeFunction,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    n: Vec<f64>,
+    gx: Vec<f64>,
+    gy: Vec<f64>,
+}
+
+impl Operators {
+    /// Assembles N, Gx, Gy for `particles` on `grid` with shape functions `shape`.
+    ///
+    /// # Errors
+    /// [`MpmError::ParticleOutsideGrid`] naming the first particle outside the grid (or with a
+    /// non-finite position).
+    pub fn assemble(grid: &Grid, shape: ShapeFunction, particles: &Particles) -> Result<Operators> {
+        let mut ops = Operators::default();
+        ops.reassemble(grid, shape, &particles.x, &particles.y)?;
+        Ok(ops)
+    }
+
+    /// Reassembles in place for particles at `(x[p], y[p])`, reusing the buffers: after the
+    /// first call with a given particle count this allocates nothing.
+    ///
+    /// # Errors
+    /// [`MpmError::ParticleOutsideGrid`] naming the first particle outside the grid; the
+    /// operators are then left as they were.
+    ///
+    /// # Panics
+    /// If `x` and `y` differ in length.
+    pub fn reassemble(&mut self, grid: &Grid, shape: ShapeFunction, x: &[f64], y: &[f64]) -> Result<()> {
+        assert_eq!(x.len(), y.len(), "x and y must have one entry per particle");
+        if let Some(p) = (0..x.len()).find(|&p| !grid.contains(x[p], y[p])) {
+            return Err(MpmError::ParticleOutsideGrid {
+                particle: p,
+                position: [x[p], y[p]],
+                bounds: grid.bounds(),
+            });
+        }
+        let num_particles = x.len();
+        let k = shape.nodes_per_particle();
+        let s = shape.support();
+        self.num_nodes = grid.num_nodes();
+        self.shape = shape;
+        self.col_ptr.clear();
+        self.col_ptr.extend((0..=num_particles).map(|p| p * k));
+        let nnz = num_particles * k;
+        self.row_idx.resize(nnz, 0);
+        self.n.resize(nnz, 0.0);
+        self.gx.resize(nnz, 0.0);
+        self.gy.resize(nnz, 0.0);
+        let [sx, sy] = grid.strides();
+        // Outer loop over the axis with the larger stride, so row indices come out ascending.
+        let y_outer = grid.node_order() == NodeOrder::XFastest;
+        for p in 0..num_particles {
+            let wx = shape
+                .axis_weights(grid, 0, x[p])
+                .expect("position checked against the grid above");
+            let wy = shape
+                .axis_weights(grid, 1, y[p])
+                .expect("position checked against the grid above");
+            let mut e = p * k;
+            for outer in 0..s {
+                for inner in 0..s {
+                    let (a, b) = if y_outer { (inner, outer) } else { (outer, inner) };
+                    self.row_idx[e] = (wx.first + a) * sx + (wy.first + b) * sy;
+                    self.n[e] = wx.value[a] * wy.value[b];
+                    self.gx[e] = wx.derivative[a] * wy.value[b];
+                    self.gy[e] = wx.value[a] * wy.derivative[b];
+                    e += 1;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of rows (grid nodes) `n`.
+    pub fn num_nodes(&self) -> usize {
+        self.num_nodes
+    }
+    /// Number of columns (particles) `P`.
+    pub fn num_particles(&self) -> usize {
+        self.col_ptr.len().saturating_sub(1)
+    }
+    /// Stored entries per operator: `P · support²`.
+    pub fn nnz(&self) -> usize {
+        self.row_idx.len()
+    }
+    /// The shape-function family the operators were assembled with.
+    pub fn shape_function(&self) -> ShapeFunction {
+        self.shape
+    }
+    /// CSC column offsets (length `P + 1`), shared by N, Gx, Gy.
+    pub fn col_offsets(&self) -> &[usize] {
+        &self.col_ptr
+    }
+    /// CSC row indices (node numbers, ascending within each column), shared by N, Gx, Gy.
+    pub fn row_indices(&self) -> &[usize] {
+        &self.row_idx
+    }
+    /// CSC values of `op`, aligned with [`Operators::row_indices`].
+    pub fn values(&self, op: Operator) -> &[f64] {
+        match op {
+            Operator::N => &self.n,
+            Operator::Gx => &self.gx,
+            Operator::Gy => &self.gy,
+        }
+    }
+
+    /// The nodes in particle `p`'s support and `(N, Gx, Gy)` there.
+    ///
+    /// # Panics
+    /// If `p >= num_particles()`.
+    pub fn column(&self, p: usize) -> impl Iterator<Item = (usize, f64, f64, f64)> + '_ {
+        (self.col_ptr[p]..self.col_ptr[p + 1]).map(|e| (self.row_idx[e], self.n[e], self.gx[e], self.gy[e]))
+    }
+
+    /// The particles whose support contains `node` (the non-zero pattern of row `node`),
+    /// ascending. Costs one pass over the pattern.
+    pub fn particles_touching(&self, node: usize) -> Vec<usize> {
+        (0..self.num_particles())
+            .filter(|&p| self.row_idx[self.col_ptr[p]..self.col_ptr[p + 1]].contains(&node))
+            .collect()
+    }
+
+    /// `op` as a nalgebra-sparse matrix (n × P), copied out of the buffers.
+    pub fn matrix(&self, op: Operator) -> CscMatrix<f64> {
+        CscMatrix::try_from_csc_data(
+            self.num_nodes,
+            self.num_particles(),
+            self.col_ptr.clone(),
+            self.row_idx.clone(),
+            self.values(op).to_vec(),
+        )
+        .expect("assembled columns are sorted and in range")
+    }
+    /// N as a nalgebra-sparse matrix (n × P).
+    pub fn n_matrix(&self) -> CscMatrix<f64> {
+        self.matrix(Operator::N)
+    }
+    /// Gx as a nalgebra-sparse matrix (n × P).
+    pub fn gx_matrix(&self) -> CscMatrix<f64> {
+        self.matrix(Operator::Gx)
+    }
+    /// Gy as a nalgebra-sparse matrix (n × P).
+    pub fn gy_matrix(&self) -> CscMatrix<f64> {
+        self.matrix(Operator::Gy)
+    }
+
+    /// `op` as a faer sparse matrix view (n × P), borrowing the buffers without copying.
+    pub fn faer(&self, op: Operator) -> SparseColMatRef<'_, usize, f64> {
+        let symbolic = SymbolicSparseColMatRef::new_checked(
+            self.num_nodes,
+            self.num_particles(),
+            &self.col_ptr,
+            None,
+            &self.row_idx,
+        );
+        SparseColMatRef::new(symbolic, self.values(op))
+    }
+    /// N as a faer view.
+    pub fn n_faer(&self) -> SparseColMatRef<'_, usize, f64> {
+        self.faer(Operator::N)
+    }
+    /// Gx as a faer view.
+    pub fn gx_faer(&self) -> SparseColMatRef<'_, usize, f64> {
+        self.faer(Operator::Gx)
+    }
+    /// Gy as a faer view.
+    pub fn gy_faer(&self) -> SparseColMatRef<'_, usize, f64> {
+        self.faer(Operator::Gy)
+    }
+
+    /// Particle → grid product of `K` fields in one pass over `op`:
+    ///
+    /// ```text
+    /// out[k] = op · x[k]          (n-vector = (n × P) · P-vector), for k = 0..K
+    /// ```
+    ///
+    /// `out` is overwritten.
+    ///
+    /// # Panics
+    /// If a field's length is not `P` or an output's length is not `n`.
+    pub fn scatter<const K: usize>(&self, op: Operator, x: [&[f64]; K], out: [&mut [f64]; K]) {
+        self.scatter_scaled(op, None, x, out)
+    }
+
+    /// Particle → grid product of `K` fields scaled entrywise by a particle weight `w`, in one
+    /// pass over `op`:
+    ///
+    /// ```text
+    /// out[k] = op · (w ∘ x[k])     e.g. momentum N (m ∘ v), external force N (m ∘ b)
+    /// ```
+    ///
+    /// `w = None` means `w = 1`. `out` is overwritten.
+    ///
+    /// # Panics
+    /// If a field's or `w`'s length is not `P` or an output's length is not `n`.
+    pub fn scatter_scaled<const K: usize>(
+        &self,
+        op: Operator,
+        w: Option<&[f64]>,
+        x: [&[f64]; K],
+        mut out: [&mut [f64]; K],
+    ) {
+        let np = self.num_particles();
+        for f in &x {
+            assert_eq!(f.len(), np, "particle field length must equal the particle count");
+        }
+        if let Some(w) = w {
+            assert_eq!(w.len(), np, "particle weight length must equal the particle count");
+        }
+        for o in out.iter_mut() {
+            assert_eq!(o.len(), self.num_nodes, "grid output length must equal the node count");
+            o.fill(0.0);
+        }
+        let values = self.values(op);
+        for p in 0..np {
+            let scale = w.map_or(1.0, |w| w[p]);
+            let xp: [f64; K] = std::array::from_fn(|k| scale * x[k][p]);
+            for e in self.col_ptr[p]..self.col_ptr[p + 1] {
+                let (i, v) = (self.row_idx[e], values[e]);
+                for k in 0..K {
+                    out[k][i] += v * xp[k];
+                }
+            }
+        }
+    }
+
+    /// Grid → particle product of `K` grid fields in one pass over `op`:
+    ///
+    /// ```text
+    /// out[k] = opᵀ · y[k]         (P-vector = (P × n) · n-vector), for k = 0..K
+    /// ```
+    ///
+    /// `out` is overwritten.
+    ///
+    /// # Panics
+    /// If a field's length is not `n` or an output's length is not `P`.
+    pub fn gather<const K: usize>(&self, op: Operator, y: [&[f64]; K], out: [&mut [f64]; K]) {
+        let np = self.num_particles();
+        for f in &y {
+            assert_eq!(f.len(), self.num_nodes, "grid field length must equal the node count");
+        }
+        for o in &out {
+            assert_eq!(o.len(), np, "particle output length must equal the particle count");
+        }
+        let values = self.values(op);
+        for p in 0..np {
+            let mut acc = [0.0; K];
+            for e in self.col_ptr[p]..self.col_ptr[p + 1] {
+                let (i, v) = (self.row_idx[e], values[e]);
+                for k in 0..K {
+                    acc[k] += v * y[k][i];
+                }
+            }
+            for k in 0..K {
+                out[k][p] = acc[k];
+            }
+        }
+    }
+
+    /// Writes N, Gx and Gy to `dir/N.mtx`, `dir/Gx.mtx`, `dir/Gy.mtx` (Matrix Market coordinate
+    /// format, 1-based indices, rows = nodes, columns = particles). Creates `dir` if needed.
+    ///
+    /// # Errors
+    /// [`MpmError::Io`] naming the file that could not be written.
+    pub fn write_matrix_market(&self, dir: &Path) -> Result<()> {
+        std::fs::create_dir_all(dir).map_err(|source| MpmError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        for (op, name) in [(Operator::N, "N"), (Operator::Gx, "Gx"), (Operator::Gy, "Gy")] {
+            crate::io::write_matrix_market(&self.matrix(op), &dir.join(format!("{name}.mtx")))?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,202 @@
+//! Particle state as a struct of arrays.
+//!
+//! Every field is a `Vec<f64>` with one entry per particle, in particle order `p = 0..P`
+//! (column `p` of N, Gx, Gy). Stresses are Cauchy stresses in Voigt-like components
+//! `σxx, σyy, σxy`; the body force `b` is per unit mass (an acceleration, e.g. gravity).
+
+use crate::error::{MpmError, Result};
+
+/// The state of all particles. Fields are public so a program can read and set them directly;
+/// [`Particles::validate`] checks a state built by hand.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Particles {
+    /// x coordinate `x_p`.
+    pub x: Vec<f64>,
+    /// y coordinate `y_p`.
+    pub y: Vec<f64>,
+    /// x velocity `vx_p`.
+    pub vx: Vec<f64>,
+    /// y velocity `vy_p`.
+    pub vy: Vec<f64>,
+    /// Mass `m_p` (positive).
+    pub mass: Vec<f64>,
+    /// Volume `V_p` (positive; an area times unit thickness in 2D).
+    pub volume: Vec<f64>,
+    /// Stress `σxx_p`.
+    pub sxx: Vec<f64>,
+    /// Stress `σyy_p`.
+    pub syy: Vec<f64>,
+    /// Shear stress `σxy_p`.
+    pub sxy: Vec<f64>,
+    /// Body force per unit mass, x component `bx_p`.
+    pub bx: Vec<f64>,
+    /// Body force per unit mass, y component `by_p`.
+    pub by: Vec<f64>,
+}
+
+impl Particles {
+    /// Particles at `(x[p], y[p])` with mass `mass[p]` and volume `volume[p]`, at rest,
+    /// stress-free and without body force.
+    ///
+    /// # Errors
+    /// [`MpmError::LengthMismatch`] when the vectors differ in length, and the errors of
+    /// [`Particles::validate`].
+    pub fn new(x: Vec<f64>, y: Vec<f64>, mass: Vec<f64>, volume: Vec<f64>) -> Result<Particles> {
+        let n = x.len();
+        check_len("y", n, y.len())?;
+        check_len("mass", n, mass.len())?;
+        check_len("volume", n, volume.len())?;
+        let particles = Particles {
+            x,
+            y,
+            vx: vec![0.0; n],
+            vy: vec![0.0; n],
+            mass,
+            volume,
+            sxx: vec![0.0; n],
+            syy: vec![0.0; n],
+            sxy: vec![0.0; n],
+            bx: vec![0.0; n],
+            by: vec![0.0; n],
+        };
+        particles.validate()?;
+        Ok(particles)
+    }
+
+    /// Sets the velocities.
+    ///
+    /// # Errors
+    /// As [`Particles::new`].
+    pub fn with_velocity(mut self, vx: Vec<f64>, vy: Vec<f64>) -> Result<Particles> {
+        check_len("vx", self.len(), vx.len())?;
+        check_len("vy", self.len(), vy.len())?;
+        self.vx = vx;
+        self.vy = vy;
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// Sets the stresses `σxx, σyy, σxy`.
+    ///
+    /// # Errors
+    /// As [`Particles::new`].
+    pub fn with_stress(mut self, sxx: Vec<f64>, syy: Vec<f64>, sxy: Vec<f64>) -> Result<Particles> {
+        check_len("sxx", self.len(), sxx.len())?;
+        check_len("syy", self.len(), syy.len())?;
+        check_len("sxy", self.len(), sxy.len())?;
+        self.sxx = sxx;
+        self.syy = syy;
+        self.sxy = sxy;
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// Sets the same body force per unit mass `(bx, by)` on every particle (gravity, or the
+    /// seed's `b = (5, 10)`).
+    ///
+    /// # Errors
+    /// As [`Particles::new`].
+    pub fn with_uniform_body_force(mut self, bx: f64, by: f64) -> Result<Particles> {
+        self.bx = vec![bx; self.len()];
+        self.by = vec![by; self.len()];
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// Sets a body force per unit mass for each particle.
+    ///
+    /// # Errors
+    /// As [`Particles::new`].
+    pub fn with_body_force(mut self, bx: Vec<f64>, by: Vec<f64>) -> Result<Particles> {
+        check_len("bx", self.len(), bx.len())?;
+        check_len("by", self.len(), by.len())?;
+        self.bx = bx;
+        self.by = by;
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// Number of particles `P`.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Whether there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+
+    /// Total mass `Σ_p m_p`.
+    pub fn total_mass(&self) -> f64 {
+        self.mass.iter().sum()
+    }
+
+    /// Total linear momentum `(Σ_p m_p vx_p, Σ_p m_p vy_p)`.
+    pub fn momentum(&self) -> [f64; 2] {
+        let px = self.mass.iter().zip(&self.vx).map(|(m, v)| m * v).sum();
+        let py = self.mass.iter().zip(&self.vy).map(|(m, v)| m * v).sum();
+        [px, py]
+    }
+
+    /// Kinetic energy `½ Σ_p m_p (vx_p² + vy_p²)`.
+    pub fn kinetic_energy(&self) -> f64 {
+        (0..self.len())
+            .map(|p| 0.5 * self.mass[p] * (self.vx[p].powi(2) + self.vy[p].powi(2)))
+            .sum()
+    }
+
+    /// Checks every field: all lengths equal, every value finite, mass and volume positive.
+    ///
+    /// # Errors
+    /// [`MpmError::LengthMismatch`] naming the field, or [`MpmError::InvalidParticleValue`]
+    /// naming the first offending particle, field and value.
+    pub fn validate(&self) -> Result<()> {
+        let n = self.len();
+        for (name, field) in self.fields() {
+            check_len(name, n, field.len())?;
+            if let Some(p) = field.iter().position(|v| !v.is_finite()) {
+                return Err(MpmError::InvalidParticleValue {
+                    particle: p,
+                    field: name,
+                    value: field[p],
+                    reason: "values must be finite",
+                });
+            }
+        }
+        for (name, field) in [("mass", &self.mass), ("volume", &self.volume)] {
+            if let Some(p) = field.iter().position(|&v| v <= 0.0) {
+                return Err(MpmError::InvalidParticleValue {
+                    particle: p,
+                    field: name,
+                    value: field[p],
+                    reason: "must be positive",
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn fields(&self) -> [(&'static str, &Vec<f64>); 11] {
+        [
+            ("x", &self.x),
+            ("y", &self.y),
+            ("vx", &self.vx),
+            ("vy", &self.vy),
+            ("mass", &self.mass),
+            ("volume", &self.volume),
+            ("sxx", &self.sxx),
+            ("syy", &self.syy),
+            ("sxy", &self.sxy),
+            ("bx", &self.bx),
+            ("by", &self.by),
+        ]
+    }
+}
+
+fn check_len(field: &'static str, expected: usize, found: usize) -> Result<()> {
+    if expected == found {
+        Ok(())
+    } else {
+        Err(MpmError::LengthMismatch { field, expected, found })
+    }
+}

@@ -1,0 +1,167 @@
+//! One explicit MPM step, written as the equations of docs/formulation.md.
+//!
+//! The sequence is the seed assignment's (questions 3 and 4), an update-stress-last (USL) step
+//! with a FLIP velocity update:
+//!
+//! | eq. | quantity | code |
+//! |---|---|---|
+//! | (1) | N, Gx, Gy | [`Operators::assemble`] |
+//! | (2) | `m_L = N m`, active nodes, `M = N diag(m) Nᵀ` | [`GridMass::new`] |
+//! | (3) | `q = N (m ∘ v)` | [`momentum`] |
+//! | (4) | `f_ext = N (m ∘ b)` | [`external_force`] |
+//! | (5) | `f_int = −(Gx (V∘σxx) + Gy (V∘σxy), Gx (V∘σxy) + Gy (V∘σyy))` | [`internal_force`] |
+//! | (6) | `a = M⁻¹ (f_ext + f_int)` | [`GridMass::solve`] |
+//! | (7) | `v̄ = M⁻¹ q` | [`GridMass::solve`] |
+//! | (8) | `v̄' = v̄ + Δt a` | [`VectorField::add_scaled`] |
+//! | (9) | `x ← x + Δt Nᵀ v̄'` (or the trapezoidal rule) | [`update_positions`] |
+//! | (10) | `v ← v + Δt Nᵀ a` | [`update_velocities`] |
+//! | (11) | `L = (Gxᵀ v̄', Gyᵀ v̄')`, `ε̇ = sym L` | [`velocity_gradient`], [`strain_rate`] |
+//! | (12) | `σ ← σ + C : (ε̇ Δt)` | [`LinearElastic::update_stress`] |
+//! | (13) | `V ← V (1 + Δt tr ε̇)` | [`update_volumes`] |
+
+use crate::error::{MpmError, Result};
+use crate::grid::Grid;
+use crate::mass::{ConsistentSolveOptions, GridMass, MassChoice, DEFAULT_ACTIVE_MASS_TOLERANCE};
+use crate::material::LinearElastic;
+use crate::operators::Operators;
+use crate::particles::Particles;
+use crate::shape::ShapeFunction;
+use crate::transfer::{
+    external_force, internal_force, momentum, strain_rate, update_positions, update_positions_trapezoidal,
+    update_velocities, update_volumes, velocity_gradient, StrainRate, VectorField, VelocityGradient,
+};
+
+/// How particle positions move in step (9).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PositionUpdate {
+    /// `x ← x + Δt Nᵀ v̄'`: the standard MPM update with the updated grid velocity.
+    #[default]
+    GridVelocity,
+    /// `x ← x + (Δt/2)(v_p + Nᵀ v̄')`: the seed's 4(C) as read in docs/homework.md.
+    Trapezoidal,
+}
+
+/// The choices of one explicit step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepOptions {
+    /// Time step `Δt` (> 0).
+    pub dt: f64,
+    /// Shape-function family.
+    pub shape: ShapeFunction,
+    /// Mass used for both grid solves, (6) and (7).
+    pub mass: MassChoice,
+    /// Position update rule, (9).
+    pub position_update: PositionUpdate,
+    /// Relative lumped mass at or below which a node is inactive.
+    pub active_mass_tolerance: f64,
+    /// Options of the consistent solve.
+    pub consistent: ConsistentSolveOptions,
+}
+
+impl Default for StepOptions {
+    fn default() -> Self {
+        StepOptions {
+            dt: 1e-3,
+            shape: ShapeFunction::Linear,
+            mass: MassChoice::Lumped,
+            position_update: PositionUpdate::GridVelocity,
+            active_mass_tolerance: DEFAULT_ACTIVE_MASS_TOLERANCE,
+            consistent: ConsistentSolveOptions::default(),
+        }
+    }
+}
+
+/// Every intermediate quantity of one step, for inspection. Particle quantities after the
+/// step are in the [`Particles`] the step updated.
+#[derive(Debug)]
+pub struct StepRecord {
+    /// (1) N, Gx, Gy at the start of the step.
+    pub operators: Operators,
+    /// (2) Lumped mass, active nodes and (when chosen) the consistent mass and its factor.
+    pub mass: GridMass,
+    /// (3) Grid momentum `q`.
+    pub momentum: VectorField,
+    /// (4) External grid force.
+    pub external_force: VectorField,
+    /// (5) Internal grid force.
+    pub internal_force: VectorField,
+    /// (6) Grid acceleration.
+    pub acceleration: VectorField,
+    /// (7) Grid velocity from the particles' momentum, before the update.
+    pub grid_velocity: VectorField,
+    /// (8) Updated grid velocity.
+    pub updated_grid_velocity: VectorField,
+    /// (11) Velocity gradient at the particles.
+    pub velocity_gradient: VelocityGradient,
+    /// (11) Strain rate at the particles.
+    pub strain_rate: StrainRate,
+}
+
+/// Advances `particles` by one explicit step (the table in the [module docs](self)) and
+/// returns every intermediate quantity.
+///
+/// # Errors
+/// [`MpmError::InvalidParameter`] for a non-positive or non-finite `dt`; the errors of
+/// [`Particles::validate`] and [`LinearElastic::validate`]; [`MpmError::ParticleOutsideGrid`];
+/// [`MpmError::SingularMassMatrix`] with consistent mass. On error the particles are unchanged.
+pub fn explicit_step(
+    grid: &Grid,
+    particles: &mut Particles,
+    material: &LinearElastic,
+    options: &StepOptions,
+) -> Result<StepRecord> {
+    check_inputs(particles, material, options)?;
+    let (p, dt) = (particles, options.dt);
+    let ops = Operators::assemble(grid, options.shape, p)?; //                                          (1)
+    let mass = GridMass::new(
+        &ops,
+        &p.mass,
+        options.mass,
+        options.active_mass_tolerance,
+        options.consistent,
+    )?; // (2)
+    let q = momentum(&ops, &p.mass, &p.vx, &p.vy); //                                                    (3)
+    let f_ext = external_force(&ops, &p.mass, &p.bx, &p.by); //                                          (4)
+    let f_int = internal_force(&ops, &p.volume, &p.sxx, &p.syy, &p.sxy); //                               (5)
+    let a = mass.solve(&f_ext.add_scaled(1.0, &f_int)); //                                               (6)
+    let v = mass.solve(&q); //                                                                           (7)
+    let v_new = v.add_scaled(dt, &a); //                                                                 (8)
+    move_particles(&ops, p, &v_new, dt, options.position_update); //                                     (9)
+    update_velocities(&ops, &mut p.vx, &mut p.vy, &a, dt); //                                           (10)
+    let l = velocity_gradient(&ops, &v_new); //                                                         (11)
+    let rate = strain_rate(&l); //                                                                      (11)
+    material.update_stress(&mut p.sxx, &mut p.syy, &mut p.sxy, &rate, dt); //                           (12)
+    update_volumes(&mut p.volume, &rate, dt); //                                                        (13)
+    Ok(StepRecord {
+        operators: ops,
+        mass,
+        momentum: q,
+        external_force: f_ext,
+        internal_force: f_int,
+        acceleration: a,
+        grid_velocity: v,
+        updated_grid_velocity: v_new,
+        velocity_gradient: l,
+        strain_rate: rate,
+    })
+}
+
+/// Step (9) with the chosen rule.
+fn move_particles(ops: &Operators, p: &mut Particles, v_grid: &VectorField, dt: f64, rule: PositionUpdate) {
+    match rule {
+        PositionUpdate::GridVelocity => update_positions(ops, &mut p.x, &mut p.y, v_grid, dt),
+        PositionUpdate::Trapezoidal => update_positions_trapezoidal(ops, &mut p.x, &mut p.y, &p.vx, &p.vy, v_grid, dt),
+    }
+}
+
+fn check_inputs(particles: &Particles, material: &LinearElastic, options: &StepOptions) -> Result<()> {
+    if !(options.dt.is_finite() && options.dt > 0.0) {
+        return Err(MpmError::InvalidParameter {
+            name: "dt",
+            value: options.dt,
+            reason: "the time step must be a positive finite number",
+        });
+    }
+    particles.validate()?;
+    material.validate()
+}

@@ -1,0 +1,282 @@
+//! Particle ↔ grid transfers written as products with N, Gx, Gy, and the explicit updates.
+//!
+//! Every function here is one line of the formulation (docs/formulation.md); nodal and
+//! particle vector quantities are [`VectorField`]s (an x and a y component vector).
+
+use crate::mass::ConsistentMassSolver;
+use crate::operators::{Operator, Operators};
+
+/// A 2D vector quantity at every node or every particle, as two component vectors.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct VectorField {
+    /// x components.
+    pub x: Vec<f64>,
+    /// y components.
+    pub y: Vec<f64>,
+}
+
+impl VectorField {
+    /// `len` zero vectors.
+    pub fn zeros(len: usize) -> VectorField {
+        VectorField {
+            x: vec![0.0; len],
+            y: vec![0.0; len],
+        }
+    }
+    /// Number of entries.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+    /// Whether there are no entries.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+    /// `self + s · other`, entrywise.
+    ///
+    /// # Panics
+    /// On length mismatch.
+    pub fn add_scaled(&self, s: f64, other: &VectorField) -> VectorField {
+        assert_eq!(self.len(), other.len(), "vector fields must have equal length");
+        let f = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a + s * b).collect();
+        VectorField {
+            x: f(&self.x, &other.x),
+            y: f(&self.y, &other.y),
+        }
+    }
+    /// Sum of the components, `(Σ x, Σ y)`: total force or momentum on the grid.
+    pub fn sum(&self) -> [f64; 2] {
+        [self.x.iter().sum(), self.y.iter().sum()]
+    }
+}
+
+/// Grid momentum (the numerator of the seed's 4(A)):
+///
+/// ```text
+/// q = N (m ∘ v)      (two n-vectors: qx = N (m ∘ vx), qy = N (m ∘ vy))
+/// ```
+///
+/// # Panics
+/// If an input's length is not the particle count.
+pub fn momentum(ops: &Operators, m: &[f64], vx: &[f64], vy: &[f64]) -> VectorField {
+    let mut q = VectorField::zeros(ops.num_nodes());
+    ops.scatter_scaled(Operator::N, Some(m), [vx, vy], [&mut q.x, &mut q.y]);
+    q
+}
+
+/// External grid force from body forces per unit mass (seed 3(A)):
+///
+/// ```text
+/// f_ext = N (m ∘ b)  (two n-vectors)
+/// ```
+///
+/// # Panics
+/// If an input's length is not the particle count.
+pub fn external_force(ops: &Operators, m: &[f64], bx: &[f64], by: &[f64]) -> VectorField {
+    let mut f = VectorField::zeros(ops.num_nodes());
+    ops.scatter_scaled(Operator::N, Some(m), [bx, by], [&mut f.x, &mut f.y]);
+    f
+}
+
+/// Internal grid force, the divergence of stress (seed 3(B)):
+///
+/// ```text
+/// f_int,x = −( Gx (V ∘ σxx) + Gy (V ∘ σxy) )
+/// f_int,y = −( Gx (V ∘ σxy) + Gy (V ∘ σyy) )      (two n-vectors; V, σ are P-vectors)
+/// ```
+///
+/// Computed in one pass over the shared pattern of Gx and Gy.
+///
+/// # Panics
+/// If an input's length is not the particle count.
+pub fn internal_force(ops: &Operators, volume: &[f64], sxx: &[f64], syy: &[f64], sxy: &[f64]) -> VectorField {
+    let np = ops.num_particles();
+    for f in [volume, sxx, syy, sxy] {
+        assert_eq!(f.len(), np, "particle field length must equal the particle count");
+    }
+    let mut f = VectorField::zeros(ops.num_nodes());
+    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    let (gx, gy) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
+    for p in 0..np {
+        let (txx, tyy, txy) = (volume[p] * sxx[p], volume[p] * syy[p], volume[p] * sxy[p]);
+        for e in cp[p]..cp[p + 1] {
+            let i = ri[e];
+            f.x[i] -= gx[e] * txx + gy[e] * txy;
+            f.y[i] -= gx[e] * txy + gy[e] * tyy;
+        }
+    }
+    f
+}
+
+/// Lumped-mass solve of `M_L u = r` (seed 3(C) and 4(A)):
+///
+/// ```text
+/// u_I = r_I / m_L,I    on active nodes,    u_I = 0 elsewhere
+/// ```
+///
+/// # Panics
+/// On length mismatch.
+pub fn divide_by_lumped(r: &VectorField, lumped: &[f64], active: &[usize]) -> VectorField {
+    VectorField {
+        x: crate::mass::divide_by_lumped_mass(&r.x, lumped, active),
+        y: crate::mass::divide_by_lumped_mass(&r.y, lumped, active),
+    }
+}
+
+/// Consistent-mass solve of `M_AA u_A = r_A` on the solver's active nodes, 0 elsewhere.
+///
+/// # Panics
+/// On length mismatch.
+pub fn solve_consistent(r: &VectorField, solver: &ConsistentMassSolver) -> VectorField {
+    let mut u = r.clone();
+    solver.solve_in_place([&mut u.x, &mut u.y]);
+    u
+}
+
+/// Grid → particle interpolation of a nodal vector field:
+///
+/// ```text
+/// u_p = Nᵀ u_grid    (two P-vectors)
+/// ```
+///
+/// # Panics
+/// If `u` does not have one entry per node.
+pub fn interpolate(ops: &Operators, u: &VectorField) -> VectorField {
+    let mut out = VectorField::zeros(ops.num_particles());
+    ops.gather(Operator::N, [&u.x, &u.y], [&mut out.x, &mut out.y]);
+    out
+}
+
+/// The velocity gradient at the particles, `L = ∇v`:
+///
+/// ```text
+/// Lxx = Gxᵀ v̄x   Lxy = Gyᵀ v̄x   Lyx = Gxᵀ v̄y   Lyy = Gyᵀ v̄y      (P-vectors)
+/// ```
+///
+/// with `Lab = ∂v_a/∂x_b`.
+///
+/// # Panics
+/// If `v` does not have one entry per node.
+pub fn velocity_gradient(ops: &Operators, v: &VectorField) -> VelocityGradient {
+    let np = ops.num_particles();
+    let mut l = VelocityGradient {
+        xx: vec![0.0; np],
+        xy: vec![0.0; np],
+        yx: vec![0.0; np],
+        yy: vec![0.0; np],
+    };
+    ops.gather(Operator::Gx, [&v.x, &v.y], [&mut l.xx, &mut l.yx]);
+    ops.gather(Operator::Gy, [&v.x, &v.y], [&mut l.xy, &mut l.yy]);
+    l
+}
+
+/// Velocity gradient components per particle, `ab = ∂v_a/∂x_b`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct VelocityGradient {
+    /// `∂vx/∂x`.
+    pub xx: Vec<f64>,
+    /// `∂vx/∂y`.
+    pub xy: Vec<f64>,
+    /// `∂vy/∂x`.
+    pub yx: Vec<f64>,
+    /// `∂vy/∂y`.
+    pub yy: Vec<f64>,
+}
+
+/// Strain rate (tensor components) per particle.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct StrainRate {
+    /// `ε̇xx`.
+    pub xx: Vec<f64>,
+    /// `ε̇yy`.
+    pub yy: Vec<f64>,
+    /// Tensor shear rate `ε̇xy` (half the engineering shear rate `γ̇xy`).
+    pub xy: Vec<f64>,
+}
+
+/// Strain rate, the symmetric part of the velocity gradient (seed 4(E)):
+///
+/// ```text
+/// ε̇xx = Lxx,   ε̇yy = Lyy,   ε̇xy = ½ (Lxy + Lyx) = ½ (Gyᵀ v̄x + Gxᵀ v̄y)
+/// ```
+pub fn strain_rate(l: &VelocityGradient) -> StrainRate {
+    StrainRate {
+        xx: l.xx.clone(),
+        yy: l.yy.clone(),
+        xy: l.xy.iter().zip(&l.yx).map(|(a, b)| 0.5 * (a + b)).collect(),
+    }
+}
+
+/// Standard MPM position update with the updated grid velocity (seed 4(C), standard form):
+///
+/// ```text
+/// x_p ← x_p + Δt Nᵀ v̄
+/// ```
+///
+/// # Panics
+/// On length mismatch.
+pub fn update_positions(ops: &Operators, x: &mut [f64], y: &mut [f64], v_grid: &VectorField, dt: f64) {
+    let v = interpolate(ops, v_grid);
+    axpy(x, dt, &v.x);
+    axpy(y, dt, &v.y);
+}
+
+/// The seed's position update as read in docs/homework.md, the trapezoidal rule between the
+/// particle velocity before the step and the interpolated updated grid velocity:
+///
+/// ```text
+/// x_p ← x_p + (Δt/2) (v_p + Nᵀ v̄)
+/// ```
+///
+/// # Panics
+/// On length mismatch.
+pub fn update_positions_trapezoidal(
+    ops: &Operators,
+    x: &mut [f64],
+    y: &mut [f64],
+    vx_old: &[f64],
+    vy_old: &[f64],
+    v_grid: &VectorField,
+    dt: f64,
+) {
+    let v = interpolate(ops, v_grid);
+    axpy(x, 0.5 * dt, vx_old);
+    axpy(x, 0.5 * dt, &v.x);
+    axpy(y, 0.5 * dt, vy_old);
+    axpy(y, 0.5 * dt, &v.y);
+}
+
+/// FLIP particle velocity update (seed 4(D)):
+///
+/// ```text
+/// v_p ← v_p + Δt Nᵀ a
+/// ```
+///
+/// # Panics
+/// On length mismatch.
+pub fn update_velocities(ops: &Operators, vx: &mut [f64], vy: &mut [f64], a: &VectorField, dt: f64) {
+    let da = interpolate(ops, a);
+    axpy(vx, dt, &da.x);
+    axpy(vy, dt, &da.y);
+}
+
+/// Volume update from the volumetric strain rate:
+///
+/// ```text
+/// V_p ← V_p (1 + Δt (ε̇xx + ε̇yy))
+/// ```
+///
+/// # Panics
+/// On length mismatch.
+pub fn update_volumes(volume: &mut [f64], rate: &StrainRate, dt: f64) {
+    assert_eq!(volume.len(), rate.xx.len(), "one volume per particle");
+    for p in 0..volume.len() {
+        volume[p] *= 1.0 + dt * (rate.xx[p] + rate.yy[p]);
+    }
+}
+
+fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
+    assert_eq!(y.len(), x.len(), "vectors must have equal length");
+    for (y, x) in y.iter_mut().zip(x) {
+        *y += a * x;
+    }
+}
