@@ -14,6 +14,7 @@ pub use grid::{Grid, NodeOrder};
 pub use operators::{Operator, Operators};
 pub use particles::Particles;
 pub use shape::{dshape, shape, ShapeFunction};
+pub mod homework;
 pub mod material;
 pub mod step;
 pub mod transfer;
