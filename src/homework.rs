@@ -364,7 +364,7 @@ impl Homework {
                 sig(c.y[i])
             )?;
         }
-        writeln!(out, "(nodes without mass get 0, not NaN)\n")?;
+        writeln!(out, "(nodes without mass get exactly 0)\n")?;
 
         section(
             out,
