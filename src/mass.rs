@@ -214,7 +214,7 @@ impl ConsistentMassSolver {
                     .map_or(0.0, |k| col.values()[k])
             })
             .collect();
-        if let Some(k) = diag.iter().position(|&d| !(d > 0.0)) {
+        if let Some(k) = diag.iter().position(|&d| d.is_nan() || d <= 0.0) {
             return Err(singular(
                 active[k],
                 0.0,
