@@ -14,7 +14,7 @@ use serde_json::{json, Value};
 
 use crate::error::Result;
 use crate::grid::Grid;
-use crate::mass::{GridMass, MassChoice, DEFAULT_ACTIVE_MASS_TOLERANCE};
+use crate::mass::{Constraints, GridMass, MassOptions, MassScheme, Role};
 use crate::material::{LinearElastic, PlaneCondition};
 use crate::operators::Operators;
 use crate::particles::Particles;
@@ -127,11 +127,10 @@ pub fn solve() -> Result<Homework> {
     let consistent = GridMass::new(
         &ops,
         &particles.mass,
-        MassChoice::Consistent,
-        DEFAULT_ACTIVE_MASS_TOLERANCE,
-        Default::default(),
+        &MassOptions::both(MassScheme::Consistent),
+        &Constraints::none(),
     )?;
-    let mass_matrix = DMatrix::from(&consistent.consistent.as_ref().expect("consistent mass requested").0);
+    let mass_matrix = DMatrix::from(consistent.matrix.as_ref().expect("consistent mass requested"));
     let row_sums = (0..nodes).map(|i| mass_matrix.row(i).sum()).collect();
 
     // Questions 3 and 4: one explicit step with the assignment's position rule.
@@ -142,7 +141,8 @@ pub fn solve() -> Result<Homework> {
         ..StepOptions::default()
     };
     let step = explicit_step(&grid, &mut after, &material, &options)?;
-    let acceleration_consistent = consistent.solve(&step.external_force.add_scaled(1.0, &step.internal_force));
+    let total_force = step.external_force.add_scaled(1.0, &step.internal_force);
+    let (acceleration_consistent, _) = consistent.solve(Role::Acceleration, &total_force, None, &ops)?;
     let mut position_standard = VectorField {
         x: particles.x.clone(),
         y: particles.y.clone(),

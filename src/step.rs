@@ -6,7 +6,7 @@
 //! | eq. | quantity | code |
 //! |---|---|---|
 //! | (1) | N, Gx, Gy | [`Operators::assemble`] |
-//! | (2) | `m_L = N m`, active nodes, `M = N diag(m) Nᵀ` | [`GridMass::new`] |
+//! | (2) | `m_L = N m`, active nodes, `M = N diag(m) Nᵀ`, factorizations | [`GridMass::new`] |
 //! | (3) | `q = N (m ∘ v)` | [`momentum`] |
 //! | (4) | `f_ext = N (m ∘ b)` | [`external_force`] |
 //! | (5) | `f_int = −(Gx (V∘σxx) + Gy (V∘σxy), Gx (V∘σxy) + Gy (V∘σyy))` | [`internal_force`] |
@@ -21,7 +21,7 @@
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::mass::{ConsistentSolveOptions, GridMass, MassChoice, DEFAULT_ACTIVE_MASS_TOLERANCE};
+use crate::mass::{Constraints, GridMass, MassOptions, Role, SolveReport};
 use crate::material::LinearElastic;
 use crate::operators::Operators;
 use crate::particles::Particles;
@@ -42,20 +42,19 @@ pub enum PositionUpdate {
 }
 
 /// The choices of one explicit step.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct StepOptions {
     /// Time step `Δt` (> 0).
     pub dt: f64,
     /// Shape-function family.
     pub shape: ShapeFunction,
-    /// Mass used for both grid solves, (6) and (7).
-    pub mass: MassChoice,
+    /// Mass schemes of the velocity projection (7) and the acceleration solve (6), the
+    /// singularity policy and tolerances.
+    pub mass: MassOptions,
+    /// Grid degrees of freedom held at zero velocity (fixed and roller nodes).
+    pub constraints: Constraints,
     /// Position update rule, (9).
     pub position_update: PositionUpdate,
-    /// Relative lumped mass at or below which a node is inactive.
-    pub active_mass_tolerance: f64,
-    /// Options of the consistent solve.
-    pub consistent: ConsistentSolveOptions,
 }
 
 impl Default for StepOptions {
@@ -63,10 +62,9 @@ impl Default for StepOptions {
         StepOptions {
             dt: 1e-3,
             shape: ShapeFunction::Linear,
-            mass: MassChoice::Lumped,
+            mass: MassOptions::default(),
+            constraints: Constraints::none(),
             position_update: PositionUpdate::GridVelocity,
-            active_mass_tolerance: DEFAULT_ACTIVE_MASS_TOLERANCE,
-            consistent: ConsistentSolveOptions::default(),
         }
     }
 }
@@ -77,8 +75,12 @@ impl Default for StepOptions {
 pub struct StepRecord {
     /// (1) N, Gx, Gy at the start of the step.
     pub operators: Operators,
-    /// (2) Lumped mass, active nodes and (when chosen) the consistent mass and its factor.
+    /// (2) Lumped mass, active nodes and (when a scheme needs it) the consistent mass.
     pub mass: GridMass,
+    /// (6) What the acceleration solve did.
+    pub acceleration_report: SolveReport,
+    /// (7) What the velocity projection did.
+    pub velocity_report: SolveReport,
     /// (3) Grid momentum `q`.
     pub momentum: VectorField,
     /// (4) External grid force.
@@ -113,18 +115,12 @@ pub fn explicit_step(
     check_inputs(particles, material, options)?;
     let (p, dt) = (particles, options.dt);
     let ops = Operators::assemble(grid, options.shape, p)?; //                                          (1)
-    let mass = GridMass::new(
-        &ops,
-        &p.mass,
-        options.mass,
-        options.active_mass_tolerance,
-        options.consistent,
-    )?; // (2)
+    let mass = GridMass::new(&ops, &p.mass, &options.mass, &options.constraints)?; //                     (2)
     let q = momentum(&ops, &p.mass, &p.vx, &p.vy); //                                                    (3)
     let f_ext = external_force(&ops, &p.mass, &p.bx, &p.by); //                                          (4)
     let f_int = internal_force(&ops, &p.volume, &p.sxx, &p.syy, &p.sxy); //                               (5)
-    let a = mass.solve(&f_ext.add_scaled(1.0, &f_int)); //                                               (6)
-    let v = mass.solve(&q); //                                                                           (7)
+    let (a, a_report) = mass.solve(Role::Acceleration, &f_ext.add_scaled(1.0, &f_int), None, &ops)?; //  (6)
+    let (v, v_report) = mass.solve(Role::Velocity, &q, None, &ops)?; //                                  (7)
     let v_new = v.add_scaled(dt, &a); //                                                                 (8)
     move_particles(&ops, p, &v_new, dt, options.position_update); //                                     (9)
     update_velocities(&ops, &mut p.vx, &mut p.vy, &a, dt); //                                           (10)
@@ -135,6 +131,8 @@ pub fn explicit_step(
     Ok(StepRecord {
         operators: ops,
         mass,
+        acceleration_report: a_report,
+        velocity_report: v_report,
         momentum: q,
         external_force: f_ext,
         internal_force: f_int,

@@ -1,0 +1,214 @@
+//! Sparse Cholesky factorization of a (blended) mass matrix on a set of degrees of freedom,
+//! with Jacobi scaling, a pivot check that names where it breaks down, and reuse of the
+//! symbolic analysis while the sparsity pattern is unchanged.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw,
+    SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, Par, Side};
+use nalgebra_sparse::CscMatrix;
+
+/// Value a regularized factorization puts in place of a tiny pivot (see `count_small_pivots`).
+const REPLACED_PIVOT: f64 = 4.0;
+
+/// Where a factorization broke down: the position in `dofs` and the scaled pivot there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Breakdown {
+    pub local: usize,
+    pub pivot: f64,
+}
+
+/// `LLᵀ` of `D^{-1/2} A D^{-1/2}`, `A = γ M_FF + (1 − γ) diag(m_L)_FF`, `D = diag(A)`.
+#[derive(Debug, Default)]
+pub(crate) struct SparseCholesky {
+    dofs: Vec<usize>,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    values: Vec<f64>,
+    inv_sqrt_diag: Vec<f64>,
+    symbolic: Option<SymbolicCholesky<usize>>,
+    l_values: Vec<f64>,
+    perm_fwd: Vec<usize>,
+    symbolic_analyses: usize,
+}
+
+impl SparseCholesky {
+    /// Number of symbolic analyses done so far (one per distinct pattern).
+    pub fn symbolic_analyses(&self) -> usize {
+        self.symbolic_analyses
+    }
+
+    /// The degrees of freedom (global node numbers, ascending) of the last factorization.
+    pub fn dofs(&self) -> &[usize] {
+        &self.dofs
+    }
+
+    /// Factorizes `A` restricted to `dofs`. `local[i]` is the position of global node `i` in
+    /// `dofs` or `usize::MAX`. Reuses the symbolic analysis when the pattern is unchanged.
+    pub fn factor(
+        &mut self,
+        m: &CscMatrix<f64>,
+        lumped: &[f64],
+        gamma: f64,
+        dofs: &[usize],
+        local: &[usize],
+        pivot_tolerance: f64,
+    ) -> Result<(), Breakdown> {
+        let nf = dofs.len();
+        let entry = |i: usize, j: usize, v: f64| {
+            if i == j {
+                gamma * v + (1.0 - gamma) * lumped[i]
+            } else {
+                gamma * v
+            }
+        };
+        // Diagonal of A.
+        self.inv_sqrt_diag.clear();
+        for (k, &j) in dofs.iter().enumerate() {
+            let col = m.col(j);
+            let mjj = col
+                .row_indices()
+                .iter()
+                .position(|&r| r == j)
+                .map_or(0.0, |e| col.values()[e]);
+            let d = entry(j, j, mjj);
+            if d.is_nan() || d <= 0.0 {
+                return Err(Breakdown { local: k, pivot: 0.0 });
+            }
+            self.inv_sqrt_diag.push(1.0 / d.sqrt());
+        }
+        // Upper triangle of the scaled A; compare the pattern with the previous one.
+        let mut same_pattern = self.symbolic.is_some() && self.dofs == dofs;
+        let (old_ptr, old_idx) = (std::mem::take(&mut self.col_ptr), std::mem::take(&mut self.row_idx));
+        self.col_ptr.push(0);
+        self.values.clear();
+        for (kj, &j) in dofs.iter().enumerate() {
+            let col = m.col(j);
+            for (&i, &v) in col.row_indices().iter().zip(col.values()) {
+                let ki = local[i];
+                if ki != usize::MAX && ki <= kj {
+                    self.row_idx.push(ki);
+                    self.values
+                        .push(entry(i, j, v) * self.inv_sqrt_diag[ki] * self.inv_sqrt_diag[kj]);
+                }
+            }
+            self.col_ptr.push(self.row_idx.len());
+        }
+        same_pattern = same_pattern && old_ptr == self.col_ptr && old_idx == self.row_idx;
+        if !same_pattern {
+            self.dofs = dofs.to_vec();
+            let sym = SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
+            let symbolic = factorize_symbolic_cholesky(
+                sym,
+                Side::Upper,
+                SymmetricOrdering::Amd,
+                CholeskySymbolicParams {
+                    // Simplicial storage puts each pivot first in its column of L, where the
+                    // pivot check below reads it.
+                    supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
+                    ..Default::default()
+                },
+            )
+            .expect("symbolic Cholesky analysis only fails when out of memory");
+            self.perm_fwd = match symbolic.perm() {
+                Some(p) => p.arrays().0.to_vec(),
+                None => (0..nf).collect(),
+            };
+            self.l_values = vec![0.0; symbolic.len_val()];
+            self.symbolic = Some(symbolic);
+            self.symbolic_analyses += 1;
+        }
+        let symbolic = self.symbolic.as_ref().expect("set above");
+        let sym = SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
+        let a = SparseColMatRef::new(sym, &self.values);
+        let mut mem = MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()));
+        let result = symbolic.factorize_numeric_llt(
+            &mut self.l_values,
+            a,
+            Side::Upper,
+            LltRegularization::default(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        );
+        if let Err(LltError::NonPositivePivot { index }) = result {
+            // faer reports a 1-based position in the fill-reducing order.
+            let k = self.perm_fwd[index.saturating_sub(1).min(nf - 1)];
+            return Err(Breakdown { local: k, pivot: 0.0 });
+        }
+        if let SymbolicCholeskyRaw::Simplicial(s) = symbolic.raw() {
+            let lcp = s.col_ptr();
+            for jp in 0..nf {
+                let pivot = self.l_values[lcp[jp]].powi(2);
+                if pivot <= pivot_tolerance {
+                    return Err(Breakdown {
+                        local: self.perm_fwd[jp],
+                        pivot,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of pivots at or below `tolerance` in a factorization that replaces each such
+    /// pivot by 4 and goes on: an estimate of the nullity of the last matrix passed to
+    /// [`SparseCholesky::factor`]. (Pivots of the Jacobi-scaled positive semi-definite matrix
+    /// never exceed 1, so a diagonal entry of exactly `√4 = 2` in L marks a replaced pivot.)
+    pub fn count_small_pivots(&self, tolerance: f64) -> usize {
+        let Some(symbolic) = self.symbolic.as_ref() else {
+            return 0;
+        };
+        let nf = self.dofs.len();
+        let sym = SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
+        let a = SparseColMatRef::new(sym, &self.values);
+        let mut l = vec![0.0; symbolic.len_val()];
+        let mut mem = MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()));
+        let regularization = LltRegularization {
+            dynamic_regularization_delta: REPLACED_PIVOT,
+            dynamic_regularization_epsilon: tolerance,
+        };
+        let result = symbolic.factorize_numeric_llt(
+            &mut l,
+            a,
+            Side::Upper,
+            regularization,
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        );
+        match (result, symbolic.raw()) {
+            (Ok(_), SymbolicCholeskyRaw::Simplicial(s)) => {
+                let lcp = s.col_ptr();
+                (0..nf).filter(|&j| l[lcp[j]] == REPLACED_PIVOT.sqrt()).count()
+            }
+            _ => nf,
+        }
+    }
+
+    /// Solves `A x = b` in place for `K` right-hand sides given on `dofs` (length `dofs.len()`).
+    pub fn solve_in_place(&self, rhs: &mut [Vec<f64>]) {
+        let nf = self.dofs.len();
+        let symbolic = self.symbolic.as_ref().expect("factor() must succeed before solve");
+        let k = rhs.len();
+        let mut x = faer::Mat::<f64>::zeros(nf, k);
+        for (c, b) in rhs.iter().enumerate() {
+            for a in 0..nf {
+                x[(a, c)] = b[a] * self.inv_sqrt_diag[a];
+            }
+        }
+        let llt = LltRef::new(symbolic, &self.l_values);
+        let mut mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
+        llt.solve_in_place_with_conj(Conj::No, x.as_mut(), Par::Seq, MemStack::new(&mut mem));
+        for (c, b) in rhs.iter_mut().enumerate() {
+            for a in 0..nf {
+                b[a] = x[(a, c)] * self.inv_sqrt_diag[a];
+            }
+        }
+    }
+}

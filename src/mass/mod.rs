@@ -1,0 +1,287 @@
+//! Grid mass: lumped and consistent mass matrices, the active nodes, and the consistent-mass
+//! solve.
+//!
+//! ```text
+//! m_L = N m                      (n-vector: nodal lumped mass, the row sums of M)
+//! M   = N diag(m) Nᵀ             (n × n, symmetric positive semi-definite)
+//! ```
+//!
+//! A node is **active** when its lumped mass is above `tolerance · max_I m_L,I`
+//! ([`DEFAULT_ACTIVE_MASS_TOLERANCE`] unless the caller says otherwise). Velocities and
+//! accelerations are computed on active nodes only and are exactly zero elsewhere, never NaN.
+//!
+//! The consistent solve `M_AA a_A = f_A` on the active set `A` uses faer's sparse Cholesky
+//! (`LLᵀ`) factorization of the Jacobi-scaled matrix `D^{-1/2} M_AA D^{-1/2}`,
+//! `D = diag(M_AA)`, whose pivots are the fractions of each node's own mass that its
+//! neighbours do not already account for. A pivot at or below
+//! [`ConsistentSolveOptions::pivot_tolerance`] means `M_AA` is singular or so close to it that
+//! a solve would return garbage: that is an error naming the node, never a silent result.
+
+use nalgebra_sparse::CscMatrix;
+
+use crate::error::{MpmError, Result};
+use crate::operators::{Operator, Operators};
+
+mod cg;
+mod cholesky;
+mod schemes;
+
+pub(crate) use cholesky::SparseCholesky;
+pub use schemes::{Constraints, GridMass, MassOptions, MassScheme, Role, SingularityPolicy, SolveOutcome, SolveReport};
+
+/// Default relative mass below which a node is inactive: `m_L,I ≤ 1e-12 · max m_L`. A node
+/// that light carries less than a trillionth of the heaviest node's mass; its velocity is set
+/// to zero, which changes particle velocities by at most that fraction.
+pub const DEFAULT_ACTIVE_MASS_TOLERANCE: f64 = 1e-12;
+
+/// Nodal lumped mass, the seed's `M̄(n) = Σ_p N(n,p) m(p)`:
+///
+/// ```text
+/// m_L = N m           (n-vector = (n × P) · P-vector)
+/// ```
+///
+/// Equal to the row sums of the consistent mass matrix because the shape functions sum to one.
+///
+/// # Panics
+/// If `m.len()` is not the particle count.
+pub fn lumped_mass(ops: &Operators, m: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; ops.num_nodes()];
+    lumped_mass_into(ops, m, &mut out);
+    out
+}
+
+/// [`lumped_mass`] into a preallocated n-vector.
+///
+/// # Panics
+/// On length mismatch.
+pub fn lumped_mass_into(ops: &Operators, m: &[f64], out: &mut [f64]) {
+    ops.scatter(Operator::N, [m], [out]);
+}
+
+/// The consistent mass matrix, the seed's `m̄(n,n') = Σ_p N(n',p) N(n,p) m(p)`:
+///
+/// ```text
+/// M = N diag(m) Nᵀ    (n × n sparse, symmetric; M[I,J] ≠ 0 only if some particle touches both I and J)
+/// ```
+///
+/// Nodes touched by no particle have empty rows and columns.
+///
+/// # Panics
+/// If `m.len()` is not the particle count.
+pub fn consistent_mass(ops: &Operators, m: &[f64]) -> CscMatrix<f64> {
+    weighted_product(ops, Operator::N, Operator::N, m)
+}
+
+/// The weighted product of two of the operators, the building block of mass and stiffness:
+///
+/// ```text
+/// A diag(w) Bᵀ    (n × n sparse; A, B ∈ {N, Gx, Gy}, w a P-vector)
+/// ```
+///
+/// e.g. `weighted_product(ops, Gx, Gx, V ∘ C11)` is the xx block of the stiffness's normal
+/// part. Built column by column (Gustavson's product through the row pattern of B), with sorted
+/// row indices. Every pair of nodes sharing a particle is stored, even if the value is zero.
+///
+/// # Panics
+/// If `w.len()` is not the particle count.
+pub fn weighted_product(ops: &Operators, a: Operator, b: Operator, w: &[f64]) -> CscMatrix<f64> {
+    let (n, np) = (ops.num_nodes(), ops.num_particles());
+    assert_eq!(w.len(), np, "the weight must have one entry per particle");
+    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    let (av, bv) = (ops.values(a), ops.values(b));
+    // Row pattern of the operators: for each node, the stored entries touching it.
+    let mut row_ptr = vec![0usize; n + 1];
+    for &i in ri {
+        row_ptr[i + 1] += 1;
+    }
+    for i in 0..n {
+        row_ptr[i + 1] += row_ptr[i];
+    }
+    let mut fill = row_ptr.clone();
+    let mut row_entry = vec![0usize; ri.len()];
+    for e in 0..ri.len() {
+        let i = ri[e];
+        row_entry[fill[i]] = e;
+        fill[i] += 1;
+    }
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    col_ptr.push(0);
+    let mut rows = Vec::new();
+    let mut vals = Vec::new();
+    let mut work = vec![0.0f64; n];
+    let mut marker = vec![usize::MAX; n];
+    let mut touched = Vec::new();
+    for j in 0..n {
+        touched.clear();
+        for &ej in &row_entry[row_ptr[j]..row_ptr[j + 1]] {
+            let p = particle_of_entry(cp, ej);
+            let scale = w[p] * bv[ej];
+            for e in cp[p]..cp[p + 1] {
+                let i = ri[e];
+                if marker[i] != j {
+                    marker[i] = j;
+                    work[i] = 0.0;
+                    touched.push(i);
+                }
+                work[i] += scale * av[e];
+            }
+        }
+        touched.sort_unstable();
+        for &i in &touched {
+            rows.push(i);
+            vals.push(work[i]);
+        }
+        col_ptr.push(rows.len());
+    }
+    CscMatrix::try_from_csc_data(n, n, col_ptr, rows, vals).expect("rows are sorted and in range")
+}
+
+/// The column (particle) that stored entry `e` belongs to.
+fn particle_of_entry(col_ptr: &[usize], e: usize) -> usize {
+    col_ptr.partition_point(|&c| c <= e) - 1
+}
+
+/// The active nodes: those with `m_L,I > tolerance · max_J m_L,J`, ascending.
+pub fn active_nodes(lumped: &[f64], tolerance: f64) -> Vec<usize> {
+    let max = lumped.iter().cloned().fold(0.0, f64::max);
+    let threshold = tolerance * max;
+    (0..lumped.len())
+        .filter(|&i| lumped[i] > threshold && lumped[i] > 0.0)
+        .collect()
+}
+
+/// `a_I = f_I / m_L,I` on active nodes, 0 elsewhere: the lumped solve of `M_L a = f`.
+///
+/// # Panics
+/// On length mismatch.
+pub fn divide_by_lumped_mass(f: &[f64], lumped: &[f64], active: &[usize]) -> Vec<f64> {
+    assert_eq!(f.len(), lumped.len(), "one value per node");
+    let mut a = vec![0.0; f.len()];
+    for &i in active {
+        a[i] = f[i] / lumped[i];
+    }
+    a
+}
+
+/// Options of the consistent-mass solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConsistentSolveOptions {
+    /// A Cholesky pivot of the Jacobi-scaled matrix at or below this value (the part of a
+    /// node's own mass not already accounted for by its neighbours) marks the matrix as
+    /// singular. The solve's relative error grows like `machine epsilon / pivot`, so the
+    /// default [`DEFAULT_PIVOT_TOLERANCE`] keeps it below about `1e-6`.
+    pub pivot_tolerance: f64,
+}
+
+/// Default pivot tolerance of the Cholesky singularity check.
+pub const DEFAULT_PIVOT_TOLERANCE: f64 = 1e-10;
+
+impl Default for ConsistentSolveOptions {
+    fn default() -> Self {
+        ConsistentSolveOptions {
+            pivot_tolerance: DEFAULT_PIVOT_TOLERANCE,
+        }
+    }
+}
+
+/// A Cholesky factorization of the consistent mass matrix restricted to a set of nodes (the
+/// active nodes, less any fixed ones), ready to solve `M_AA x_A = b_A` for any number of
+/// right-hand sides.
+#[derive(Debug)]
+pub struct ConsistentMassSolver {
+    num_nodes: usize,
+    factor: SparseCholesky,
+}
+
+impl ConsistentMassSolver {
+    /// Factorizes `M_AA`, the consistent mass matrix `mass` (n × n, from [`consistent_mass`])
+    /// restricted to the nodes `active` (ascending, e.g. from [`active_nodes`]).
+    ///
+    /// # Errors
+    /// [`MpmError::SingularMassMatrix`] naming the node (grid numbering) where the
+    /// factorization breaks down and the particles touching it.
+    ///
+    /// # Panics
+    /// If `mass` is not square, an active node is out of range, or `active` is not ascending.
+    pub fn new(
+        mass: &CscMatrix<f64>,
+        active: &[usize],
+        ops: &Operators,
+        options: ConsistentSolveOptions,
+    ) -> Result<ConsistentMassSolver> {
+        let n = mass.nrows();
+        assert_eq!(n, mass.ncols(), "the mass matrix must be square");
+        assert!(active.windows(2).all(|w| w[0] < w[1]), "active nodes must be ascending");
+        let local = local_index(n, active);
+        let mut factor = SparseCholesky::default();
+        // γ = 1: the lumped mass is not used.
+        let no_lumped = vec![0.0; n];
+        factor
+            .factor(mass, &no_lumped, 1.0, active, &local, options.pivot_tolerance)
+            .map_err(|b| singular_error(active[b.local], b.pivot, ops))?;
+        Ok(ConsistentMassSolver { num_nodes: n, factor })
+    }
+
+    /// The nodes the solver works on.
+    pub fn active_nodes(&self) -> &[usize] {
+        self.factor.dofs()
+    }
+
+    /// Solves `M_AA x_A = b_A` for each right-hand side `b` (an n-vector over all nodes) in
+    /// place; entries outside the solver's nodes are set to 0.
+    ///
+    /// # Panics
+    /// If a right-hand side's length is not the node count.
+    pub fn solve_in_place<const K: usize>(&self, rhs: [&mut [f64]; K]) {
+        let dofs = self.factor.dofs();
+        let mut local: Vec<Vec<f64>> = rhs
+            .iter()
+            .map(|b| {
+                assert_eq!(b.len(), self.num_nodes, "right-hand side must have one entry per node");
+                dofs.iter().map(|&i| b[i]).collect()
+            })
+            .collect();
+        self.factor.solve_in_place(&mut local);
+        for (b, x) in rhs.into_iter().zip(&local) {
+            b.fill(0.0);
+            for (&i, v) in dofs.iter().zip(x) {
+                b[i] = *v;
+            }
+        }
+    }
+
+    /// Solves `M_AA x_A = b_A` for one right-hand side, returning `x` (0 outside the solver's
+    /// nodes).
+    ///
+    /// # Panics
+    /// If `b.len()` is not the node count.
+    pub fn solve(&self, b: &[f64]) -> Vec<f64> {
+        let mut x = b.to_vec();
+        self.solve_in_place([&mut x]);
+        x
+    }
+}
+
+/// `local[i]` = position of node `i` in `dofs`, or `usize::MAX`.
+pub(crate) fn local_index(n: usize, dofs: &[usize]) -> Vec<usize> {
+    let mut local = vec![usize::MAX; n];
+    for (k, &i) in dofs.iter().enumerate() {
+        local[i] = k;
+    }
+    local
+}
+
+/// What the library says about a singular mass matrix.
+pub(crate) const SINGULAR_CAUSE: &str = "the particles touching this node do not determine its motion \
+independently of its neighbours' (a consistent mass matrix needs, in every group of nodes, at least as many \
+particles in general position as nodes: one particle in a bilinear cell is not enough). Use lumped mass, more \
+particles per cell, a blended mass, or the FallbackToLumped or Regularize singularity policy";
+
+pub(crate) fn singular_error(node: usize, relative_pivot: f64, ops: &Operators) -> MpmError {
+    MpmError::SingularMassMatrix {
+        node,
+        particles: ops.particles_touching(node),
+        relative_pivot,
+        cause: SINGULAR_CAUSE.to_string(),
+    }
+}

@@ -1,0 +1,667 @@
+//! The mass-solver family: every mass treatment through one code path, on the active nodes,
+//! with fixed degrees of freedom eliminated before any factorization.
+//!
+//! | scheme | grid solve `u = M⁻¹ r` with | cost per step |
+//! |---|---|---|
+//! | [`MassScheme::Lumped`] | `M_L = diag(N m)` | one division per node |
+//! | [`MassScheme::Consistent`] | `M = N diag(m) Nᵀ`, sparse Cholesky | assemble M, numeric factorization, two triangular solves |
+//! | [`MassScheme::Blended`] | `(1 − γ) M_L + γ M`, sparse Cholesky | as consistent |
+//! | [`MassScheme::TruncatedSeries`] | `Σ_{l<k} (I − M_L⁻¹M)^l M_L⁻¹` (FMPM(k)) | k − 1 products with M |
+//! | [`MassScheme::Iterative`] | `M`, conjugate gradient preconditioned by `M_L` | one product with M per iteration |
+//!
+//! Degrees of freedom: for each component (x, y) the solve runs on `F = A \ D`, the active nodes
+//! less the nodes whose component is prescribed ([`Constraints`]). Prescribed values `u_D` enter
+//! the right-hand side as `r_F − M_FD u_D`; the solution takes `u_D` on D and 0 on inactive nodes.
+
+use nalgebra_sparse::CscMatrix;
+
+use super::{
+    active_nodes, consistent_mass, local_index, lumped_mass, singular_error, SparseCholesky,
+    DEFAULT_ACTIVE_MASS_TOLERANCE, DEFAULT_PIVOT_TOLERANCE,
+};
+use crate::error::{MpmError, Result};
+use crate::operators::Operators;
+use crate::transfer::VectorField;
+
+/// How the grid mass turns momenta into velocities and forces into accelerations.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum MassScheme {
+    /// Row-sum lumped mass `m_L = N m`.
+    #[default]
+    Lumped,
+    /// Consistent mass `M = N diag(m) Nᵀ`, solved by sparse Cholesky.
+    Consistent,
+    /// `(1 − γ) M_L + γ M` with `0 ≤ γ ≤ 1`: γ = 0 is lumped, γ = 1 consistent.
+    Blended {
+        /// Weight γ of the consistent mass.
+        gamma: f64,
+    },
+    /// The first `k` terms of `M⁻¹ = Σ_l (I − M_L⁻¹ M)^l M_L⁻¹` (Nairn's FMPM(k), equal to
+    /// XPIC(k) grid velocities); `k = 1` is lumped.
+    TruncatedSeries {
+        /// Number of terms, at least 1.
+        k: usize,
+    },
+    /// Conjugate gradient on `M u = r` preconditioned by the lumped mass, started from the
+    /// lumped solution.
+    Iterative {
+        /// Relative residual `‖M u − r‖ / ‖r‖` at which to stop.
+        tolerance: f64,
+        /// Iteration limit; reaching it is a failure handled by the [`SingularityPolicy`].
+        max_iterations: usize,
+    },
+}
+
+impl MassScheme {
+    /// Whether the scheme needs the assembled consistent mass matrix.
+    pub fn needs_consistent_matrix(&self) -> bool {
+        !matches!(self, MassScheme::Lumped | MassScheme::TruncatedSeries { k: 1 })
+    }
+
+    /// A short name for reports (`"lumped"`, `"consistent"`, `"blended(0.5)"` …).
+    pub fn label(&self) -> String {
+        match self {
+            MassScheme::Lumped => "lumped".into(),
+            MassScheme::Consistent => "consistent".into(),
+            MassScheme::Blended { gamma } => format!("blended({gamma})"),
+            MassScheme::TruncatedSeries { k } => format!("series({k})"),
+            MassScheme::Iterative { tolerance, .. } => format!("cg({tolerance:e})"),
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        match *self {
+            MassScheme::Blended { gamma } if !(0.0..=1.0).contains(&gamma) => Err(MpmError::InvalidParameter {
+                name: "gamma",
+                value: gamma,
+                reason: "the blend weight must lie in [0, 1]",
+            }),
+            MassScheme::TruncatedSeries { k: 0 } => Err(MpmError::InvalidParameter {
+                name: "k",
+                value: 0.0,
+                reason: "the truncated series needs at least one term",
+            }),
+            MassScheme::Iterative {
+                tolerance,
+                max_iterations,
+            } => {
+                if !(tolerance > 0.0 && tolerance < 1.0) {
+                    Err(MpmError::InvalidParameter {
+                        name: "tolerance",
+                        value: tolerance,
+                        reason: "the relative tolerance must lie in (0, 1)",
+                    })
+                } else if max_iterations == 0 {
+                    Err(MpmError::InvalidParameter {
+                        name: "max_iterations",
+                        value: 0.0,
+                        reason: "at least one iteration is needed",
+                    })
+                } else {
+                    Ok(())
+                }
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// What to do when the mass matrix to be solved is singular (or so close that a solve would be
+/// garbage), or an iterative solve fails. Whatever happens is recorded in the [`SolveReport`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum SingularityPolicy {
+    /// Return [`MpmError::SingularMassMatrix`] naming the node and the particles touching it.
+    #[default]
+    Error,
+    /// Solve with the lumped mass instead, for this step.
+    FallbackToLumped,
+    /// Solve with `(1 − ε) M + ε M_L` instead (positive definite for `ε > 0`), for this step.
+    Regularize {
+        /// Weight ε of the lumped mass, in (0, 1].
+        epsilon: f64,
+    },
+}
+
+/// Nodal degrees of freedom whose value is prescribed (fixed or roller nodes). They are
+/// eliminated from the mass solve.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Constraints {
+    /// Nodes whose x component is prescribed.
+    pub fixed_x: Vec<usize>,
+    /// Nodes whose y component is prescribed.
+    pub fixed_y: Vec<usize>,
+}
+
+impl Constraints {
+    /// No prescribed degrees of freedom.
+    pub fn none() -> Constraints {
+        Constraints::default()
+    }
+}
+
+/// The mass treatment of a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MassOptions {
+    /// Scheme for the velocity projection `v̄ = M⁻¹ q`.
+    pub velocity: MassScheme,
+    /// Scheme for the acceleration solve `a = M⁻¹ f`.
+    pub acceleration: MassScheme,
+    /// What to do with a singular matrix or a failed iterative solve.
+    pub singularity: SingularityPolicy,
+    /// Relative lumped mass at or below which a node is inactive.
+    pub active_tolerance: f64,
+    /// Cholesky pivot (Jacobi-scaled) at or below which the matrix counts as singular.
+    pub pivot_tolerance: f64,
+}
+
+impl Default for MassOptions {
+    fn default() -> Self {
+        MassOptions::both(MassScheme::Lumped)
+    }
+}
+
+impl MassOptions {
+    /// The same scheme for the velocity projection and the acceleration solve, default policy
+    /// and tolerances.
+    pub fn both(scheme: MassScheme) -> MassOptions {
+        MassOptions {
+            velocity: scheme,
+            acceleration: scheme,
+            singularity: SingularityPolicy::Error,
+            active_tolerance: DEFAULT_ACTIVE_MASS_TOLERANCE,
+            pivot_tolerance: DEFAULT_PIVOT_TOLERANCE,
+        }
+    }
+}
+
+/// What a solve did.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SolveOutcome {
+    /// Solved with the requested scheme.
+    Solved,
+    /// The matrix was singular at `node`; the lumped mass was used instead.
+    FellBackToLumped {
+        /// Node (grid numbering) where the singularity was found, if it could be located.
+        node: Option<usize>,
+        /// Scaled pivot there.
+        relative_pivot: f64,
+    },
+    /// The matrix was singular at `node`; `(1 − ε) M + ε M_L` was used instead.
+    Regularized {
+        /// Node (grid numbering) where the singularity was found, if it could be located.
+        node: Option<usize>,
+        /// The ε used.
+        epsilon: f64,
+    },
+}
+
+/// The record of one mass solve: scheme, outcome, work and accuracy.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolveReport {
+    /// The scheme requested.
+    pub scheme: MassScheme,
+    /// What happened.
+    pub outcome: SolveOutcome,
+    /// Conjugate-gradient iterations (summed over components); series terms; 0 for direct solves.
+    pub iterations: usize,
+    /// `‖A u − r‖ / ‖r‖` over the free degrees of freedom, with `A` the matrix actually solved
+    /// (for the truncated series, the consistent mass it approximates; 0 for lumped).
+    pub relative_residual: f64,
+}
+
+/// One component's free degrees of freedom.
+#[derive(Debug, Clone, PartialEq, Default)]
+struct Dofs {
+    free: Vec<usize>,
+    local: Vec<usize>,
+}
+
+impl Dofs {
+    fn new(n: usize, active: &[usize], fixed: &[usize]) -> Dofs {
+        let mut is_fixed = vec![false; n];
+        for &i in fixed {
+            if i < n {
+                is_fixed[i] = true;
+            }
+        }
+        let free: Vec<usize> = active.iter().copied().filter(|&i| !is_fixed[i]).collect();
+        Dofs {
+            local: local_index(n, &free),
+            free,
+        }
+    }
+}
+
+/// A prepared solver for one scheme: its factorizations (if any) and what preparing them found.
+#[derive(Debug, Default)]
+struct SchemeSolver {
+    /// The matrix weight γ actually factorized (after a regularization), if factorized.
+    gamma: Option<f64>,
+    factor_x: SparseCholesky,
+    factor_y: SparseCholesky,
+    outcome: Option<SolveOutcome>,
+}
+
+/// The grid mass of one step: lumped mass, active nodes, the consistent matrix when a scheme
+/// needs it, and a prepared solver for each of the velocity and acceleration schemes.
+///
+/// [`GridMass::update`] prepares it for a new particle configuration, reusing the symbolic
+/// Cholesky analysis while the sparsity pattern of the matrix is unchanged and the numeric
+/// factor's buffers always.
+#[derive(Debug, Default)]
+pub struct GridMass {
+    /// Lumped mass `m_L = N m` at every node.
+    pub lumped: Vec<f64>,
+    /// Active nodes (ascending).
+    pub active: Vec<usize>,
+    /// The consistent mass matrix `M = N diag(m) Nᵀ`, when a scheme needs it.
+    pub matrix: Option<CscMatrix<f64>>,
+    options: Option<MassOptions>,
+    is_active: Vec<bool>,
+    dofs_x: Dofs,
+    dofs_y: Dofs,
+    velocity: SchemeSolver,
+    acceleration: SchemeSolver,
+}
+
+/// Which of the two solves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The velocity projection `v̄ = M⁻¹ q`.
+    Velocity,
+    /// The acceleration solve `a = M⁻¹ f`.
+    Acceleration,
+}
+
+impl GridMass {
+    /// Prepares the grid mass for particles with masses `m` and operators `ops`.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidParameter`] for an invalid scheme parameter;
+    /// [`MpmError::SingularMassMatrix`] when a factorized matrix is singular and the policy is
+    /// [`SingularityPolicy::Error`].
+    ///
+    /// # Panics
+    /// If `m.len()` is not the particle count.
+    pub fn new(ops: &Operators, m: &[f64], options: &MassOptions, constraints: &Constraints) -> Result<GridMass> {
+        let mut mass = GridMass::default();
+        mass.update(ops, m, options, constraints)?;
+        Ok(mass)
+    }
+
+    /// Re-prepares for a new configuration, reusing factorization buffers and, while the
+    /// pattern is unchanged, the symbolic analysis.
+    ///
+    /// # Errors
+    /// As [`GridMass::new`]. On error the previous state is not usable for solves.
+    ///
+    /// # Panics
+    /// If `m.len()` is not the particle count.
+    pub fn update(
+        &mut self,
+        ops: &Operators,
+        m: &[f64],
+        options: &MassOptions,
+        constraints: &Constraints,
+    ) -> Result<()> {
+        options.velocity.validate()?;
+        options.acceleration.validate()?;
+        if let SingularityPolicy::Regularize { epsilon } = options.singularity {
+            if !(epsilon > 0.0 && epsilon <= 1.0) {
+                return Err(MpmError::InvalidParameter {
+                    name: "epsilon",
+                    value: epsilon,
+                    reason: "the regularization weight must lie in (0, 1]",
+                });
+            }
+        }
+        let n = ops.num_nodes();
+        self.options = Some(*options);
+        self.lumped = lumped_mass(ops, m);
+        self.active = active_nodes(&self.lumped, options.active_tolerance);
+        self.is_active = vec![false; n];
+        for &i in &self.active {
+            self.is_active[i] = true;
+        }
+        self.dofs_x = Dofs::new(n, &self.active, &constraints.fixed_x);
+        self.dofs_y = Dofs::new(n, &self.active, &constraints.fixed_y);
+        let needs_matrix = options.velocity.needs_consistent_matrix()
+            || options.acceleration.needs_consistent_matrix()
+            || options.singularity != SingularityPolicy::Error;
+        self.matrix = needs_matrix.then(|| consistent_mass(ops, m));
+        for role in [Role::Velocity, Role::Acceleration] {
+            self.prepare(role, ops)?;
+        }
+        Ok(())
+    }
+
+    /// The options in force.
+    pub fn options(&self) -> MassOptions {
+        self.options.unwrap_or_default()
+    }
+
+    /// Free degrees of freedom of the x and y components (active nodes less prescribed ones).
+    pub fn free_dofs(&self) -> (&[usize], &[usize]) {
+        (&self.dofs_x.free, &self.dofs_y.free)
+    }
+
+    /// Symbolic Cholesky analyses done so far by the solver of `role` (x and y components).
+    pub fn symbolic_analyses(&self, role: Role) -> usize {
+        let s = self.solver(role);
+        s.factor_x.symbolic_analyses() + s.factor_y.symbolic_analyses()
+    }
+
+    fn scheme(&self, role: Role) -> MassScheme {
+        let o = self.options();
+        match role {
+            Role::Velocity => o.velocity,
+            Role::Acceleration => o.acceleration,
+        }
+    }
+
+    fn solver(&self, role: Role) -> &SchemeSolver {
+        match role {
+            Role::Velocity => &self.velocity,
+            Role::Acceleration => &self.acceleration,
+        }
+    }
+
+    /// Factorizes what the scheme of `role` needs, applying the singularity policy.
+    fn prepare(&mut self, role: Role, ops: &Operators) -> Result<()> {
+        let scheme = self.scheme(role);
+        let options = self.options();
+        let gamma = match scheme {
+            MassScheme::Consistent => Some(1.0),
+            MassScheme::Blended { gamma } if gamma > 0.0 => Some(gamma),
+            _ => None,
+        };
+        let solver = match role {
+            Role::Velocity => &mut self.velocity,
+            Role::Acceleration => &mut self.acceleration,
+        };
+        solver.outcome = Some(SolveOutcome::Solved);
+        solver.gamma = None;
+        let Some(gamma) = gamma else { return Ok(()) };
+        let matrix = self.matrix.as_ref().expect("assembled for factorized schemes");
+        let factor_both = |s: &mut SchemeSolver, g: f64| -> std::result::Result<(), (usize, f64)> {
+            let fx = s.factor_x.factor(
+                matrix,
+                &self.lumped,
+                g,
+                &self.dofs_x.free,
+                &self.dofs_x.local,
+                options.pivot_tolerance,
+            );
+            fx.map_err(|b| (self.dofs_x.free[b.local], b.pivot))?;
+            if self.dofs_y.free != self.dofs_x.free {
+                let fy = s.factor_y.factor(
+                    matrix,
+                    &self.lumped,
+                    g,
+                    &self.dofs_y.free,
+                    &self.dofs_y.local,
+                    options.pivot_tolerance,
+                );
+                fy.map_err(|b| (self.dofs_y.free[b.local], b.pivot))?;
+            }
+            Ok(())
+        };
+        match factor_both(solver, gamma) {
+            Ok(()) => solver.gamma = Some(gamma),
+            Err((node, pivot)) => match options.singularity {
+                SingularityPolicy::Error => return Err(singular_error(node, pivot, ops)),
+                SingularityPolicy::FallbackToLumped => {
+                    solver.outcome = Some(SolveOutcome::FellBackToLumped {
+                        node: Some(node),
+                        relative_pivot: pivot,
+                    });
+                }
+                SingularityPolicy::Regularize { epsilon } => {
+                    let g = gamma * (1.0 - epsilon);
+                    factor_both(solver, g).map_err(|(node, pivot)| singular_error(node, pivot, ops))?;
+                    solver.gamma = Some(g);
+                    solver.outcome = Some(SolveOutcome::Regularized {
+                        node: Some(node),
+                        epsilon,
+                    });
+                }
+            },
+        }
+        Ok(())
+    }
+
+    /// Solves `M u = r` with the scheme of `role`: `u` on the free degrees of freedom, the
+    /// prescribed values on constrained ones (`prescribed`, or 0 when `None`), 0 on inactive
+    /// nodes.
+    ///
+    /// # Errors
+    /// For [`MassScheme::Iterative`], a conjugate-gradient failure under
+    /// [`SingularityPolicy::Error`] is [`MpmError::SingularMassMatrix`] when a Cholesky check
+    /// locates a singular node, [`MpmError::Solver`] otherwise.
+    ///
+    /// # Panics
+    /// If `r` (or `prescribed`) does not have one entry per node, or before [`GridMass::new`].
+    pub fn solve(
+        &self,
+        role: Role,
+        r: &VectorField,
+        prescribed: Option<&VectorField>,
+        ops: &Operators,
+    ) -> Result<(VectorField, SolveReport)> {
+        let scheme = self.scheme(role);
+        let solver = self.solver(role);
+        let n = self.lumped.len();
+        assert_eq!(r.len(), n, "right-hand side must have one entry per node");
+        let mut outcome = solver.outcome.clone().expect("GridMass::new prepares every solver");
+        let zero = VectorField::zeros(n);
+        let u_d = prescribed.unwrap_or(&zero);
+        let mut u = VectorField::zeros(n);
+        let mut iterations = 0;
+        let mut residual = 0.0;
+        for (c, dofs) in [(0usize, &self.dofs_x), (1, &self.dofs_y)] {
+            let (rc, pc) = if c == 0 { (&r.x, &u_d.x) } else { (&r.y, &u_d.y) };
+            // Prescribed values on D, zero on F, for the coupling term.
+            let mut ud_full = pc.clone();
+            for &i in &dofs.free {
+                ud_full[i] = 0.0;
+            }
+            let coupling_gamma = match (&outcome, solver.gamma, scheme) {
+                (SolveOutcome::FellBackToLumped { .. }, _, _) => 0.0,
+                (_, Some(g), _) => g,
+                (_, None, MassScheme::Lumped) | (_, None, MassScheme::Blended { .. }) => 0.0,
+                _ => 1.0,
+            };
+            let mut rhs: Vec<f64> = dofs.free.iter().map(|&i| rc[i]).collect();
+            if prescribed.is_some() && coupling_gamma > 0.0 {
+                let m = self.matrix.as_ref().expect("matrix assembled when coupling is needed");
+                let mud = spmv(m, &ud_full);
+                for (k, &i) in dofs.free.iter().enumerate() {
+                    rhs[k] -= coupling_gamma * mud[i];
+                }
+            }
+            let (x, its, res) = match (&outcome, scheme) {
+                (SolveOutcome::FellBackToLumped { .. }, _) | (_, MassScheme::Lumped) => {
+                    (self.lumped_solve(dofs, &rhs), 0, 0.0)
+                }
+                (_, MassScheme::Blended { gamma }) if gamma == 0.0 => (self.lumped_solve(dofs, &rhs), 0, 0.0),
+                (_, MassScheme::Consistent)
+                | (_, MassScheme::Blended { .. })
+                | (SolveOutcome::Regularized { .. }, _) => {
+                    let factor = if c == 1 && self.dofs_y.free != self.dofs_x.free {
+                        &solver.factor_y
+                    } else {
+                        &solver.factor_x
+                    };
+                    let mut sol = vec![rhs.clone()];
+                    factor.solve_in_place(&mut sol);
+                    let g = solver.gamma.expect("factorized");
+                    let res = self.relative_residual(dofs, g, &sol[0], &rhs);
+                    (sol.pop().expect("one column"), 0, res)
+                }
+                (_, MassScheme::TruncatedSeries { k }) => {
+                    let x = self.series_solve(dofs, &rhs, k);
+                    let res = self.relative_residual(dofs, 1.0, &x, &rhs);
+                    (x, k, res)
+                }
+                (
+                    _,
+                    MassScheme::Iterative {
+                        tolerance,
+                        max_iterations,
+                    },
+                ) => match self.cg_solve(dofs, &rhs, tolerance, max_iterations) {
+                    Ok((x, its)) => {
+                        let res = self.relative_residual(dofs, 1.0, &x, &rhs);
+                        (x, its, res)
+                    }
+                    Err(reason) => {
+                        let located = self.locate_singularity(dofs);
+                        match self.options().singularity {
+                            SingularityPolicy::Error => {
+                                return Err(match located {
+                                    Some((node, pivot)) => singular_error(node, pivot, ops),
+                                    None => MpmError::Solver { reason },
+                                })
+                            }
+                            SingularityPolicy::FallbackToLumped => {
+                                outcome = SolveOutcome::FellBackToLumped {
+                                    node: located.map(|l| l.0),
+                                    relative_pivot: located.map_or(f64::NAN, |l| l.1),
+                                };
+                                (self.lumped_solve(dofs, &rhs), max_iterations, 0.0)
+                            }
+                            SingularityPolicy::Regularize { epsilon } => {
+                                outcome = SolveOutcome::Regularized {
+                                    node: located.map(|l| l.0),
+                                    epsilon,
+                                };
+                                let mut f = SparseCholesky::default();
+                                let m = self.matrix.as_ref().expect("assembled");
+                                f.factor(m, &self.lumped, 1.0 - epsilon, &dofs.free, &dofs.local, 0.0)
+                                    .map_err(|b| singular_error(dofs.free[b.local], b.pivot, ops))?;
+                                let mut sol = vec![rhs.clone()];
+                                f.solve_in_place(&mut sol);
+                                let res = self.relative_residual(dofs, 1.0 - epsilon, &sol[0], &rhs);
+                                (sol.pop().expect("one column"), max_iterations, res)
+                            }
+                        }
+                    }
+                },
+            };
+            iterations += its;
+            residual = f64::max(residual, res);
+            let out = if c == 0 { &mut u.x } else { &mut u.y };
+            for i in 0..n {
+                let prescribed_here = self.is_active[i] && dofs.local[i] == usize::MAX;
+                out[i] = if prescribed_here { pc[i] } else { 0.0 };
+            }
+            for (k, &i) in dofs.free.iter().enumerate() {
+                out[i] = x[k];
+            }
+        }
+        Ok((
+            u,
+            SolveReport {
+                scheme,
+                outcome,
+                iterations,
+                relative_residual: residual,
+            },
+        ))
+    }
+
+    fn lumped_solve(&self, dofs: &Dofs, rhs: &[f64]) -> Vec<f64> {
+        dofs.free.iter().zip(rhs).map(|(&i, r)| r / self.lumped[i]).collect()
+    }
+
+    /// `(γ M + (1 − γ) M_L)_FF x`, for `x` on F.
+    fn apply(&self, dofs: &Dofs, gamma: f64, x: &[f64]) -> Vec<f64> {
+        let n = self.lumped.len();
+        let mut full = vec![0.0; n];
+        for (k, &i) in dofs.free.iter().enumerate() {
+            full[i] = x[k];
+        }
+        let mx = match (&self.matrix, gamma > 0.0) {
+            (Some(m), true) => spmv(m, &full),
+            _ => vec![0.0; n],
+        };
+        dofs.free
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| gamma * mx[i] + (1.0 - gamma) * self.lumped[i] * x[k])
+            .collect()
+    }
+
+    fn relative_residual(&self, dofs: &Dofs, gamma: f64, x: &[f64], rhs: &[f64]) -> f64 {
+        let ax = self.apply(dofs, gamma, x);
+        let num: f64 = ax.iter().zip(rhs).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+        let den: f64 = rhs.iter().map(|b| b * b).sum::<f64>().sqrt();
+        if den == 0.0 {
+            num
+        } else {
+            num / den
+        }
+    }
+
+    /// `Σ_{l<k} (I − M_L⁻¹ M)^l M_L⁻¹ r` on F.
+    fn series_solve(&self, dofs: &Dofs, rhs: &[f64], k: usize) -> Vec<f64> {
+        let mut du = self.lumped_solve(dofs, rhs);
+        let mut u = du.clone();
+        for _ in 1..k {
+            let mdu = self.apply(dofs, 1.0, &du);
+            for (j, &i) in dofs.free.iter().enumerate() {
+                du[j] -= mdu[j] / self.lumped[i];
+                u[j] += du[j];
+            }
+        }
+        u
+    }
+
+    /// Preconditioned conjugate gradient on `M_FF x = rhs`, started from the lumped solution.
+    fn cg_solve(
+        &self,
+        dofs: &Dofs,
+        rhs: &[f64],
+        tolerance: f64,
+        max_iterations: usize,
+    ) -> std::result::Result<(Vec<f64>, usize), String> {
+        super::cg::solve(
+            |x| self.apply(dofs, 1.0, x),
+            dofs.free.iter().map(|&i| self.lumped[i]).collect(),
+            rhs,
+            self.lumped_solve(dofs, rhs),
+            tolerance,
+            max_iterations,
+        )
+    }
+
+    /// Runs the Cholesky check on `M_FF` to name a singular node, if there is one.
+    fn locate_singularity(&self, dofs: &Dofs) -> Option<(usize, f64)> {
+        let m = self.matrix.as_ref()?;
+        let mut f = SparseCholesky::default();
+        f.factor(
+            m,
+            &self.lumped,
+            1.0,
+            &dofs.free,
+            &dofs.local,
+            self.options().pivot_tolerance,
+        )
+        .err()
+        .map(|b| (dofs.free[b.local], b.pivot))
+    }
+}
+
+/// `y = M x` for a CSC matrix (full storage).
+pub(crate) fn spmv(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; m.nrows()];
+    for (j, col) in m.col_iter().enumerate() {
+        let xj = x[j];
+        if xj != 0.0 {
+            for (&i, &v) in col.row_indices().iter().zip(col.values()) {
+                y[i] += v * xj;
+            }
+        }
+    }
+    y
+}
