@@ -79,7 +79,9 @@ pub mod material;
 pub mod operators;
 pub mod particles;
 pub mod shape;
+pub mod spectral;
 pub mod step;
+pub mod stiffness;
 pub mod transfer;
 
 pub use error::{MpmError, Result};

@@ -24,9 +24,12 @@ use crate::operators::{Operator, Operators};
 
 mod cg;
 mod cholesky;
+mod diagnostics;
 mod schemes;
 
 pub(crate) use cholesky::SparseCholesky;
+pub use diagnostics::{solve_condition_number, MassDiagnostics, TINY_MASS_FRACTION};
+pub(crate) use schemes::spmv;
 pub use schemes::{Constraints, GridMass, MassOptions, MassScheme, Role, SingularityPolicy, SolveOutcome, SolveReport};
 
 /// Default relative mass below which a node is inactive: `m_L,I ≤ 1e-12 · max m_L`. A node
