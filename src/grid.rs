@@ -107,54 +107,65 @@ impl Grid {
                 found: y_g.len(),
             });
         }
-        if let Some(k) = x_g.iter().chain(y_g).position(|v| !v.is_finite()) {
-            return Err(MpmError::NotAUniformGrid {
-                reason: format!("node {} has a non-finite coordinate", k % x_g.len()),
-            });
+        let not_uniform = |reason: String| Err(MpmError::NotAUniformGrid { reason });
+        if x_g.is_empty() {
+            return not_uniform("no node coordinates were given".into());
+        }
+        if let Some(k) = (0..x_g.len()).find(|&k| !(x_g[k].is_finite() && y_g[k].is_finite())) {
+            return not_uniform(format!("node {k} has a non-finite coordinate ({}, {})", x_g[k], y_g[k]));
         }
         let xs = distinct_sorted(x_g);
         let ys = distinct_sorted(y_g);
-        if xs.len() < 2 || ys.len() < 2 {
-            return Err(MpmError::NotAUniformGrid {
-                reason: format!(
-                    "need at least two distinct x and two distinct y values, found {} and {}",
-                    xs.len(),
-                    ys.len()
-                ),
-            });
-        }
-        if xs.len() * ys.len() != x_g.len() {
-            return Err(MpmError::NotAUniformGrid {
-                reason: format!(
-                    "{} distinct x values and {} distinct y values make {} nodes, but {} were given",
-                    xs.len(),
-                    ys.len(),
-                    xs.len() * ys.len(),
-                    x_g.len()
-                ),
-            });
-        }
-        let hx = uniform_spacing(&xs, "x")?;
-        let hy = uniform_spacing(&ys, "y")?;
-        let grid = Grid::new([xs[0], ys[0]], [hx, hy], [xs.len() - 1, ys.len() - 1])?;
-        let mut mismatch = None;
-        for order in [NodeOrder::XFastest, NodeOrder::YFastest] {
-            let candidate = grid.clone().with_node_order(order);
-            match (0..x_g.len()).find(|&k| !candidate.node_matches(k, x_g[k], y_g[k])) {
-                None => return Ok(candidate),
-                Some(k) => {
-                    mismatch.get_or_insert((k, candidate.node_position(k)));
-                }
+        let same = |a: f64, b: f64, v: &[f64]| (a - b).abs() <= COORDINATE_TOLERANCE * span(v);
+        // A point listed twice: name the later node.
+        let mut order: Vec<usize> = (0..x_g.len()).collect();
+        order.sort_by(|&a, &b| x_g[a].total_cmp(&x_g[b]).then(y_g[a].total_cmp(&y_g[b])).then(a.cmp(&b)));
+        for w in order.windows(2) {
+            let (a, b) = (w[0].min(w[1]), w[0].max(w[1]));
+            if same(x_g[a], x_g[b], &xs) && same(y_g[a], y_g[b], &ys) {
+                return not_uniform(format!("node {b} at ({}, {}) repeats node {a}", x_g[b], y_g[b]));
             }
         }
-        let (k, expected) = mismatch.expect("both orders were tried");
-        Err(MpmError::NotAUniformGrid {
-            reason: format!(
-                "nodes are not listed x-fastest or y-fastest: node {k} is at ({}, {}) \
-                 but x-fastest order puts ({}, {}) there",
-                x_g[k], y_g[k], expected[0], expected[1]
-            ),
-        })
+        if xs.len() < 2 || ys.len() < 2 {
+            return not_uniform(format!(
+                "need at least two distinct x and two distinct y values, found {} and {}",
+                xs.len(),
+                ys.len()
+            ));
+        }
+        if xs.len() * ys.len() != x_g.len() {
+            return not_uniform(format!(
+                "{} distinct x values and {} distinct y values make {} nodes, but {} were given",
+                xs.len(),
+                ys.len(),
+                xs.len() * ys.len(),
+                x_g.len()
+            ));
+        }
+        let hx = uniform_spacing(&xs, x_g, "x")?;
+        let hy = uniform_spacing(&ys, y_g, "y")?;
+        let grid = Grid::new([xs[0], ys[0]], [hx, hy], [xs.len() - 1, ys.len() - 1])?;
+        // The intended order is the one the first two nodes follow.
+        let order = if (x_g[1] - x_g[0]).abs() <= SPACING_TOLERANCE * hx {
+            NodeOrder::YFastest
+        } else {
+            NodeOrder::XFastest
+        };
+        let candidate = grid.with_node_order(order);
+        match (0..x_g.len()).find(|&k| !candidate.node_matches(k, x_g[k], y_g[k])) {
+            None => Ok(candidate),
+            Some(k) => {
+                let [ex, ey] = candidate.node_position(k);
+                let name = match order {
+                    NodeOrder::XFastest => "x-fastest",
+                    NodeOrder::YFastest => "y-fastest",
+                };
+                not_uniform(format!(
+                    "node {k} is at ({}, {}) but the {name} order of the first nodes puts ({ex}, {ey}) there",
+                    x_g[k], y_g[k]
+                ))
+            }
+        }
     }
 
     fn node_matches(&self, k: usize, x: f64, y: f64) -> bool {
@@ -283,22 +294,30 @@ impl Grid {
     }
 }
 
+fn span(values: &[f64]) -> f64 {
+    (values[values.len() - 1] - values[0]).abs().max(f64::MIN_POSITIVE)
+}
+
+/// Distinct values, ascending; `values` must not be empty.
 fn distinct_sorted(values: &[f64]) -> Vec<f64> {
     let mut v: Vec<f64> = values.to_vec();
     v.sort_by(f64::total_cmp);
-    let span = (v[v.len() - 1] - v[0]).abs().max(f64::MIN_POSITIVE);
+    let span = span(&v);
     v.dedup_by(|a, b| (*a - *b).abs() <= COORDINATE_TOLERANCE * span);
     v
 }
 
-fn uniform_spacing(values: &[f64], axis: &str) -> Result<f64> {
-    let h = (values[values.len() - 1] - values[0]) / (values.len() - 1) as f64;
-    for (k, v) in values.iter().enumerate() {
-        let expected = values[0] + k as f64 * h;
+/// The spacing of the distinct values `lines`, or an error naming the first node of `all`
+/// that sits on an out-of-place line.
+fn uniform_spacing(lines: &[f64], all: &[f64], axis: &str) -> Result<f64> {
+    let h = (lines[lines.len() - 1] - lines[0]) / (lines.len() - 1) as f64;
+    for (k, v) in lines.iter().enumerate() {
+        let expected = lines[0] + k as f64 * h;
         if (v - expected).abs() > SPACING_TOLERANCE * h {
+            let node = all.iter().position(|a| (a - v).abs() <= SPACING_TOLERANCE * h).unwrap_or(0);
             return Err(MpmError::NotAUniformGrid {
                 reason: format!(
-                    "{axis} values are not evenly spaced: {axis} = {v} where a spacing of {h} puts {expected}"
+                    "{axis} values are not evenly spaced: node {node} has {axis} = {v} where a spacing of {h} puts {expected}"
                 ),
             });
         }

@@ -54,10 +54,12 @@ impl ShapeFunction {
     pub fn axis_weights(&self, grid: &Grid, axis: usize, value: f64) -> Option<AxisWeights> {
         let cells = grid.cells()[axis];
         let h = grid.cell_size()[axis];
-        let s = grid.cell_coordinate(axis, value);
-        if !(0.0..=cells as f64).contains(&s) {
+        let [lo, hi] = [grid.bounds()[2 * axis], grid.bounds()[2 * axis + 1]];
+        if !(lo..=hi).contains(&value) {
             return None;
         }
+        // Inside the bounds, rounding may put (x − x₀)/h a hair outside [0, cells].
+        let s = grid.cell_coordinate(axis, value).clamp(0.0, cells as f64);
         match self {
             ShapeFunction::Linear => {
                 let cell = (s.floor() as usize).min(cells - 1);
