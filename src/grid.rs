@@ -119,7 +119,12 @@ impl Grid {
         let same = |a: f64, b: f64, v: &[f64]| (a - b).abs() <= COORDINATE_TOLERANCE * span(v);
         // A point listed twice: name the later node.
         let mut order: Vec<usize> = (0..x_g.len()).collect();
-        order.sort_by(|&a, &b| x_g[a].total_cmp(&x_g[b]).then(y_g[a].total_cmp(&y_g[b])).then(a.cmp(&b)));
+        order.sort_by(|&a, &b| {
+            x_g[a]
+                .total_cmp(&x_g[b])
+                .then(y_g[a].total_cmp(&y_g[b]))
+                .then(a.cmp(&b))
+        });
         for w in order.windows(2) {
             let (a, b) = (w[0].min(w[1]), w[0].max(w[1]));
             if same(x_g[a], x_g[b], &xs) && same(y_g[a], y_g[b], &ys) {
@@ -314,7 +319,10 @@ fn uniform_spacing(lines: &[f64], all: &[f64], axis: &str) -> Result<f64> {
     for (k, v) in lines.iter().enumerate() {
         let expected = lines[0] + k as f64 * h;
         if (v - expected).abs() > SPACING_TOLERANCE * h {
-            let node = all.iter().position(|a| (a - v).abs() <= SPACING_TOLERANCE * h).unwrap_or(0);
+            let node = all
+                .iter()
+                .position(|a| (a - v).abs() <= SPACING_TOLERANCE * h)
+                .unwrap_or(0);
             return Err(MpmError::NotAUniformGrid {
                 reason: format!(
                     "{axis} values are not evenly spaced: node {node} has {axis} = {v} where a spacing of {h} puts {expected}"

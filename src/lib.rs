@@ -43,6 +43,7 @@
 //! (6)  a  = M⁻¹ (f_ext + f_int)       (lumped or consistent, on A) mass::GridMass::solve
 //! (7)  v̄  = M⁻¹ q                                                  mass::GridMass::solve
 //! (8)  v̄′ = v̄ + Δt a                                               transfer::VectorField::add_scaled
+//! (8b) massless support nodes take the particles' mean velocity    transfer::extend_to_massless_nodes
 //! (9)  x ← x + Δt Nᵀ v̄′                                            transfer::update_positions
 //! (10) v ← v + Δt Nᵀ a                                             transfer::update_velocities
 //! (11) L = [Gxᵀ v̄′, Gyᵀ v̄′],  ε̇ = sym L                            transfer::velocity_gradient, strain_rate

@@ -13,6 +13,7 @@
 //! | (6) | `a = M⁻¹ (f_ext + f_int)` | [`GridMass::solve`] |
 //! | (7) | `v̄ = M⁻¹ q` | [`GridMass::solve`] |
 //! | (8) | `v̄' = v̄ + Δt a` | [`VectorField::add_scaled`] |
+//! | (8b) | massless nodes in a particle's support take the mean particle velocity | [`extend_to_massless_nodes`] |
 //! | (9) | `x ← x + Δt Nᵀ v̄'` (or the trapezoidal rule) | [`update_positions`] |
 //! | (10) | `v ← v + Δt Nᵀ a` | [`update_velocities`] |
 //! | (11) | `L = (Gxᵀ v̄', Gyᵀ v̄')`, `ε̇ = sym L` | [`velocity_gradient`], [`strain_rate`] |
@@ -27,8 +28,9 @@ use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::transfer::{
-    external_force, internal_force, momentum, strain_rate, update_positions, update_positions_trapezoidal,
-    update_velocities, update_volumes, velocity_gradient, StrainRate, VectorField, VelocityGradient,
+    extend_to_massless_nodes, external_force, internal_force, momentum, strain_rate, update_positions,
+    update_positions_trapezoidal, update_velocities, update_volumes, velocity_gradient, StrainRate, VectorField,
+    VelocityGradient,
 };
 
 /// How particle positions move in step (9).
@@ -121,7 +123,8 @@ pub fn explicit_step(
     let f_int = internal_force(&ops, &p.volume, &p.sxx, &p.syy, &p.sxy); //                               (5)
     let (a, a_report) = mass.solve(Role::Acceleration, &f_ext.add_scaled(1.0, &f_int), None, &ops)?; //  (6)
     let (v, v_report) = mass.solve(Role::Velocity, &q, None, &ops)?; //                                  (7)
-    let v_new = v.add_scaled(dt, &a); //                                                                 (8)
+    let mut v_new = v.add_scaled(dt, &a); //                                                             (8)
+    extend_to_massless_nodes(&ops, &mass.active, &mut v_new); //                                        (8b)
     move_particles(&ops, p, &v_new, dt, options.position_update); //                                     (9)
     update_velocities(&ops, &mut p.vx, &mut p.vy, &a, dt); //                                           (10)
     let l = velocity_gradient(&ops, &v_new); //                                                         (11)

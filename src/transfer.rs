@@ -280,3 +280,43 @@ fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
         *y += a * x;
     }
 }
+
+/// Gives the nodes that lie in some particle's support but carry no mass (inactive nodes) the
+/// mean interpolated velocity of the particles whose support contains them:
+///
+/// ```text
+/// v_I = (1/|P_I|) Σ_{p ∈ P_I} (Nᵀ v)_p     for inactive I,   P_I = {p : I in the support of p}
+/// ```
+///
+/// Such nodes appear when a particle sits exactly on a grid line: its weight on the nodes of
+/// the far side is 0, but its gradient there is not (see [`crate::shape::linear`]). Left at
+/// zero velocity they would give the particle a spurious velocity gradient even under a rigid
+/// translation; with this extension a uniform velocity field stays uniform and `Gᵀv` vanishes.
+/// Interpolated values `Nᵀ v` are unchanged, because these nodes have zero weight at every
+/// particle touching them.
+///
+/// # Panics
+/// If `v` does not have one entry per node or an active node is out of range.
+pub fn extend_to_massless_nodes(ops: &Operators, active: &[usize], v: &mut VectorField) {
+    let n = ops.num_nodes();
+    let mut is_active = vec![false; n];
+    active.iter().for_each(|&i| is_active[i] = true);
+    let vp = interpolate(ops, v);
+    let (mut sum, mut count) = (VectorField::zeros(n), vec![0usize; n]);
+    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    for p in 0..ops.num_particles() {
+        for &i in &ri[cp[p]..cp[p + 1]] {
+            if !is_active[i] {
+                sum.x[i] += vp.x[p];
+                sum.y[i] += vp.y[p];
+                count[i] += 1;
+            }
+        }
+    }
+    for i in 0..n {
+        if count[i] > 0 {
+            v.x[i] = sum.x[i] / count[i] as f64;
+            v.y[i] = sum.y[i] / count[i] as f64;
+        }
+    }
+}
