@@ -68,8 +68,6 @@
 //! [`shape::linear`]. Errors are one enum, [`MpmError`], naming the particle, node, field or
 //! value at fault; user data never causes a panic.
 #![deny(missing_docs)]
-// Index loops over the compressed-column arrays read as the sums they compute.
-#![allow(clippy::needless_range_loop)]
 
 pub mod error;
 pub mod grid;

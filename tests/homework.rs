@@ -110,7 +110,7 @@ fn reference() -> Reference {
 }
 
 fn close(a: f64, b: f64) -> bool {
-    (a - b).abs() <= TOL * (1.0 + b.abs())
+    approx::relative_eq!(a, b, epsilon = TOL, max_relative = TOL)
 }
 
 #[test]
@@ -128,8 +128,14 @@ fn shape_functions_and_gradients_match_the_pairwise_formula() {
             assert!(close(hw.shape_values[(a, p)], n(a, p)), "shape n={a} p={p}");
             assert!(close(hw.n[(a, p)], n(a, p)), "N n={a} p={p}");
             let (gx, gy) = dn(a, p);
-            assert!(close(hw.shape_dx[(a, p)], gx) && close(hw.gx[(a, p)], gx), "dN/dx n={a} p={p}");
-            assert!(close(hw.shape_dy[(a, p)], gy) && close(hw.gy[(a, p)], gy), "dN/dy n={a} p={p}");
+            assert!(
+                close(hw.shape_dx[(a, p)], gx) && close(hw.gx[(a, p)], gx),
+                "dN/dx n={a} p={p}"
+            );
+            assert!(
+                close(hw.shape_dy[(a, p)], gy) && close(hw.gy[(a, p)], gy),
+                "dN/dy n={a} p={p}"
+            );
         }
     }
     for (p, s) in hw.column_sums.iter().enumerate() {
@@ -168,7 +174,10 @@ fn forces_accelerations_and_grid_velocities_match_the_pairwise_formula() {
             (&s.updated_grid_velocity, r.vnew[a]),
         ];
         for (k, (field, want)) in pairs.iter().enumerate() {
-            assert!(close(field.x[a], want[0]) && close(field.y[a], want[1]), "quantity {k} at node {a}");
+            assert!(
+                close(field.x[a], want[0]) && close(field.y[a], want[1]),
+                "quantity {k} at node {a}"
+            );
         }
     }
     assert_eq!(hw.active_nodes_1_based(), vec![3, 4, 5, 6]);
@@ -179,10 +188,19 @@ fn particle_updates_match_the_pairwise_formula() {
     let hw = homework::solve().unwrap();
     let (r, after) = (reference(), &hw.after);
     for p in 0..PARTICLES {
-        assert!(close(after.x[p], r.x_seed[p][0]) && close(after.y[p], r.x_seed[p][1]), "4(C) seed rule p={p}");
+        assert!(
+            close(after.x[p], r.x_seed[p][0]) && close(after.y[p], r.x_seed[p][1]),
+            "4(C) seed rule p={p}"
+        );
         let std = &hw.position_standard;
-        assert!(close(std.x[p], r.x_std[p][0]) && close(std.y[p], r.x_std[p][1]), "4(C) standard p={p}");
-        assert!(close(after.vx[p], r.v[p][0]) && close(after.vy[p], r.v[p][1]), "4(D) p={p}");
+        assert!(
+            close(std.x[p], r.x_std[p][0]) && close(std.y[p], r.x_std[p][1]),
+            "4(C) standard p={p}"
+        );
+        assert!(
+            close(after.vx[p], r.v[p][0]) && close(after.vy[p], r.v[p][1]),
+            "4(D) p={p}"
+        );
         let rate = &hw.step.strain_rate;
         assert!(close(rate.xx[p], r.rate[p][0]), "4(E) exx p={p}");
         assert!(close(rate.yy[p], r.rate[p][1]), "4(E) eyy p={p}");
@@ -206,7 +224,10 @@ fn consistent_accelerations_solve_the_mass_matrix_system() {
         }
         let f = [r.fext[i][0] + r.fint[i][0], r.fext[i][1] + r.fint[i][1]];
         if r.lumped[i] > 0.0 {
-            assert!((row[0] - f[0]).abs() < 1e-9 && (row[1] - f[1]).abs() < 1e-9, "residual at node {i}");
+            assert!(
+                (row[0] - f[0]).abs() < 1e-9 && (row[1] - f[1]).abs() < 1e-9,
+                "residual at node {i}"
+            );
         } else {
             assert_eq!((a.x[i], a.y[i]), (0.0, 0.0), "inactive node {i}");
         }
@@ -251,9 +272,15 @@ fn json_holds_every_question_with_numbers() {
 #[test]
 fn report_labels_every_question() {
     let report = homework::solve().unwrap().report();
-    for q in ["1(A)", "1(B)", "1(C)", "1(D)", "2(A)", "2(B)", "2(C)", "3(A)", "3(B)", "3(C)", "4(A)", "4(B)", "4(C)", "4(D)", "4(E)", "4(F)"] {
+    for q in [
+        "1(A)", "1(B)", "1(C)", "1(D)", "2(A)", "2(B)", "2(C)", "3(A)", "3(B)", "3(C)", "4(A)", "4(B)", "4(C)", "4(D)",
+        "4(E)", "4(F)",
+    ] {
         assert!(report.contains(q), "report lacks {q}");
     }
     assert!(report.contains("N(3,2) = 0.05700000"));
-    assert!(!report.contains("NaN") && !report.contains("inf"), "a non-finite number was printed");
+    assert!(
+        !report.contains("NaN") && !report.contains("inf"),
+        "a non-finite number was printed"
+    );
 }

@@ -483,7 +483,7 @@ impl GridMass {
                 (SolveOutcome::FellBackToLumped { .. }, _) | (_, MassScheme::Lumped) => {
                     (self.lumped_solve(dofs, &rhs), 0, 0.0)
                 }
-                (_, MassScheme::Blended { gamma }) if gamma == 0.0 => (self.lumped_solve(dofs, &rhs), 0, 0.0),
+                (_, MassScheme::Blended { gamma: 0.0 }) => (self.lumped_solve(dofs, &rhs), 0, 0.0),
                 (_, MassScheme::Consistent)
                 | (_, MassScheme::Blended { .. })
                 | (SolveOutcome::Regularized { .. }, _) => {
