@@ -66,11 +66,16 @@ fn rhs(n: usize) -> VectorField {
 
 fn solve(ops: &Operators, p: &Particles, scheme: MassScheme) -> (VectorField, sparse_mpm::mass::SolveReport) {
     let mass = GridMass::new(ops, &p.mass, &MassOptions::both(scheme), &Constraints::none()).unwrap();
-    mass.solve(Role::Acceleration, &rhs(ops.num_nodes()), None, ops).unwrap()
+    mass.solve(Role::Acceleration, &rhs(ops.num_nodes()), None, ops)
+        .unwrap()
 }
 
 fn max_diff(a: &VectorField, b: &VectorField) -> f64 {
-    a.x.iter().chain(&a.y).zip(b.x.iter().chain(&b.y)).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max)
+    a.x.iter()
+        .chain(&a.y)
+        .zip(b.x.iter().chain(&b.y))
+        .map(|(u, v)| (u - v).abs())
+        .fold(0.0, f64::max)
 }
 
 fn max_abs(a: &VectorField) -> f64 {
@@ -87,7 +92,10 @@ fn blended_with_gamma_zero_equals_lumped_and_gamma_one_equals_consistent() {
     let (b1, _) = solve(&ops, &p, MassScheme::Blended { gamma: 1.0 });
     assert!(max_diff(&b0, &lumped) <= DIRECT_TOL * max_abs(&lumped));
     assert!(max_diff(&b1, &consistent) <= DIRECT_TOL * max_abs(&consistent));
-    assert!(max_diff(&lumped, &consistent) > 1e-3 * max_abs(&consistent), "the test needs schemes that differ");
+    assert!(
+        max_diff(&lumped, &consistent) > 1e-3 * max_abs(&consistent),
+        "the test needs schemes that differ"
+    );
 }
 
 #[test]
@@ -95,7 +103,11 @@ fn consistent_solve_matches_a_dense_solve_and_reports_a_small_residual() {
     let (grid, p) = jittered_block();
     let ops = Operators::assemble(&grid, ShapeFunction::Linear, &p).unwrap();
     let (u, report) = solve(&ops, &p, MassScheme::Consistent);
-    assert!(report.relative_residual < 1e-12, "residual {}", report.relative_residual);
+    assert!(
+        report.relative_residual < 1e-12,
+        "residual {}",
+        report.relative_residual
+    );
     assert_eq!(report.outcome, SolveOutcome::Solved);
     // Independent: dense N diag(m) Nᵀ on the nodes with mass, solved by LU.
     let n = DMatrix::from(&ops.n_matrix());
@@ -106,7 +118,12 @@ fn consistent_solve_matches_a_dense_solve_and_reports_a_small_residual() {
     let b = nalgebra::DVector::from_iterator(active.len(), active.iter().map(|&i| r.x[i]));
     let x = maa.lu().solve(&b).unwrap();
     for (k, &i) in active.iter().enumerate() {
-        assert!((u.x[i] - x[k]).abs() <= 1e-9 * x.amax(), "node {i}: {} vs {}", u.x[i], x[k]);
+        assert!(
+            (u.x[i] - x[k]).abs() <= 1e-9 * x.amax(),
+            "node {i}: {} vs {}",
+            u.x[i],
+            x[k]
+        );
     }
 }
 
@@ -117,7 +134,10 @@ fn truncated_series_approaches_consistent_as_k_grows() {
     let (consistent, _) = solve(&ops, &p, MassScheme::Consistent);
     let (lumped, _) = solve(&ops, &p, MassScheme::Lumped);
     let (k1, _) = solve(&ops, &p, MassScheme::TruncatedSeries { k: 1 });
-    assert!(max_diff(&k1, &lumped) <= DIRECT_TOL * max_abs(&lumped), "k = 1 is lumped");
+    assert!(
+        max_diff(&k1, &lumped) <= DIRECT_TOL * max_abs(&lumped),
+        "k = 1 is lumped"
+    );
     let errors: Vec<f64> = [1, 2, 4, 8, 16, 64, 400]
         .iter()
         .map(|&k| max_diff(&solve(&ops, &p, MassScheme::TruncatedSeries { k }).0, &consistent))
@@ -134,11 +154,21 @@ fn iterative_matches_consistent_to_its_tolerance() {
     let ops = Operators::assemble(&grid, ShapeFunction::Linear, &p).unwrap();
     let (consistent, _) = solve(&ops, &p, MassScheme::Consistent);
     for tolerance in [1e-4, 1e-8, 1e-12] {
-        let (u, report) = solve(&ops, &p, MassScheme::Iterative { tolerance, max_iterations: 500 });
+        let (u, report) = solve(
+            &ops,
+            &p,
+            MassScheme::Iterative {
+                tolerance,
+                max_iterations: 500,
+            },
+        );
         assert!(report.relative_residual <= tolerance * 1.01, "{report:?}");
         assert!(report.iterations > 0 && report.iterations < 500);
         // Error ≤ κ · residual; the preconditioned matrix here has κ < 100.
-        assert!(max_diff(&u, &consistent) <= 100.0 * tolerance * max_abs(&consistent), "tol {tolerance}");
+        assert!(
+            max_diff(&u, &consistent) <= 100.0 * tolerance * max_abs(&consistent),
+            "tol {tolerance}"
+        );
     }
 }
 
@@ -170,7 +200,13 @@ fn one_particle_per_cell_is_reported_singular_with_the_right_nullity() {
     assert_eq!(diag.nullity_estimate, 25 - rank);
     assert!(diag.lambda_min_estimate < 1e-8, "λ_min = {}", diag.lambda_min_estimate);
     assert!(diag.condition_number.is_infinite());
-    let err = GridMass::new(&ops, &p.mass, &MassOptions::both(MassScheme::Consistent), &Constraints::none()).unwrap_err();
+    let err = GridMass::new(
+        &ops,
+        &p.mass,
+        &MassOptions::both(MassScheme::Consistent),
+        &Constraints::none(),
+    )
+    .unwrap_err();
     match err {
         MpmError::SingularMassMatrix { node, particles, .. } => {
             assert!(node < 25);
@@ -191,14 +227,32 @@ fn singular_mass_falls_back_to_lumped_or_is_regularized_when_asked() {
         singularity: policy,
         ..MassOptions::both(MassScheme::Consistent)
     };
-    let mass = GridMass::new(&ops, &p.mass, &options(SingularityPolicy::FallbackToLumped), &Constraints::none()).unwrap();
+    let mass = GridMass::new(
+        &ops,
+        &p.mass,
+        &options(SingularityPolicy::FallbackToLumped),
+        &Constraints::none(),
+    )
+    .unwrap();
     let (u, report) = mass.solve(Role::Acceleration, &r, None, &ops).unwrap();
-    assert!(matches!(report.outcome, SolveOutcome::FellBackToLumped { node: Some(_), .. }));
+    assert!(matches!(
+        report.outcome,
+        SolveOutcome::FellBackToLumped { node: Some(_), .. }
+    ));
     assert!(max_diff(&u, &lumped) <= DIRECT_TOL * max_abs(&lumped));
     let epsilon = 0.1;
-    let mass = GridMass::new(&ops, &p.mass, &options(SingularityPolicy::Regularize { epsilon }), &Constraints::none()).unwrap();
+    let mass = GridMass::new(
+        &ops,
+        &p.mass,
+        &options(SingularityPolicy::Regularize { epsilon }),
+        &Constraints::none(),
+    )
+    .unwrap();
     let (u, report) = mass.solve(Role::Acceleration, &r, None, &ops).unwrap();
-    assert!(matches!(report.outcome, SolveOutcome::Regularized { node: Some(_), .. }));
+    assert!(matches!(
+        report.outcome,
+        SolveOutcome::Regularized { node: Some(_), .. }
+    ));
     assert!(report.relative_residual < 1e-10);
     // The regularized solve equals the blended scheme with γ = 1 − ε.
     let (blend, _) = solve(&ops, &p, MassScheme::Blended { gamma: 1.0 - epsilon });
@@ -209,7 +263,10 @@ fn singular_mass_falls_back_to_lumped_or_is_regularized_when_asked() {
 fn iterative_solve_of_a_singular_mass_is_an_error_naming_a_node() {
     let (grid, p) = one_particle_per_cell();
     let ops = Operators::assemble(&grid, ShapeFunction::Linear, &p).unwrap();
-    let options = MassOptions::both(MassScheme::Iterative { tolerance: 1e-12, max_iterations: 200 });
+    let options = MassOptions::both(MassScheme::Iterative {
+        tolerance: 1e-12,
+        max_iterations: 200,
+    });
     let mass = GridMass::new(&ops, &p.mass, &options, &Constraints::none()).unwrap();
     match mass.solve(Role::Acceleration, &rhs(ops.num_nodes()), None, &ops) {
         Err(MpmError::SingularMassMatrix { node, .. }) => assert!(node < 25),
@@ -229,7 +286,14 @@ fn fixed_dofs_are_eliminated_and_keep_their_prescribed_values() {
     let mut prescribed = VectorField::zeros(n);
     prescribed.x.iter_mut().take(7).for_each(|v| *v = 0.25);
     prescribed.y[10] = -1.0;
-    for scheme in [MassScheme::Lumped, MassScheme::Consistent, MassScheme::Iterative { tolerance: 1e-12, max_iterations: 500 }] {
+    for scheme in [
+        MassScheme::Lumped,
+        MassScheme::Consistent,
+        MassScheme::Iterative {
+            tolerance: 1e-12,
+            max_iterations: 500,
+        },
+    ] {
         let mass = GridMass::new(&ops, &p.mass, &MassOptions::both(scheme), &constraints).unwrap();
         let r = rhs(n);
         let (u, _) = mass.solve(Role::Velocity, &r, Some(&prescribed), &ops).unwrap();
@@ -245,7 +309,12 @@ fn fixed_dofs_are_eliminated_and_keep_their_prescribed_values() {
         let mu = DMatrix::from(m) * nalgebra::DVector::from_vec(u.x.clone());
         let (fx, _) = mass.free_dofs();
         for &i in fx {
-            assert!((mu[i] - r.x[i]).abs() < 1e-8, "{scheme:?} row {i}: {} vs {}", mu[i], r.x[i]);
+            assert!(
+                (mu[i] - r.x[i]).abs() < 1e-8,
+                "{scheme:?} row {i}: {} vs {}",
+                mu[i],
+                r.x[i]
+            );
         }
     }
 }
@@ -262,7 +331,9 @@ fn symbolic_analysis_is_reused_while_the_pattern_is_unchanged() {
     ops.reassemble(&grid, ShapeFunction::Linear, &p.x, &p.y).unwrap();
     mass.update(&ops, &p.mass, &options, &Constraints::none()).unwrap();
     assert_eq!(mass.symbolic_analyses(Role::Acceleration), 1);
-    let (_, report) = mass.solve(Role::Acceleration, &rhs(ops.num_nodes()), None, &ops).unwrap();
+    let (_, report) = mass
+        .solve(Role::Acceleration, &rhs(ops.num_nodes()), None, &ops)
+        .unwrap();
     assert!(report.relative_residual < 1e-12);
     // Drop a column of cells: the pattern changes and the analysis is redone.
     let keep: Vec<usize> = (0..p.len()).filter(|&i| p.x[i] < 2.5).collect();
@@ -300,7 +371,10 @@ fn lattice_max_eigenvalue(material: &LinearElastic, consistent: bool) -> f64 {
     let mut best: f64 = 0.0;
     for a in 0..=steps {
         for b in 0..=steps {
-            let (tx, ty) = (std::f64::consts::PI * a as f64 / steps as f64, std::f64::consts::PI * b as f64 / steps as f64);
+            let (tx, ty) = (
+                std::f64::consts::PI * a as f64 / steps as f64,
+                std::f64::consts::PI * b as f64 / steps as f64,
+            );
             let kxx = c11 * k1(tx) * m1(ty) + g * m1(tx) * k1(ty);
             let kyy = c11 * m1(tx) * k1(ty) + g * k1(tx) * m1(ty);
             let kxy = (c12 + g) * tx.sin() * ty.sin();
@@ -336,12 +410,22 @@ fn consistent_critical_time_step_is_below_lumped_by_the_fourier_ratio() {
     let theory_l = 2.0 / lattice_max_eigenvalue(&material, false).sqrt();
     let theory_c = 2.0 / lattice_max_eigenvalue(&material, true).sqrt();
     // The finite grid's highest modes sit within (π/24)² of the lattice's: about 2%.
-    assert!((dt_l / theory_l - 1.0).abs() < 0.03, "lumped {dt_l} vs lattice {theory_l}");
-    assert!((dt_c / theory_c - 1.0).abs() < 0.03, "consistent {dt_c} vs lattice {theory_c}");
+    assert!(
+        (dt_l / theory_l - 1.0).abs() < 0.03,
+        "lumped {dt_l} vs lattice {theory_l}"
+    );
+    assert!(
+        (dt_c / theory_c - 1.0).abs() < 0.03,
+        "consistent {dt_c} vs lattice {theory_c}"
+    );
     assert!(dt_c < dt_l);
     let ratio = dt_c / dt_l;
     eprintln!("dt_l {dt_l} theory {theory_l}; dt_c {dt_c} theory {theory_c}; ratio {ratio}");
-    assert!((ratio / (theory_c / theory_l) - 1.0).abs() < 0.02, "ratio {ratio} vs {}", theory_c / theory_l);
+    assert!(
+        (ratio / (theory_c / theory_l) - 1.0).abs() < 0.02,
+        "ratio {ratio} vs {}",
+        theory_c / theory_l
+    );
     // The blend lies between.
     let dt_b = dt(MassScheme::Blended { gamma: 0.5 });
     assert!(dt_c < dt_b && dt_b < dt_l);
