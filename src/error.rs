@@ -66,7 +66,8 @@ pub enum MpmError {
         node: usize,
         /// The particles whose shape functions touch that node.
         particles: Vec<usize>,
-        /// Pivot found at that node divided by the node's diagonal entry `M_ii`.
+        /// Pivot found at that node divided by the node's diagonal entry `M_ii`; 0 when the
+        /// factorization met a pivot that was zero or negative (faer does not report its value).
         relative_pivot: f64,
         /// Why this happens, in words.
         cause: String,
@@ -119,11 +120,18 @@ impl fmt::Display for MpmError {
                 particles,
                 relative_pivot,
                 cause,
-            } => write!(
-                f,
-                "the consistent mass matrix is singular at node {node} (relative pivot {relative_pivot:.3e}; \
-                 particles touching it: {particles:?}): {cause}"
-            ),
+            } => {
+                let pivot = if *relative_pivot > 0.0 {
+                    format!("relative pivot {relative_pivot:.3e}")
+                } else {
+                    "non-positive pivot".to_string()
+                };
+                write!(
+                    f,
+                    "the consistent mass matrix is singular at node {node} ({pivot}; particles touching it: \
+                     {particles:?}): {cause}"
+                )
+            }
             MpmError::Solver { reason } => write!(f, "sparse solver failed: {reason}"),
             MpmError::Io { path, source } => write!(f, "{}: {source}", path.display()),
         }
