@@ -202,7 +202,8 @@ pub struct SolveReport {
     pub scheme: MassScheme,
     /// What happened.
     pub outcome: SolveOutcome,
-    /// Conjugate-gradient iterations (summed over components); series terms; 0 for direct solves.
+    /// Work, summed over the x and y components: conjugate-gradient iterations, or terms of the
+    /// truncated series (k per component); 0 for direct solves.
     pub iterations: usize,
     /// `‖A u − r‖ / ‖r‖` over the free degrees of freedom, with `A` the matrix actually solved
     /// (for the truncated series, the consistent mass it approximates; 0 for lumped).
@@ -329,8 +330,9 @@ impl GridMass {
             || options.acceleration.needs_consistent_matrix()
             || options.singularity != SingularityPolicy::Error;
         self.matrix = needs_matrix.then(|| consistent_mass(ops, m));
-        for role in [Role::Velocity, Role::Acceleration] {
-            self.prepare(role, ops)?;
+        self.prepare(Role::Velocity, ops)?;
+        if !self.shares_solver() {
+            self.prepare(Role::Acceleration, ops)?;
         }
         Ok(())
     }
@@ -361,9 +363,15 @@ impl GridMass {
 
     fn solver(&self, role: Role) -> &SchemeSolver {
         match role {
-            Role::Velocity => &self.velocity,
-            Role::Acceleration => &self.acceleration,
+            Role::Acceleration if !self.shares_solver() => &self.acceleration,
+            _ => &self.velocity,
         }
+    }
+
+    /// Whether both solves use the same scheme, and so one factorization.
+    fn shares_solver(&self) -> bool {
+        let o = self.options();
+        o.velocity == o.acceleration
     }
 
     /// Factorizes what the scheme of `role` needs, applying the singularity policy.
