@@ -17,82 +17,19 @@
 //! other processes on a shared host falls on all of them alike, and every ratio compares medians
 //! measured in this same run.
 
+mod common;
+use common::*;
+
 use std::hint::black_box;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use faer::Par;
 use sparse_mpm::mass::{self, Constraints, GridMass, MassOptions, MassScheme, Role, SolveOutcome, SolveReport};
 use sparse_mpm::transfer::{self, VectorField};
 use sparse_mpm::{Grid, Operators, Particles, ShapeFunction};
 
-/// Timed samples for a call that takes under 0.25 s.
-const MAX_SAMPLES: usize = 11;
-/// A sample lasts at least this long (short calls are repeated within one sample).
-const MIN_SAMPLE: Duration = Duration::from_millis(20);
 /// Empty cells around the block of particles on each side, so the grid has inactive nodes.
 const MARGIN: usize = 2;
-
-/// Median and minimum time per call, in milliseconds.
-#[derive(Debug, Clone, Copy)]
-struct Stats {
-    median_ms: f64,
-    min_ms: f64,
-    samples: usize,
-    calls_per_sample: usize,
-}
-
-/// How many samples, and calls per sample, a kernel gets.
-#[derive(Debug, Clone, Copy)]
-struct Plan {
-    samples: usize,
-    calls: usize,
-}
-
-/// One timed call of `f`; the value it returns is passed through `black_box` and dropped outside
-/// the timed region.
-fn timed_call<R>(f: &mut impl FnMut() -> R) -> Duration {
-    let start = Instant::now();
-    let r = f();
-    let elapsed = start.elapsed();
-    black_box(&r);
-    drop(r);
-    elapsed
-}
-
-/// One warm-up call; its duration sets the plan.
-fn warm_up<R>(f: &mut impl FnMut() -> R) -> Plan {
-    let first = timed_call(f);
-    let samples = if first > Duration::from_secs(1) {
-        3
-    } else if first > Duration::from_millis(250) {
-        5
-    } else {
-        MAX_SAMPLES
-    };
-    let calls = if first >= MIN_SAMPLE {
-        1
-    } else {
-        let per_call = first.as_secs_f64().max(1e-7);
-        ((MIN_SAMPLE.as_secs_f64() / per_call).ceil() as usize).clamp(1, 100_000)
-    };
-    Plan { samples, calls }
-}
-
-/// Time per call in ms, averaged over `calls` calls.
-fn sample<R>(f: &mut impl FnMut() -> R, calls: usize) -> f64 {
-    let total: Duration = (0..calls).map(|_| timed_call(f)).sum();
-    total.as_secs_f64() * 1e3 / calls as f64
-}
-
-fn summarize(mut times: Vec<f64>, calls: usize) -> Stats {
-    times.sort_by(f64::total_cmp);
-    Stats {
-        median_ms: times[times.len() / 2],
-        min_ms: times[0],
-        samples: times.len(),
-        calls_per_sample: calls,
-    }
-}
 
 /// A kernel to time: returns nothing, passes its results through `black_box` itself.
 type Kernel<'a> = Box<dyn FnMut() + 'a>;

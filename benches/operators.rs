@@ -16,8 +16,10 @@
 //! shuffled / sorted) comes from the two kernels timed with their samples interleaved, so load from
 //! other processes on a shared host falls on both alike.
 
-use std::hint::black_box;
-use std::time::{Duration, Instant};
+mod common;
+use common::*;
+
+use std::time::Instant;
 
 use faer::sparse::linalg::matmul::sparse_dense_matmul;
 use faer::{Accum, Mat, MatRef, Par};
@@ -28,76 +30,8 @@ use sparse_mpm::mass::{self, ConsistentMassSolver, ConsistentSolveOptions, DEFAU
 use sparse_mpm::transfer;
 use sparse_mpm::{Grid, Operator, Operators, Particles, ShapeFunction};
 
-/// Timed samples for a call that takes under 0.25 s.
-const MAX_SAMPLES: usize = 11;
-/// A sample lasts at least this long (short calls are repeated within one sample), so the 11
-/// samples of a fast kernel span about a quarter of a second and a short burst of load from other
-/// processes on the host shifts only a few of them.
-const MIN_SAMPLE: Duration = Duration::from_millis(20);
 /// Empty cells around the block of particles on each side, so the grid has inactive nodes.
 const MARGIN: usize = 2;
-
-/// Median and minimum time per call, in milliseconds.
-#[derive(Debug, Clone, Copy)]
-struct Stats {
-    median_ms: f64,
-    min_ms: f64,
-    samples: usize,
-    calls_per_sample: usize,
-}
-
-/// How many samples, and calls per sample, a kernel gets.
-#[derive(Debug, Clone, Copy)]
-struct Plan {
-    samples: usize,
-    calls: usize,
-}
-
-/// One timed call of `f`; the value it returns is passed through `black_box` and dropped outside
-/// the timed region.
-fn timed_call<R>(f: &mut impl FnMut() -> R) -> Duration {
-    let start = Instant::now();
-    let r = f();
-    let elapsed = start.elapsed();
-    black_box(&r);
-    drop(r);
-    elapsed
-}
-
-/// One warm-up call; its duration sets the plan.
-fn warm_up<R>(f: &mut impl FnMut() -> R) -> Plan {
-    let first = timed_call(f);
-    let samples = if first > Duration::from_secs(1) {
-        3
-    } else if first > Duration::from_millis(250) {
-        5
-    } else {
-        MAX_SAMPLES
-    };
-    let calls = if first >= MIN_SAMPLE {
-        1
-    } else {
-        let per_call = first.as_secs_f64().max(1e-7);
-        ((MIN_SAMPLE.as_secs_f64() / per_call).ceil() as usize).clamp(1, 100_000)
-    };
-    Plan { samples, calls }
-}
-
-/// Time per call in ms, averaged over `calls` calls.
-fn sample<R>(f: &mut impl FnMut() -> R, calls: usize) -> f64 {
-    let total: Duration = (0..calls).map(|_| timed_call(f)).sum();
-    total.as_secs_f64() * 1e3 / calls as f64
-}
-
-fn summarize(mut times: Vec<f64>, calls: usize) -> Stats {
-    times.sort_by(f64::total_cmp);
-    Stats {
-        median_ms: times[times.len() / 2],
-        min_ms: times[0],
-        samples: times.len(),
-        calls_per_sample: calls,
-    }
-}
 
 /// Times `f`: one warm-up call, then the planned samples.
 fn measure<R>(mut f: impl FnMut() -> R) -> Stats {

@@ -1,0 +1,75 @@
+//! The timing harness shared by the benchmarks: one warm-up call sets how many samples (and
+//! calls per sample) a kernel gets; results are the median and minimum per call.
+#![allow(dead_code)]
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+/// Timed samples for a call that takes under 0.25 s.
+pub const MAX_SAMPLES: usize = 11;
+/// A sample lasts at least this long (short calls are repeated within one sample), so the 11
+/// samples of a fast kernel span about a quarter of a second and a short burst of load from other
+/// processes on the host shifts only a few of them.
+pub const MIN_SAMPLE: Duration = Duration::from_millis(20);
+
+/// Median and minimum time per call, in milliseconds.
+#[derive(Debug, Clone, Copy)]
+pub struct Stats {
+    pub median_ms: f64,
+    pub min_ms: f64,
+    pub samples: usize,
+    pub calls_per_sample: usize,
+}
+
+/// How many samples, and calls per sample, a kernel gets.
+#[derive(Debug, Clone, Copy)]
+pub struct Plan {
+    pub samples: usize,
+    pub calls: usize,
+}
+
+/// One timed call of `f`; the value it returns is passed through `black_box` and dropped outside
+/// the timed region.
+pub fn timed_call<R>(f: &mut impl FnMut() -> R) -> Duration {
+    let start = Instant::now();
+    let r = f();
+    let elapsed = start.elapsed();
+    black_box(&r);
+    drop(r);
+    elapsed
+}
+
+/// One warm-up call; its duration sets the plan.
+pub fn warm_up<R>(f: &mut impl FnMut() -> R) -> Plan {
+    let first = timed_call(f);
+    let samples = if first > Duration::from_secs(1) {
+        3
+    } else if first > Duration::from_millis(250) {
+        5
+    } else {
+        MAX_SAMPLES
+    };
+    let calls = if first >= MIN_SAMPLE {
+        1
+    } else {
+        let per_call = first.as_secs_f64().max(1e-7);
+        ((MIN_SAMPLE.as_secs_f64() / per_call).ceil() as usize).clamp(1, 100_000)
+    };
+    Plan { samples, calls }
+}
+
+/// Time per call in ms, averaged over `calls` calls.
+pub fn sample<R>(f: &mut impl FnMut() -> R, calls: usize) -> f64 {
+    let total: Duration = (0..calls).map(|_| timed_call(f)).sum();
+    total.as_secs_f64() * 1e3 / calls as f64
+}
+
+pub fn summarize(mut times: Vec<f64>, calls: usize) -> Stats {
+    times.sort_by(f64::total_cmp);
+    Stats {
+        median_ms: times[times.len() / 2],
+        min_ms: times[0],
+        samples: times.len(),
+        calls_per_sample: calls,
+    }
+}
