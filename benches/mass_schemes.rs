@@ -28,9 +28,6 @@ use sparse_mpm::mass::{self, Constraints, GridMass, MassOptions, MassScheme, Rol
 use sparse_mpm::transfer::{self, VectorField};
 use sparse_mpm::{Grid, Operators, Particles, ShapeFunction};
 
-/// Empty cells around the block of particles on each side, so the grid has inactive nodes.
-const MARGIN: usize = 2;
-
 /// A kernel to time: returns nothing, passes its results through `black_box` itself.
 type Kernel<'a> = Box<dyn FnMut() + 'a>;
 
@@ -100,21 +97,9 @@ struct Problem {
 
 impl Problem {
     fn new(target_particles: usize) -> Problem {
-        let nc = (((target_particles as f64) / 4.0).sqrt().round() as usize).max(1);
-        let cells = nc + 2 * MARGIN;
-        let grid = Grid::new([0.0, 0.0], [1.0, 1.0], [cells, cells]).expect("valid grid");
-        let np = 4 * nc * nc;
-        let (mut x, mut y) = (Vec::with_capacity(np), Vec::with_capacity(np));
-        for cj in 0..nc {
-            for ci in 0..nc {
-                for b in [0.25, 0.75] {
-                    for a in [0.25, 0.75] {
-                        x.push((MARGIN + ci) as f64 + a);
-                        y.push((MARGIN + cj) as f64 + b);
-                    }
-                }
-            }
-        }
+        let (grid, x, y) = block(target_particles);
+        let np = x.len();
+        let nc = grid.cells()[0] - 2 * MARGIN;
         let field = |f: &dyn Fn(f64, f64) -> f64| -> Vec<f64> { x.iter().zip(&y).map(|(&a, &b)| f(a, b)).collect() };
         // Smooth velocity field and body force per unit mass (gravity plus a smooth variation).
         let vx = field(&|a, b| (0.01 * a).sin() + 0.5 * (0.013 * b).cos());

@@ -12,10 +12,9 @@
 
 use sparse_mpm::homework::data::*;
 use sparse_mpm::mass::{Constraints, GridMass, MassDiagnostics, MassOptions, MassScheme, Role};
-use sparse_mpm::material::{LinearElastic, PlaneCondition};
 use sparse_mpm::stiffness::critical_time_step;
 use sparse_mpm::transfer::{external_force, internal_force, VectorField};
-use sparse_mpm::{Grid, Operators, Particles, ShapeFunction};
+use sparse_mpm::{Operators, ShapeFunction};
 
 const SCHEMES: [MassScheme; 8] = [
     MassScheme::Lumped,
@@ -33,13 +32,7 @@ const SCHEMES: [MassScheme; 8] = [
 
 fn main() -> sparse_mpm::Result<()> {
     // Setup: the seed's grid (nodes numbered up each column, as x_g, y_g) and particles.
-    let grid = Grid::from_node_coordinates(&X_G, &Y_G)?;
-    let np = X_P.len();
-    let particles = Particles::new(X_P.to_vec(), Y_P.to_vec(), vec![MASS; np], vec![VOLUME; np])?
-        .with_velocity(VX.to_vec(), VY.to_vec())?
-        .with_stress(SXX.to_vec(), SYY.to_vec(), SXY.to_vec())?
-        .with_uniform_body_force(BODY_FORCE[0], BODY_FORCE[1])?;
-    let material = LinearElastic::new(E, NU, PlaneCondition::Stress)?;
+    let (grid, particles, material) = sparse_mpm::homework::setup()?;
     let ops = Operators::assemble(&grid, ShapeFunction::Linear, &particles)?;
     let (m, vol) = (&particles.mass, &particles.volume);
 

@@ -97,13 +97,12 @@ pub struct Homework {
     pub step: StepRecord,
 }
 
-/// Solves the assignment.
+/// The assignment's grid (recovered from `x_g`, `y_g`), particles (positions, masses, volumes,
+/// velocities, stresses, body force) and plane-stress material, before the step.
 ///
 /// # Errors
-/// None in practice: the assignment's data are valid. The signature is a `Result` because every
-/// step of the computation checks its inputs.
-pub fn solve() -> Result<Homework> {
-    // Setup.
+/// None in practice: the assignment's data are valid.
+pub fn setup() -> Result<(Grid, Particles, LinearElastic)> {
     let grid = Grid::from_node_coordinates(&X_G, &Y_G)?;
     let np = X_P.len();
     let particles = Particles::new(X_P.to_vec(), Y_P.to_vec(), vec![MASS; np], vec![VOLUME; np])?
@@ -111,6 +110,17 @@ pub fn solve() -> Result<Homework> {
         .with_stress(SXX.to_vec(), SYY.to_vec(), SXY.to_vec())?
         .with_uniform_body_force(BODY_FORCE[0], BODY_FORCE[1])?;
     let material = LinearElastic::new(E, NU, PlaneCondition::Stress)?;
+    Ok((grid, particles, material))
+}
+
+/// Solves the assignment.
+///
+/// # Errors
+/// None in practice: the assignment's data are valid. The signature is a `Result` because every
+/// step of the computation checks its inputs.
+pub fn solve() -> Result<Homework> {
+    let (grid, particles, material) = setup()?;
+    let np = particles.len();
 
     // Question 1: shape functions pointwise, and as the operators N, Gx, Gy.
     let nodes = grid.num_nodes();

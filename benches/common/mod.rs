@@ -73,3 +73,27 @@ pub fn summarize(mut times: Vec<f64>, calls: usize) -> Stats {
         calls_per_sample: calls,
     }
 }
+
+/// Empty cells around the block of particles on each side, so the grid has inactive nodes.
+pub const MARGIN: usize = 2;
+
+/// A square block of about `target_particles` particles, 2 × 2 per unit cell at the quarter
+/// points, in cell-sorted order, with `MARGIN` empty cells around it: the grid and positions.
+pub fn block(target_particles: usize) -> (sparse_mpm::Grid, Vec<f64>, Vec<f64>) {
+    let nc = (((target_particles as f64) / 4.0).sqrt().round() as usize).max(1);
+    let cells = nc + 2 * MARGIN;
+    let grid = sparse_mpm::Grid::new([0.0, 0.0], [1.0, 1.0], [cells, cells]).expect("valid grid");
+    let np = 4 * nc * nc;
+    let (mut x, mut y) = (Vec::with_capacity(np), Vec::with_capacity(np));
+    for cj in 0..nc {
+        for ci in 0..nc {
+            for b in [0.25, 0.75] {
+                for a in [0.25, 0.75] {
+                    x.push((MARGIN + ci) as f64 + a);
+                    y.push((MARGIN + cj) as f64 + b);
+                }
+            }
+        }
+    }
+    (grid, x, y)
+}
