@@ -50,6 +50,20 @@ pub enum MpmError {
         /// Grid bounds `[x_min, x_max, y_min, y_max]`.
         bounds: [f64; 4],
     },
+    /// A particle is inside the grid, but closer to its edge than the shape function's
+    /// margin: its support would need nodes outside the grid (see
+    /// [`ShapeFunction::margin`](crate::ShapeFunction::margin)).
+    SupportOutsideGrid {
+        /// 0-based particle index.
+        particle: usize,
+        /// Particle position.
+        position: [f64; 2],
+        /// The shape-function family ([`ShapeFunction::name`](crate::ShapeFunction::name)).
+        shape: &'static str,
+        /// Where particles are accepted, `[x_min, x_max, y_min, y_max]`
+        /// ([`ShapeFunction::allowed_region`](crate::ShapeFunction::allowed_region)).
+        allowed: [f64; 4],
+    },
     /// A material or step parameter is unusable.
     InvalidParameter {
         /// The parameter's name.
@@ -75,6 +89,22 @@ pub enum MpmError {
     /// A sparse factorization failed for a reason other than singularity (out of memory …).
     Solver {
         /// The solver's message.
+        reason: String,
+    },
+    /// A scene (or simulation setting) is unusable: a key has a wrong value, a required key is
+    /// missing, or settings contradict each other.
+    InvalidScene {
+        /// Where: the key's dotted path (`bodies[1].material`, `time.dt`).
+        key: String,
+        /// What is wrong and what would be accepted.
+        reason: String,
+    },
+    /// The simulation cannot go on (a particle inverted, a velocity became non-finite, a fixed
+    /// time step exceeds the stable estimate).
+    Unstable {
+        /// Step number (from 0) at which it happened.
+        step: usize,
+        /// What happened and what to change.
         reason: String,
     },
     /// Reading or writing a file failed.
@@ -112,6 +142,26 @@ impl fmt::Display for MpmError {
                 "particle {particle} at ({}, {}) lies outside the grid [{}, {}] x [{}, {}]",
                 position[0], position[1], bounds[0], bounds[1], bounds[2], bounds[3]
             ),
+            MpmError::SupportOutsideGrid {
+                particle,
+                position,
+                shape,
+                allowed,
+            } => {
+                let k = crate::shape::recommended_padding_for(shape);
+                write!(
+                    f,
+                    "particle {particle} at ({}, {}): the {shape} support needs nodes outside the grid; particles \
+                     must stay inside [{}, {}] x [{}, {}] (pad the grid by {k} cell{} on each side)",
+                    position[0],
+                    position[1],
+                    allowed[0],
+                    allowed[1],
+                    allowed[2],
+                    allowed[3],
+                    if k == 1 { "" } else { "s" }
+                )
+            }
             MpmError::InvalidParameter { name, value, reason } => {
                 write!(f, "parameter `{name}` = {value} is invalid: {reason}")
             }
@@ -133,6 +183,8 @@ impl fmt::Display for MpmError {
                 )
             }
             MpmError::Solver { reason } => write!(f, "sparse solver failed: {reason}"),
+            MpmError::InvalidScene { key, reason } => write!(f, "`{key}`: {reason}"),
+            MpmError::Unstable { step, reason } => write!(f, "step {step}: {reason}"),
             MpmError::Io { path, source } => write!(f, "{}: {source}", path.display()),
         }
     }

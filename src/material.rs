@@ -1,10 +1,22 @@
 //! Constitutive models.
+//!
+//! - [`LinearElastic`]: isotropic Hooke's law in rate form on the small-strain increment,
+//!   plane stress or plane strain;
+//! - [`NeoHookean`]: compressible neo-Hookean hyperelasticity from the deformation gradient,
+//!   plane strain (`F_zz = 1`).
+//!
+//! [`Material`] is the choice between them that a simulation body carries: it updates the
+//! stress of a particle from its velocity gradient and deformation gradient, gives the strain
+//! energy and the wave speed that limits the time step.
+
+use serde::{Deserialize, Serialize};
 
 use crate::error::{MpmError, Result};
 use crate::transfer::StrainRate;
 
 /// Which 2D idealisation a material uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum PlaneCondition {
     /// Thin body, `σzz = 0` (the seed's choice).
     #[default]
@@ -14,13 +26,15 @@ pub enum PlaneCondition {
 }
 
 /// Isotropic linear elasticity in rate form on the small-strain increment `Δε = ε̇ Δt`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct LinearElastic {
     /// Young's modulus `E` (> 0).
     pub youngs_modulus: f64,
     /// Poisson's ratio `ν` (−1 < ν < ½).
     pub poisson_ratio: f64,
     /// Plane stress or plane strain.
+    #[serde(default)]
     pub plane: PlaneCondition,
 }
 
@@ -122,6 +136,142 @@ impl LinearElastic {
             sxx[p] += dxx;
             syy[p] += dyy;
             sxy[p] += dxy;
+        }
+    }
+}
+
+impl LinearElastic {
+    /// Strain energy per unit volume from the stress, `W = ½ σ : ε` with `ε = C⁻¹ σ`:
+    ///
+    /// ```text
+    /// W = ½ (σxx εxx + σyy εyy) + σxy² / (2 G),   (εxx, εyy) = [[C11, C12], [C12, C11]]⁻¹ (σxx, σyy)
+    /// ```
+    pub fn strain_energy_density(&self, sxx: f64, syy: f64, sxy: f64) -> f64 {
+        let (c11, c12) = self.normal_stiffness();
+        let det = c11 * c11 - c12 * c12;
+        let exx = (c11 * sxx - c12 * syy) / det;
+        let eyy = (c11 * syy - c12 * sxx) / det;
+        0.5 * (sxx * exx + syy * eyy) + sxy * sxy / (2.0 * self.shear_modulus())
+    }
+}
+
+/// Compressible neo-Hookean hyperelasticity in plane strain (`F_zz = 1`):
+///
+/// ```text
+/// W(F) = μ/2 (tr(Fᵀ F) − 2) − μ ln J + λ/2 (ln J)²          (per unit reference volume)
+/// σ    = (μ / J) (F Fᵀ − I) + (λ ln J / J) I                 (Cauchy stress, in-plane part)
+/// ```
+///
+/// with `J = det F`, `μ = E / (2(1 + ν))`, `λ = E ν / ((1 + ν)(1 − 2ν))`. For small strains it
+/// reduces to [`LinearElastic`] in plane strain.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NeoHookean {
+    /// Young's modulus `E` (> 0) of the small-strain limit.
+    pub youngs_modulus: f64,
+    /// Poisson's ratio `ν` (−1 < ν < ½) of the small-strain limit.
+    pub poisson_ratio: f64,
+}
+
+impl NeoHookean {
+    /// Lamé constants `(μ, λ)`.
+    pub fn lame(&self) -> (f64, f64) {
+        let (e, nu) = (self.youngs_modulus, self.poisson_ratio);
+        (e / (2.0 * (1.0 + nu)), e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)))
+    }
+
+    /// Cauchy stress `(σxx, σyy, σxy)` for the deformation gradient `F = [[fxx, fxy], [fyx, fyy]]`
+    /// (equation in the type's docs). `J ≤ 0` gives non-finite values; the simulation checks
+    /// `J` first.
+    pub fn stress(&self, f: [f64; 4]) -> [f64; 3] {
+        let (mu, lambda) = self.lame();
+        let [fxx, fxy, fyx, fyy] = f;
+        let j = fxx * fyy - fxy * fyx;
+        let (a, b) = (mu / j, lambda * j.ln() / j);
+        [
+            a * (fxx * fxx + fxy * fxy - 1.0) + b,
+            a * (fyx * fyx + fyy * fyy - 1.0) + b,
+            a * (fxx * fyx + fxy * fyy),
+        ]
+    }
+
+    /// Strain energy per unit reference volume `W(F)` (equation in the type's docs).
+    pub fn strain_energy_density(&self, f: [f64; 4]) -> f64 {
+        let (mu, lambda) = self.lame();
+        let [fxx, fxy, fyx, fyy] = f;
+        let ln_j = (fxx * fyy - fxy * fyx).ln();
+        0.5 * mu * (fxx * fxx + fxy * fxy + fyx * fyx + fyy * fyy - 2.0) - mu * ln_j + 0.5 * lambda * ln_j * ln_j
+    }
+}
+
+/// The constitutive model of a body.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "model", rename_all = "snake_case")]
+pub enum Material {
+    /// Linear elasticity, rate form.
+    LinearElastic(LinearElastic),
+    /// Compressible neo-Hookean, plane strain.
+    NeoHookean(NeoHookean),
+}
+
+impl Material {
+    /// Checks the parameters.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidParameter`] when `E` is not positive and finite or `ν ∉ (−1, ½)`.
+    pub fn validate(&self) -> Result<()> {
+        match self {
+            Material::LinearElastic(m) => m.validate(),
+            Material::NeoHookean(m) => LinearElastic::new(m.youngs_modulus, m.poisson_ratio, PlaneCondition::Strain)
+                .map(|_| ()),
+        }
+    }
+
+    /// The P-wave speed of the small-strain limit at reference density `ρ`, `c = √(C11/ρ)`
+    /// (plane strain `C11 = λ + 2μ` for neo-Hookean).
+    pub fn wave_speed(&self, density: f64) -> f64 {
+        match self {
+            Material::LinearElastic(m) => m.wave_speed(density),
+            Material::NeoHookean(m) => {
+                LinearElastic {
+                    youngs_modulus: m.youngs_modulus,
+                    poisson_ratio: m.poisson_ratio,
+                    plane: PlaneCondition::Strain,
+                }
+                .wave_speed(density)
+            }
+        }
+    }
+
+    /// New stress of one particle after a step of length `dt` with velocity gradient
+    /// `L = [[lxx, lxy], [lyx, lyy]]`, given its stress before and its updated deformation
+    /// gradient `F`:
+    ///
+    /// ```text
+    /// linear elastic:  σ ← σ + C : (sym L Δt)
+    /// neo-Hookean:     σ = σ(F)
+    /// ```
+    pub fn updated_stress(&self, sigma: [f64; 3], l: [f64; 4], f: [f64; 4], dt: f64) -> [f64; 3] {
+        match self {
+            Material::LinearElastic(m) => {
+                let d = m.stress_increment(l[0] * dt, l[3] * dt, 0.5 * (l[1] + l[2]) * dt);
+                [sigma[0] + d[0], sigma[1] + d[1], sigma[2] + d[2]]
+            }
+            Material::NeoHookean(m) => m.stress(f),
+        }
+    }
+
+    /// Strain energy of a particle of current volume `V` with stress `σ` and deformation
+    /// gradient `F`:
+    ///
+    /// ```text
+    /// linear elastic:  V · ½ σ : C⁻¹ σ
+    /// neo-Hookean:     V₀ W(F),  V₀ = V / det F
+    /// ```
+    pub fn strain_energy(&self, volume: f64, sigma: [f64; 3], f: [f64; 4]) -> f64 {
+        match self {
+            Material::LinearElastic(m) => volume * m.strain_energy_density(sigma[0], sigma[1], sigma[2]),
+            Material::NeoHookean(m) => volume / (f[0] * f[3] - f[1] * f[2]) * m.strain_energy_density(f),
         }
     }
 }

@@ -4,10 +4,11 @@
 //! N[I, p]  = S_I(x_p)            Gx[I, p] = ∂S_I/∂x (x_p)            Gy[I, p] = ∂S_I/∂y (x_p)
 //! ```
 //!
-//! Column `p` holds particle `p`'s weights: `support²` entries (4 for bilinear), row indices
-//! ascending. The three matrices share one sparsity pattern, stored once. Every column has
-//! exactly `support²` stored entries, even where a weight is exactly zero (a particle on a grid
-//! line), so the pattern depends only on which cell each particle is in.
+//! Column `p` holds particle `p`'s weights: `support²` entries (4 bilinear, 9 uGIMP and
+//! quadratic B-spline, 16 cubic B-spline; see [`crate::shape`](mod@crate::shape)), row indices ascending. The
+//! three matrices share one sparsity pattern, stored once. Every column has exactly `support²`
+//! stored entries, even where a weight is exactly zero (a particle on a grid line, or at a
+//! kernel's breakpoint), so the pattern depends only on where each particle's stencil starts.
 //!
 //! The arrays are compressed sparse column (CSC) data, assembled directly into buffers that are
 //! reused from one assembly to the next: no triplets, no sorting, no allocation once the
@@ -28,6 +29,37 @@ use crate::error::{MpmError, Result};
 use crate::grid::{Grid, NodeOrder};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
+
+/// Why particle `p` at `position` is not accepted by `shape` on `grid`.
+fn rejection(grid: &Grid, shape: ShapeFunction, p: usize, position: [f64; 2]) -> MpmError {
+    if !grid.contains(position[0], position[1]) {
+        return MpmError::ParticleOutsideGrid {
+            particle: p,
+            position,
+            bounds: grid.bounds(),
+        };
+    }
+    let cells = grid.cells();
+    if let Some(axis) = (0..2).find(|&a| cells[a] < shape.min_cells()) {
+        return MpmError::InvalidGrid {
+            reason: format!(
+                "the {} shape functions span {} nodes per axis, so they need at least {} cells along {}; \
+                 the grid has {}",
+                shape.name(),
+                shape.support(),
+                shape.min_cells(),
+                ["x", "y"][axis],
+                cells[axis]
+            ),
+        };
+    }
+    MpmError::SupportOutsideGrid {
+        particle: p,
+        position,
+        shape: shape.name(),
+        allowed: shape.allowed_region(grid),
+    }
+}
 
 /// Which of the three operators a product uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,8 +88,7 @@ impl Operators {
     /// Assembles N, Gx, Gy for `particles` on `grid` with shape functions `shape`.
     ///
     /// # Errors
-    /// [`MpmError::ParticleOutsideGrid`] naming the first particle outside the grid (or with a
-    /// non-finite position).
+    /// As [`Operators::reassemble`].
     pub fn assemble(grid: &Grid, shape: ShapeFunction, particles: &Particles) -> Result<Operators> {
         let mut ops = Operators::default();
         ops.reassemble(grid, shape, &particles.x, &particles.y)?;
@@ -68,19 +99,25 @@ impl Operators {
     /// first call with a given particle count this allocates nothing.
     ///
     /// # Errors
-    /// [`MpmError::ParticleOutsideGrid`] naming the first particle outside the grid; the
-    /// operators are then left as they were.
+    /// The operators are left as they were, and the error is
+    /// - [`MpmError::InvalidParameter`] when `shape` is invalid ([`ShapeFunction::validate`]);
+    /// - [`MpmError::ParticleOutsideGrid`] naming the first particle outside the grid (or with a
+    ///   non-finite position);
+    /// - [`MpmError::SupportOutsideGrid`] naming the first particle inside the grid but closer
+    ///   to its edge than [`ShapeFunction::margin`], whose support would need nodes outside it;
+    /// - [`MpmError::InvalidGrid`] when there are particles but the grid has fewer cells along
+    ///   an axis than the kernel's support needs ([`ShapeFunction::min_cells`]).
     ///
     /// # Panics
     /// If `x` and `y` differ in length.
     pub fn reassemble(&mut self, grid: &Grid, shape: ShapeFunction, x: &[f64], y: &[f64]) -> Result<()> {
         assert_eq!(x.len(), y.len(), "x and y must have one entry per particle");
-        if let Some(p) = (0..x.len()).find(|&p| !grid.contains(x[p], y[p])) {
-            return Err(MpmError::ParticleOutsideGrid {
-                particle: p,
-                position: [x[p], y[p]],
-                bounds: grid.bounds(),
-            });
+        shape.validate()?;
+        let accepted = |p: usize| {
+            shape.accepted_coordinate(grid, 0, x[p]).is_some() && shape.accepted_coordinate(grid, 1, y[p]).is_some()
+        };
+        if let Some(p) = (0..x.len()).find(|&p| !accepted(p)) {
+            return Err(rejection(grid, shape, p, [x[p], y[p]]));
         }
         let num_particles = x.len();
         let k = shape.nodes_per_particle();
@@ -100,10 +137,10 @@ impl Operators {
         for p in 0..num_particles {
             let wx = shape
                 .axis_weights(grid, 0, x[p])
-                .expect("position checked against the grid above");
+                .expect("position checked against the allowed region above");
             let wy = shape
                 .axis_weights(grid, 1, y[p])
-                .expect("position checked against the grid above");
+                .expect("position checked against the allowed region above");
             let mut e = p * k;
             for outer in 0..s {
                 for inner in 0..s {

@@ -3,6 +3,10 @@
 //! Every field is a `Vec<f64>` with one entry per particle, in particle order `p = 0..P`
 //! (column `p` of N, Gx, Gy). Stresses are Cauchy stresses in Voigt-like components
 //! `σxx, σyy, σxy`; the body force `b` is per unit mass (an acceleration, e.g. gravity).
+//! Each particle also carries its deformation gradient `F` (identity at the start), the APIC
+//! affine velocity matrix `C` (zero unless APIC transfers are used), the index of the body it
+//! belongs to (which selects its material in a [`crate::simulation::Simulation`]) and a
+//! permanent id that survives re-sorting.
 
 use crate::error::{MpmError, Result};
 
@@ -32,6 +36,27 @@ pub struct Particles {
     pub bx: Vec<f64>,
     /// Body force per unit mass, y component `by_p`.
     pub by: Vec<f64>,
+    /// Deformation gradient `F_xx`.
+    pub fxx: Vec<f64>,
+    /// Deformation gradient `F_xy = ∂x/∂X_y`.
+    pub fxy: Vec<f64>,
+    /// Deformation gradient `F_yx = ∂y/∂X_x`.
+    pub fyx: Vec<f64>,
+    /// Deformation gradient `F_yy`.
+    pub fyy: Vec<f64>,
+    /// APIC affine velocity matrix `C_xx` (the velocity field near the particle is `v_p + C (x − x_p)`).
+    pub cxx: Vec<f64>,
+    /// APIC affine velocity matrix `C_xy`.
+    pub cxy: Vec<f64>,
+    /// APIC affine velocity matrix `C_yx`.
+    pub cyx: Vec<f64>,
+    /// APIC affine velocity matrix `C_yy`.
+    pub cyy: Vec<f64>,
+    /// Index of the body (material) the particle belongs to.
+    pub body: Vec<usize>,
+    /// Permanent particle id: the particle's index when the state was created. Re-sorting
+    /// permutes the particles but not their ids.
+    pub id: Vec<usize>,
 }
 
 impl Particles {
@@ -58,6 +83,16 @@ impl Particles {
             sxy: vec![0.0; n],
             bx: vec![0.0; n],
             by: vec![0.0; n],
+            fxx: vec![1.0; n],
+            fxy: vec![0.0; n],
+            fyx: vec![0.0; n],
+            fyy: vec![1.0; n],
+            cxx: vec![0.0; n],
+            cxy: vec![0.0; n],
+            cyx: vec![0.0; n],
+            cyy: vec![0.0; n],
+            body: vec![0; n],
+            id: (0..n).collect(),
         };
         particles.validate()?;
         Ok(particles)
@@ -145,7 +180,8 @@ impl Particles {
             .sum()
     }
 
-    /// Checks every field: all lengths equal, every value finite, mass and volume positive.
+    /// Checks every field: all lengths equal, every value finite, mass and volume positive,
+    /// `det F > 0`.
     ///
     /// # Errors
     /// [`MpmError::LengthMismatch`] naming the field, or [`MpmError::InvalidParticleValue`]
@@ -173,10 +209,87 @@ impl Particles {
                 });
             }
         }
+        check_len("body", n, self.body.len())?;
+        check_len("id", n, self.id.len())?;
+        for p in 0..n {
+            let det = self.fxx[p] * self.fyy[p] - self.fxy[p] * self.fyx[p];
+            if det <= 0.0 {
+                return Err(MpmError::InvalidParticleValue {
+                    particle: p,
+                    field: "det F",
+                    value: det,
+                    reason: "the deformation gradient must have a positive determinant",
+                });
+            }
+        }
         Ok(())
     }
 
-    fn fields(&self) -> [(&'static str, &Vec<f64>); 11] {
+    /// Appends the particles of `other` (ids continue from this state's largest id + 1).
+    ///
+    /// # Errors
+    /// The errors of [`Particles::validate`] for `other`.
+    pub fn append(&mut self, mut other: Particles) -> Result<()> {
+        other.validate()?;
+        let next = self.id.iter().max().map_or(0, |m| m + 1);
+        other.id.iter_mut().for_each(|i| *i += next);
+        for ((_, a), (_, b)) in self.fields_mut().into_iter().zip(other.fields_mut()) {
+            a.append(b);
+        }
+        self.body.append(&mut other.body);
+        self.id.append(&mut other.id);
+        Ok(())
+    }
+
+    /// Reorders the particles: particle `k` of the result is particle `order[k]` before.
+    /// `scratch` and `scratch_index` are work buffers (no allocation once they have grown to `P`).
+    ///
+    /// # Panics
+    /// If `order` is not a permutation of `0..P` of the right length (checked by length only).
+    pub fn permute(&mut self, order: &[usize], scratch: &mut Vec<f64>, scratch_index: &mut Vec<usize>) {
+        let n = self.len();
+        assert_eq!(order.len(), n, "the order must list every particle once");
+        scratch.resize(n, 0.0);
+        scratch_index.resize(n, 0);
+        for (_, field) in self.fields_mut() {
+            for (k, &p) in order.iter().enumerate() {
+                scratch[k] = field[p];
+            }
+            std::mem::swap(field, scratch);
+        }
+        for field in [&mut self.body, &mut self.id] {
+            for (k, &p) in order.iter().enumerate() {
+                scratch_index[k] = field[p];
+            }
+            std::mem::swap(field, scratch_index);
+        }
+    }
+
+    fn fields_mut(&mut self) -> [(&'static str, &mut Vec<f64>); 19] {
+        [
+            ("x", &mut self.x),
+            ("y", &mut self.y),
+            ("vx", &mut self.vx),
+            ("vy", &mut self.vy),
+            ("mass", &mut self.mass),
+            ("volume", &mut self.volume),
+            ("sxx", &mut self.sxx),
+            ("syy", &mut self.syy),
+            ("sxy", &mut self.sxy),
+            ("bx", &mut self.bx),
+            ("by", &mut self.by),
+            ("fxx", &mut self.fxx),
+            ("fxy", &mut self.fxy),
+            ("fyx", &mut self.fyx),
+            ("fyy", &mut self.fyy),
+            ("cxx", &mut self.cxx),
+            ("cxy", &mut self.cxy),
+            ("cyx", &mut self.cyx),
+            ("cyy", &mut self.cyy),
+        ]
+    }
+
+    fn fields(&self) -> [(&'static str, &Vec<f64>); 19] {
         [
             ("x", &self.x),
             ("y", &self.y),
@@ -189,6 +302,14 @@ impl Particles {
             ("sxy", &self.sxy),
             ("bx", &self.bx),
             ("by", &self.by),
+            ("fxx", &self.fxx),
+            ("fxy", &self.fxy),
+            ("fyx", &self.fyx),
+            ("fyy", &self.fyy),
+            ("cxx", &self.cxx),
+            ("cxy", &self.cxy),
+            ("cyx", &self.cyx),
+            ("cyy", &self.cyy),
         ]
     }
 }

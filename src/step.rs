@@ -34,7 +34,8 @@ use crate::transfer::{
 };
 
 /// How particle positions move in step (9).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum PositionUpdate {
     /// `x ← x + Δt Nᵀ v̄'`: the standard MPM update with the updated grid velocity.
     #[default]

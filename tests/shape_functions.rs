@@ -1,11 +1,18 @@
 //! Properties of the bilinear shape functions `shape`, `dshape` and of the columns of N, Gx, Gy:
 //! partition of unity, gradients summing to zero, reproduction of linear fields, agreement
 //! with finite differences and with an independent tent-function reference.
+//!
+//! The second half checks every kernel (linear, uGIMP with two half-widths, quadratic and
+//! cubic B-splines) through `shape::evaluate` and the assembled operators: the same
+//! properties across the region where each kernel is accepted, agreement with independent
+//! textbook formulas, and the behaviour at the grid's edge (margin, errors, boundary layers).
 
 mod common;
 
 use common::*;
-use sparse_mpm::{dshape, shape, Grid, Operators, Particles, ShapeFunction};
+use nalgebra::DMatrix;
+use sparse_mpm::shape::evaluate;
+use sparse_mpm::{dshape, shape, Grid, MpmError, NodeOrder, Operator, Operators, Particles, ShapeFunction};
 
 /// A partition-of-unity sum adds four products of weights in `[0, 1]` computed from cell
 /// coordinates of magnitude ≤ 6: a few ulps each. 1e-13 is ~500 ulps, while a wrong weight
@@ -465,4 +472,692 @@ fn shape_functions_sum_to_one_on_the_upper_boundary_of_a_grid_with_cell_size_0_1
     let [_, x1, _, y1] = grid.bounds();
     assert!(grid.contains(x1, 0.15));
     assert_partition_of_unity(&grid, &[(x1, 0.15), (0.15, y1), (x1, y1)]);
+}
+
+// =============================================================================================
+// Every kernel: linear, uGIMP, quadratic and cubic B-splines
+// =============================================================================================
+
+/// Sums of up to 16 products of weights in `[0, 1]`: a few ulps each, as for the bilinear
+/// functions. A wrong weight or a missing node would be off by O(0.01) or more.
+const KERNEL_UNITY_TOL: f64 = 1e-13;
+/// `Σ N_I x_I` with node coordinates of magnitude ≤ 5: a few ulps of 5 per term, 16 terms.
+const KERNEL_LINEAR_FIELD_TOL: f64 = 1e-12;
+/// `Σ Gx_I`, `Σ Gx_I x_I`, …: terms of magnitude up to `(1 + |x_I|)/h` with `|x_I| ≤ 5`, so
+/// the rounding budget is a few hundred ulps of `6/h`; this bound is taken per unit `1/h`.
+const KERNEL_GRADIENT_TOL_PER_UNIT_INV_H: f64 = 1e-12;
+/// Central-difference step in cell units, as for the bilinear functions.
+const KERNEL_FD_STEP: f64 = 1e-6;
+/// Distance in cell units kept between finite-difference points and every breakpoint of the
+/// kernel (where a derivative of some order jumps) and from the margin.
+const KERNEL_FD_MARGIN: f64 = 1e-3;
+/// Between breakpoints the kernels are polynomials of degree ≤ 3, so the central difference
+/// errs by (third derivative) · step²/6 ≲ 1e-12 plus rounding ≈ ε/step ≈ 1e-10 per cell unit.
+const KERNEL_FD_TOL_PER_CELL_UNIT: f64 = 1e-8;
+/// Agreement with the independent 1D formulas below, which compute the same numbers in a
+/// different order (the uGIMP one by differences of an antiderivative): a few ulps of 1 per
+/// unit value, and of up to `1/l = 4` cell units per unit derivative.
+const KERNEL_REFERENCE_TOL: f64 = 1e-13;
+/// Random points per grid and kernel, on top of the special ones.
+const RANDOM_POINTS: usize = 100;
+/// A point this far inside the margin (in cells) is far beyond rounding: it must be rejected.
+const INSIDE_MARGIN: f64 = 1e-6;
+/// A point this far outside `[margin, cells − margin]` (in cells) is a rounding error: it must
+/// be accepted and treated as on the margin.
+const ROUNDING_OUTSIDE_MARGIN: f64 = 1e-12;
+
+/// Every kernel under test, uGIMP with the half-widths of 2 × 2 and 1 × 1 particles per cell.
+fn kernels() -> [ShapeFunction; 5] {
+    [
+        ShapeFunction::Linear,
+        ShapeFunction::Gimp { half_width: 0.25 },
+        ShapeFunction::Gimp { half_width: 0.5 },
+        ShapeFunction::QuadraticBSpline,
+        ShapeFunction::CubicBSpline,
+    ]
+}
+
+/// Non-square grids with origins away from zero and `hx ≠ hy`, both node orders, cell sizes
+/// that are not exactly representable, and one with the fewest cells along x that a cubic
+/// B-spline support fits in (3).
+fn kernel_grids() -> Vec<Grid> {
+    let g = |origin, size, cells, order| Grid::new(origin, size, cells).unwrap().with_node_order(order);
+    vec![
+        g([-1.3, 2.1], [0.25, 0.6], [7, 5], NodeOrder::XFastest),
+        g([0.1, -0.35], [0.3, 0.7], [5, 4], NodeOrder::YFastest),
+        g([2.5, -4.0], [0.5, 0.2], [3, 6], NodeOrder::XFastest),
+    ]
+}
+
+/// Coordinate along `axis` of cell coordinate `s`.
+fn at(grid: &Grid, axis: usize, s: f64) -> f64 {
+    grid.origin()[axis] + s * grid.cell_size()[axis]
+}
+
+/// A random coordinate along `axis` where `shape` is accepted.
+fn random_allowed(grid: &Grid, shape: ShapeFunction, axis: usize, rng: &mut Lcg) -> f64 {
+    let m = shape.margin();
+    at(grid, axis, rng.range(m, grid.cells()[axis] as f64 - m))
+}
+
+/// The two margin lines along `axis`, computed in the ways a user would: from the origin, from
+/// the grid's edges and as `allowed_region` reports them.
+fn margin_lines(grid: &Grid, shape: ShapeFunction, axis: usize) -> Vec<f64> {
+    let m = shape.margin();
+    let cells = grid.cells()[axis] as f64;
+    let (h, lo, hi) = (
+        grid.cell_size()[axis],
+        grid.bounds()[2 * axis],
+        grid.bounds()[2 * axis + 1],
+    );
+    let allowed = shape.allowed_region(grid);
+    vec![
+        at(grid, axis, m),
+        lo + m * h,
+        allowed[2 * axis],
+        at(grid, axis, cells - m),
+        hi - m * h,
+        allowed[2 * axis + 1],
+    ]
+}
+
+/// Points where `shape` is accepted: the corners and edges of the allowed region, every grid
+/// line, half- and quarter-cell line (the kernels' breakpoints) and node inside it, and random
+/// points.
+fn allowed_points(grid: &Grid, shape: ShapeFunction, seed: u64) -> Vec<(f64, f64)> {
+    let mut rng = Lcg::new(seed);
+    let m = shape.margin();
+    let [cx, cy] = grid.cells();
+    let (mx, my) = (margin_lines(grid, shape, 0), margin_lines(grid, shape, 1));
+    let mut out = Vec::new();
+    for &x in &mx {
+        for &y in &my {
+            out.push((x, y));
+        }
+        out.push((x, random_allowed(grid, shape, 1, &mut rng)));
+    }
+    for &y in &my {
+        out.push((random_allowed(grid, shape, 0, &mut rng), y));
+    }
+    let inside = |s: f64, cells: usize| s >= m && s <= cells as f64 - m;
+    for k in 0..=4 * cx {
+        let s = k as f64 / 4.0;
+        if inside(s, cx) {
+            out.push((at(grid, 0, s), random_allowed(grid, shape, 1, &mut rng)));
+        }
+    }
+    for k in 0..=4 * cy {
+        let t = k as f64 / 4.0;
+        if inside(t, cy) {
+            out.push((random_allowed(grid, shape, 0, &mut rng), at(grid, 1, t)));
+        }
+    }
+    for i in 0..=cx {
+        for j in 0..=cy {
+            if inside(i as f64, cx) && inside(j as f64, cy) {
+                out.push((grid_line_x(grid, i), grid_line_y(grid, j)));
+            }
+        }
+    }
+    for _ in 0..RANDOM_POINTS {
+        out.push((
+            random_allowed(grid, shape, 0, &mut rng),
+            random_allowed(grid, shape, 1, &mut rng),
+        ));
+    }
+    out
+}
+
+/// Breakpoints of the kernel (where it or a derivative jumps), as offsets in `[0, 1)` from the
+/// nodes.
+fn breakpoints(shape: ShapeFunction) -> Vec<f64> {
+    match shape {
+        ShapeFunction::Linear | ShapeFunction::CubicBSpline => vec![0.0],
+        ShapeFunction::Gimp { half_width } => vec![half_width, 1.0 - half_width],
+        ShapeFunction::QuadraticBSpline => vec![0.5],
+    }
+}
+
+/// Random points at least `KERNEL_FD_MARGIN` cells away from every breakpoint and from the
+/// margin, so that central differences see one polynomial piece and stay accepted.
+fn points_off_breakpoints(grid: &Grid, shape: ShapeFunction, count: usize, seed: u64) -> Vec<(f64, f64)> {
+    let mut rng = Lcg::new(seed);
+    let bps = breakpoints(shape);
+    let m = shape.margin() + KERNEL_FD_MARGIN;
+    let mut draw = |cells: usize| loop {
+        let s = rng.range(m, cells as f64 - m);
+        let clear = bps.iter().all(|b| {
+            let f = (s - b).rem_euclid(1.0);
+            f.min(1.0 - f) >= KERNEL_FD_MARGIN
+        });
+        if clear {
+            return s;
+        }
+    };
+    let [cx, cy] = grid.cells();
+    (0..count)
+        .map(|_| (at(grid, 0, draw(cx)), at(grid, 1, draw(cy))))
+        .collect()
+}
+
+/// Independent 1D kernels `(S(ξ), S'(ξ))`, written from the textbook formulas (the uGIMP one
+/// as the average of the tent over the particle domain, through the tent's antiderivative).
+/// Linear is checked against `common::ref_axis`, which encodes its convention at kinks.
+fn textbook_kernel(shape: ShapeFunction, xi: f64) -> (f64, f64) {
+    let a = xi.abs();
+    let sign = xi.signum();
+    match shape {
+        ShapeFunction::QuadraticBSpline => {
+            if a < 0.5 {
+                (0.75 - xi * xi, -2.0 * xi)
+            } else if a < 1.5 {
+                (0.5 * (1.5 - a).powi(2), -sign * (1.5 - a))
+            } else {
+                (0.0, 0.0)
+            }
+        }
+        ShapeFunction::CubicBSpline => {
+            if a < 1.0 {
+                (2.0 / 3.0 - a * a + 0.5 * a.powi(3), -2.0 * xi + 1.5 * sign * a * a)
+            } else if a < 2.0 {
+                ((2.0 - a).powi(3) / 6.0, -sign * 0.5 * (2.0 - a).powi(2))
+            } else {
+                (0.0, 0.0)
+            }
+        }
+        ShapeFunction::Gimp { half_width: l } => {
+            // T(u) = ∫_{−∞}^{u} tent: S(ξ) = (T(ξ + l) − T(ξ − l))/(2l), S'(ξ) = (tent(ξ + l) − tent(ξ − l))/(2l).
+            let antiderivative = |u: f64| {
+                if u <= -1.0 {
+                    0.0
+                } else if u <= 0.0 {
+                    0.5 * (1.0 + u).powi(2)
+                } else if u <= 1.0 {
+                    1.0 - 0.5 * (1.0 - u).powi(2)
+                } else {
+                    1.0
+                }
+            };
+            (
+                (antiderivative(xi + l) - antiderivative(xi - l)) / (2.0 * l),
+                (tent(xi + l) - tent(xi - l)) / (2.0 * l),
+            )
+        }
+        ShapeFunction::Linear => panic!("linear is checked against common::ref_axis"),
+    }
+}
+
+/// `(N, Gx, Gy)` of every node at `(x, y)`.
+fn all_nodes(grid: &Grid, shape: ShapeFunction, x: f64, y: f64) -> Vec<(f64, f64, f64)> {
+    (0..ref_num_nodes(grid))
+        .map(|k| evaluate(grid, shape, k, x, y))
+        .collect()
+}
+
+/// Assembles `shape` at `(x, y)` through `reassemble`.
+fn assemble_at(grid: &Grid, shape: ShapeFunction, x: &[f64], y: &[f64]) -> Result<Operators, MpmError> {
+    let mut ops = Operators::default();
+    ops.reassemble(grid, shape, x, y).map(|()| ops)
+}
+
+/// Pattern and values of an assembly, for "unchanged" checks.
+fn pattern_and_values(ops: &Operators) -> (Vec<usize>, Vec<usize>, [Vec<f64>; 3]) {
+    (
+        ops.col_offsets().to_vec(),
+        ops.row_indices().to_vec(),
+        [Operator::N, Operator::Gx, Operator::Gy].map(|op| ops.values(op).to_vec()),
+    )
+}
+
+#[test]
+fn kernels_report_their_name_support_margin_and_boundary_layers() {
+    let gimp = |half_width| ShapeFunction::Gimp { half_width };
+    let table = [
+        (ShapeFunction::Linear, "linear", 2, 0.0, 1),
+        (gimp(0.25), "gimp", 3, 0.25, 2),
+        (gimp(0.5), "gimp", 3, 0.5, 2),
+        (ShapeFunction::QuadraticBSpline, "quadratic_bspline", 3, 0.5, 2),
+        (ShapeFunction::CubicBSpline, "cubic_bspline", 4, 1.0, 3),
+    ];
+    for (shape, name, support, margin, layers) in table {
+        assert_eq!(shape.name(), name);
+        assert_eq!(shape.support(), support, "{name}");
+        assert_eq!(shape.nodes_per_particle(), support * support, "{name}");
+        assert_eq!(shape.margin(), margin, "{name}");
+        assert_eq!(shape.boundary_layers(), layers, "{name}");
+        assert!(shape.validate().is_ok(), "{name}");
+    }
+    assert_eq!(ShapeFunction::default(), ShapeFunction::Linear);
+}
+
+#[test]
+fn every_kernel_sums_to_one_across_the_allowed_region_including_its_boundary_and_grid_lines() {
+    for (g, grid) in kernel_grids().iter().enumerate() {
+        for (k, shape) in kernels().into_iter().enumerate() {
+            for (x, y) in allowed_points(grid, shape, 1000 + 10 * g as u64 + k as u64) {
+                let sum: f64 = all_nodes(grid, shape, x, y).iter().map(|w| w.0).sum();
+                assert!(
+                    (sum - 1.0).abs() <= KERNEL_UNITY_TOL,
+                    "{shape:?}: Σ_I N_I({x}, {y}) = {sum} on {grid:?}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn every_kernel_reproduces_linear_fields() {
+    for (g, grid) in kernel_grids().iter().enumerate() {
+        let (node_x, node_y) = ref_node_coordinates(grid);
+        for (k, shape) in kernels().into_iter().enumerate() {
+            for (x, y) in allowed_points(grid, shape, 1100 + 10 * g as u64 + k as u64) {
+                let w = all_nodes(grid, shape, x, y);
+                let sx: f64 = w.iter().zip(&node_x).map(|(w, xi)| w.0 * xi).sum();
+                let sy: f64 = w.iter().zip(&node_y).map(|(w, yi)| w.0 * yi).sum();
+                assert!(
+                    (sx - x).abs() <= KERNEL_LINEAR_FIELD_TOL,
+                    "{shape:?}: Σ N_I x_I = {sx} at x = {x} on {grid:?}"
+                );
+                assert!(
+                    (sy - y).abs() <= KERNEL_LINEAR_FIELD_TOL,
+                    "{shape:?}: Σ N_I y_I = {sy} at y = {y} on {grid:?}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn every_kernel_gradient_sums_to_zero_and_reproduces_the_gradient_of_linear_fields() {
+    for (g, grid) in kernel_grids().iter().enumerate() {
+        let (node_x, node_y) = ref_node_coordinates(grid);
+        let [hx, hy] = grid.cell_size();
+        for (k, shape) in kernels().into_iter().enumerate() {
+            for (x, y) in allowed_points(grid, shape, 1200 + 10 * g as u64 + k as u64) {
+                let w = all_nodes(grid, shape, x, y);
+                let sum = |f: &dyn Fn(usize) -> f64| (0..w.len()).map(f).sum::<f64>();
+                let checks = [
+                    ("Σ Gx_I", sum(&|i| w[i].1), 0.0, hx),
+                    ("Σ Gy_I", sum(&|i| w[i].2), 0.0, hy),
+                    ("Σ Gx_I x_I", sum(&|i| w[i].1 * node_x[i]), 1.0, hx),
+                    ("Σ Gx_I y_I", sum(&|i| w[i].1 * node_y[i]), 0.0, hx),
+                    ("Σ Gy_I x_I", sum(&|i| w[i].2 * node_x[i]), 0.0, hy),
+                    ("Σ Gy_I y_I", sum(&|i| w[i].2 * node_y[i]), 1.0, hy),
+                ];
+                for (name, value, expected, h) in checks {
+                    assert!(
+                        (value - expected).abs() <= KERNEL_GRADIENT_TOL_PER_UNIT_INV_H / h,
+                        "{shape:?}: {name} = {value}, expected {expected} at ({x}, {y}) on {grid:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn every_kernel_gradient_agrees_with_central_finite_differences_away_from_kinks() {
+    for (g, grid) in kernel_grids().iter().enumerate() {
+        let [hx, hy] = grid.cell_size();
+        let (dx, dy) = (KERNEL_FD_STEP * hx, KERNEL_FD_STEP * hy);
+        for (k, shape) in kernels().into_iter().enumerate() {
+            for (x, y) in points_off_breakpoints(grid, shape, 40, 1300 + 10 * g as u64 + k as u64) {
+                for node in 0..ref_num_nodes(grid) {
+                    let n = |x: f64, y: f64| evaluate(grid, shape, node, x, y).0;
+                    let fd_x = (n(x + dx, y) - n(x - dx, y)) / (2.0 * dx);
+                    let fd_y = (n(x, y + dy) - n(x, y - dy)) / (2.0 * dy);
+                    let (_, gx, gy) = evaluate(grid, shape, node, x, y);
+                    assert!(
+                        (gx - fd_x).abs() <= KERNEL_FD_TOL_PER_CELL_UNIT / hx,
+                        "{shape:?}: ∂N_{node}/∂x at ({x}, {y}) = {gx}, central difference {fd_x}"
+                    );
+                    assert!(
+                        (gy - fd_y).abs() <= KERNEL_FD_TOL_PER_CELL_UNIT / hy,
+                        "{shape:?}: ∂N_{node}/∂y at ({x}, {y}) = {gy}, central difference {fd_y}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn every_kernel_is_non_negative() {
+    for (g, grid) in kernel_grids().iter().enumerate() {
+        for (k, shape) in kernels().into_iter().enumerate() {
+            let pts = allowed_points(grid, shape, 1400 + 10 * g as u64 + k as u64);
+            for &(x, y) in &pts {
+                for (node, w) in all_nodes(grid, shape, x, y).iter().enumerate() {
+                    assert!(w.0 >= 0.0, "{shape:?}: N_{node}({x}, {y}) = {}", w.0);
+                }
+            }
+            let (x, y): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
+            let ops = assemble_at(grid, shape, &x, &y).unwrap();
+            assert!(ops.values(Operator::N).iter().all(|&v| v >= 0.0), "{shape:?}");
+        }
+    }
+}
+
+#[test]
+fn every_kernel_equals_its_textbook_formula_at_every_node() {
+    for (g, grid) in kernel_grids().iter().enumerate() {
+        let ([x0, y0], [hx, hy], [cx, cy]) = (grid.origin(), grid.cell_size(), grid.cells());
+        for (k, shape) in kernels().into_iter().enumerate() {
+            for (x, y) in allowed_points(grid, shape, 1500 + 10 * g as u64 + k as u64) {
+                for node in 0..ref_num_nodes(grid) {
+                    let (n, gx, gy) = evaluate(grid, shape, node, x, y);
+                    let (i, j) = ref_node_ij(grid, node);
+                    let (s, t) = ((x - x0) / hx, (y - y0) / hy);
+                    let ((sx, dsx), (sy, dsy)) = if shape == ShapeFunction::Linear {
+                        // `(x − x₀)/h` may round a hair past the last grid line: clamp as the
+                        // grid's closed bounds imply.
+                        let axis = |s: f64, i: usize, cells: usize| {
+                            ref_axis(s.clamp(0.0, cells as f64), i, cells).expect("the point is on the grid")
+                        };
+                        (axis(s, i, cx), axis(t, j, cy))
+                    } else {
+                        (
+                            textbook_kernel(shape, s - i as f64),
+                            textbook_kernel(shape, t - j as f64),
+                        )
+                    };
+                    let (n_ref, gx_ref, gy_ref) = (sx * sy, dsx / hx * sy, sx * dsy / hy);
+                    let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= KERNEL_REFERENCE_TOL * scale;
+                    assert!(
+                        close(n, n_ref, 1.0) && close(gx, gx_ref, 4.0 / hx) && close(gy, gy_ref, 4.0 / hy),
+                        "{shape:?}: node {node} at ({x}, {y}): (N, Gx, Gy) = {:?}, textbook {:?} on {grid:?}",
+                        (n, gx, gy),
+                        (n_ref, gx_ref, gy_ref)
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn assembled_columns_have_support_squared_ascending_entries_equal_to_evaluate_for_every_kernel() {
+    for (g, grid) in kernel_grids().iter().enumerate() {
+        for (k, shape) in kernels().into_iter().enumerate() {
+            let (x, y): (Vec<f64>, Vec<f64>) = allowed_points(grid, shape, 1600 + 10 * g as u64 + k as u64)
+                .into_iter()
+                .unzip();
+            let ops = assemble_at(grid, shape, &x, &y).unwrap();
+            assert_eq!(ops.shape_function(), shape);
+            assert_eq!(ops.nnz(), x.len() * shape.nodes_per_particle(), "{shape:?}");
+            let [n, gx, gy] = [Operator::N, Operator::Gx, Operator::Gy].map(|op| DMatrix::from(&ops.matrix(op)));
+            for p in 0..x.len() {
+                let rows: Vec<usize> = ops.column(p).map(|e| e.0).collect();
+                assert_eq!(rows.len(), shape.nodes_per_particle(), "{shape:?}: column {p}");
+                assert!(
+                    rows.windows(2).all(|w| w[0] < w[1]),
+                    "{shape:?}: column {p} rows {rows:?} are not strictly ascending"
+                );
+                for node in 0..ref_num_nodes(grid) {
+                    assert_eq!(
+                        (n[(node, p)], gx[(node, p)], gy[(node, p)]),
+                        evaluate(grid, shape, node, x[p], y[p]),
+                        "{shape:?}: entries [{node}, {p}] (particle at ({}, {})) differ from evaluate",
+                        x[p],
+                        y[p]
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_particle_inside_the_margin_is_a_support_outside_grid_error_naming_it() {
+    for (g, grid) in kernel_grids().iter().enumerate() {
+        let [cx, cy] = grid.cells();
+        let [x0, _, _, y1] = grid.bounds();
+        for (k, shape) in kernels().into_iter().enumerate() {
+            let m = shape.margin();
+            if m == 0.0 {
+                continue; // linear: every point of the grid is accepted.
+            }
+            let seed = 1700 + 10 * g as u64 + k as u64;
+            let (x, y): (Vec<f64>, Vec<f64>) = allowed_points(grid, shape, seed).into_iter().unzip();
+            let mut ops = assemble_at(grid, shape, &x, &y).unwrap();
+            let before = pattern_and_values(&ops);
+            let mut rng = Lcg::new(seed);
+            let (xm, ym) = (
+                random_allowed(grid, shape, 0, &mut rng),
+                random_allowed(grid, shape, 1, &mut rng),
+            );
+            let inside_margin = [
+                (at(grid, 0, m - INSIDE_MARGIN), ym),
+                (at(grid, 0, cx as f64 - m + INSIDE_MARGIN), ym),
+                (xm, at(grid, 1, m - INSIDE_MARGIN)),
+                (xm, at(grid, 1, cy as f64 - m + INSIDE_MARGIN)),
+                (at(grid, 0, 0.5 * m), at(grid, 1, cy as f64 - 0.5 * m)),
+                (x0, ym),
+                (xm, y1),
+            ];
+            for (case, (px, py)) in inside_margin.into_iter().enumerate() {
+                let (mut bx, mut by) = (x.clone(), y.clone());
+                let p = 3 + case;
+                bx[p] = px;
+                by[p] = py;
+                // A second offender later on: the error names the first.
+                let last = bx.len() - 1;
+                bx[last] = at(grid, 0, 0.25 * m);
+                let err = ops.reassemble(grid, shape, &bx, &by).unwrap_err();
+                let message = err.to_string();
+                match err {
+                    MpmError::SupportOutsideGrid {
+                        particle,
+                        position,
+                        shape: name,
+                        allowed,
+                    } => {
+                        assert_eq!(particle, p, "{shape:?}");
+                        assert_eq!(position, [px, py]);
+                        assert_eq!(name, shape.name());
+                        assert_eq!(allowed, shape.allowed_region(grid));
+                    }
+                    other => panic!("{shape:?}: expected SupportOutsideGrid for particle {p}, got {other:?}"),
+                }
+                for part in [
+                    format!("particle {p} "),
+                    shape.name().to_string(),
+                    "pad the grid".to_string(),
+                ] {
+                    assert!(message.contains(&part), "message {message:?} lacks {part:?}");
+                }
+                assert_eq!(
+                    pattern_and_values(&ops),
+                    before,
+                    "{shape:?}: a failed reassembly changed the operators"
+                );
+                assert!(
+                    all_nodes(grid, shape, px, py).iter().all(|&w| w == (0.0, 0.0, 0.0)),
+                    "{shape:?}: evaluate gives weights inside the margin at ({px}, {py})"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_particle_outside_the_grid_is_still_a_particle_outside_grid_error_for_every_kernel() {
+    let grid = &kernel_grids()[0];
+    let [x0, x1, y0, y1] = grid.bounds();
+    for shape in kernels() {
+        let mut rng = Lcg::new(1800);
+        let (mut x, mut y): (Vec<f64>, Vec<f64>) = (0..10)
+            .map(|_| {
+                (
+                    random_allowed(grid, shape, 0, &mut rng),
+                    random_allowed(grid, shape, 1, &mut rng),
+                )
+            })
+            .unzip();
+        let outside = [
+            (x1 + 1e-9, 0.5 * (y0 + y1)),
+            (0.5 * (x0 + x1), y0 - 1.0),
+            (f64::NAN, 0.5 * (y0 + y1)),
+        ];
+        for (px, py) in outside {
+            x[4] = px;
+            y[4] = py;
+            match assemble_at(grid, shape, &x, &y).unwrap_err() {
+                MpmError::ParticleOutsideGrid { particle, bounds, .. } => {
+                    assert_eq!(particle, 4);
+                    assert_eq!(bounds, grid.bounds());
+                }
+                other => panic!("{shape:?}: expected ParticleOutsideGrid, got {other:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn a_particle_a_rounding_error_outside_the_margin_is_accepted_as_on_the_margin() {
+    for grid in kernel_grids() {
+        let [cx, cy] = grid.cells();
+        for shape in kernels() {
+            let m = shape.margin();
+            if m == 0.0 {
+                continue; // linear: outside the margin is outside the grid.
+            }
+            let mut rng = Lcg::new(1900);
+            let (xm, ym) = (
+                random_allowed(&grid, shape, 0, &mut rng),
+                random_allowed(&grid, shape, 1, &mut rng),
+            );
+            let (lo, hi) = (m - ROUNDING_OUTSIDE_MARGIN, ROUNDING_OUTSIDE_MARGIN - m);
+            // (a hair outside, exactly on the margin)
+            let pairs = [
+                ((at(&grid, 0, lo), ym), (at(&grid, 0, m), ym)),
+                ((at(&grid, 0, cx as f64 + hi), ym), (at(&grid, 0, cx as f64 - m), ym)),
+                ((xm, at(&grid, 1, lo)), (xm, at(&grid, 1, m))),
+                ((xm, at(&grid, 1, cy as f64 + hi)), (xm, at(&grid, 1, cy as f64 - m))),
+            ];
+            for ((px, py), (ex, ey)) in pairs {
+                let hair = assemble_at(&grid, shape, &[px], &[py])
+                    .unwrap_or_else(|e| panic!("{shape:?}: ({px}, {py}) was rejected: {e}"));
+                let on = assemble_at(&grid, shape, &[ex], &[ey]).unwrap();
+                assert_eq!(hair.row_indices(), on.row_indices(), "{shape:?}");
+                for (a, b) in hair.values(Operator::N).iter().zip(on.values(Operator::N)) {
+                    assert!((a - b).abs() <= KERNEL_UNITY_TOL, "{shape:?}: {a} vs {b}");
+                }
+                let sum: f64 = hair.values(Operator::N).iter().sum();
+                assert!((sum - 1.0).abs() <= KERNEL_UNITY_TOL, "{shape:?}: Σ N = {sum}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_particle_exactly_at_the_margin_has_zero_weight_beyond_the_boundary_layers_and_not_one_layer_less() {
+    for grid in kernel_grids() {
+        let [cx, cy] = grid.cells();
+        for shape in kernels() {
+            let (m, layers) = (shape.margin(), shape.boundary_layers());
+            let mut rng = Lcg::new(2000);
+            // (axis, low edge?, a particle at the margin of that edge)
+            let edges = [
+                (0, true, (at(&grid, 0, m), random_allowed(&grid, shape, 1, &mut rng))),
+                (
+                    0,
+                    false,
+                    (at(&grid, 0, cx as f64 - m), random_allowed(&grid, shape, 1, &mut rng)),
+                ),
+                (1, true, (random_allowed(&grid, shape, 0, &mut rng), at(&grid, 1, m))),
+                (
+                    1,
+                    false,
+                    (random_allowed(&grid, shape, 0, &mut rng), at(&grid, 1, cy as f64 - m)),
+                ),
+            ];
+            for (axis, low, (x, y)) in edges {
+                let cells = grid.cells()[axis];
+                // Layer of a node counted from the edge (0 = the nodes on the edge).
+                let layer = |node: usize| {
+                    let (i, j) = ref_node_ij(&grid, node);
+                    let index = [i, j][axis];
+                    if low {
+                        index
+                    } else {
+                        cells - index
+                    }
+                };
+                // The position is at the margin up to rounding, so "zero" is up to rounding too.
+                let weighted: Vec<usize> = all_nodes(&grid, shape, x, y)
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, w)| w.0 > KERNEL_UNITY_TOL)
+                    .map(|(node, _)| layer(node))
+                    .collect();
+                assert!(
+                    weighted.iter().all(|&l| l < layers),
+                    "{shape:?}: a particle at the margin ({x}, {y}) weighs on layers {weighted:?}, beyond the \
+                     {layers} held"
+                );
+                assert!(
+                    weighted.contains(&(layers - 1)),
+                    "{shape:?}: at ({x}, {y}) layer {} carries no weight, so fewer than {layers} layers would do",
+                    layers - 1
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn an_invalid_gimp_half_width_is_rejected() {
+    let grid = &kernel_grids()[0];
+    let [x0, x1, y0, y1] = grid.bounds();
+    let (xm, ym) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let invalid = [
+        0.0,
+        -0.25,
+        0.5 + 1e-12,
+        0.75,
+        1.0,
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for half_width in invalid {
+        let shape = ShapeFunction::Gimp { half_width };
+        let check = |err: MpmError| match err {
+            MpmError::InvalidParameter { name, value, .. } => {
+                assert_eq!(name, "half_width");
+                assert!(value == half_width || (value.is_nan() && half_width.is_nan()));
+            }
+            other => panic!("half_width = {half_width}: expected InvalidParameter, got {other:?}"),
+        };
+        check(shape.validate().unwrap_err());
+        check(assemble_at(grid, shape, &[xm], &[ym]).unwrap_err());
+        check(assemble_at(grid, shape, &[], &[]).unwrap_err());
+        assert!(shape.axis_weights(grid, 0, xm).is_none());
+        assert!(all_nodes(grid, shape, xm, ym).iter().all(|&w| w == (0.0, 0.0, 0.0)));
+    }
+    for half_width in [1e-3, 0.125, 0.25, 0.5] {
+        assert!(ShapeFunction::Gimp { half_width }.validate().is_ok(), "{half_width}");
+    }
+}
+
+#[test]
+fn a_grid_with_too_few_cells_for_the_support_is_an_invalid_grid_error() {
+    let too_small = [
+        (ShapeFunction::QuadraticBSpline, [1, 4]),
+        (ShapeFunction::Gimp { half_width: 0.5 }, [4, 1]),
+        (ShapeFunction::CubicBSpline, [2, 5]),
+    ];
+    for (shape, cells) in too_small {
+        let grid = Grid::new([0.5, -1.0], [0.4, 0.3], cells).unwrap();
+        let m = shape.margin();
+        let (x, y) = (at(&grid, 0, m), at(&grid, 1, m));
+        match assemble_at(&grid, shape, &[x], &[y]).unwrap_err() {
+            MpmError::InvalidGrid { reason } => assert!(reason.contains(shape.name()), "{reason}"),
+            other => panic!("{shape:?} on {cells:?} cells: expected InvalidGrid, got {other:?}"),
+        }
+        assert!(all_nodes(&grid, shape, x, y).iter().all(|&w| w == (0.0, 0.0, 0.0)));
+        // No particles, nothing to place: not an error.
+        assert!(assemble_at(&grid, shape, &[], &[]).is_ok());
+    }
 }

@@ -19,12 +19,15 @@ use super::{
     active_nodes, consistent_mass, local_index, lumped_mass, singular_error, SparseCholesky,
     DEFAULT_ACTIVE_MASS_TOLERANCE, DEFAULT_PIVOT_TOLERANCE,
 };
+use serde::{Deserialize, Serialize};
+
 use crate::error::{MpmError, Result};
 use crate::operators::Operators;
 use crate::transfer::VectorField;
 
 /// How the grid mass turns momenta into velocities and forces into accelerations.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum MassScheme {
     /// Row-sum lumped mass `m_L = N m`.
     #[default]
@@ -69,7 +72,7 @@ impl MassScheme {
         }
     }
 
-    fn validate(&self) -> Result<()> {
+    pub(crate) fn validate(&self) -> Result<()> {
         match *self {
             MassScheme::Blended { gamma } if !(0.0..=1.0).contains(&gamma) => Err(MpmError::InvalidParameter {
                 name: "gamma",
@@ -108,7 +111,8 @@ impl MassScheme {
 
 /// What to do when the mass matrix to be solved is singular (or so close that a solve would be
 /// garbage), or an iterative solve fails. Whatever happens is recorded in the [`SolveReport`].
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum SingularityPolicy {
     /// Return [`MpmError::SingularMassMatrix`] naming the node and the particles touching it.
     #[default]
@@ -140,7 +144,8 @@ impl Constraints {
 }
 
 /// The mass treatment of a step.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct MassOptions {
     /// Scheme for the velocity projection `v̄ = M⁻¹ q`.
     pub velocity: MassScheme,

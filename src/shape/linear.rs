@@ -15,6 +15,11 @@
 //! along an axis the point belongs to the last cell and the derivative is the left-hand one.
 //! Either way the gradients of the nodes of that cell still sum to zero and reproduce linear
 //! fields exactly.
+//!
+//! # At the grid's edge
+//! The support is the point's cell, always on the grid: the margin is 0, every point of the
+//! closed grid rectangle is accepted, and a wall holds one node layer
+//! ([`ShapeFunction::boundary_layers`](super::ShapeFunction::boundary_layers)).
 
 /// Nodes per axis in the support of a point: 2.
 pub const SUPPORT: usize = 2;

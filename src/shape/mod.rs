@@ -5,21 +5,113 @@
 //! `∇S_I = (S'(ξ) S(η)/hx, S(ξ) S'(η)/hy)`. Each kernel gives, for one coordinate, the first
 //! node of the point's support and the values and derivatives on the `support()` consecutive
 //! nodes from there; the [operators](crate::operators) multiply them out.
+//!
+//! # The kernels
+//!
+//! | [`ShapeFunction`] | kernel | nodes per axis | entries per column | continuity | margin (cells) |
+//! |---|---|---|---|---|---|
+//! | `Linear` | tent, [`linear`] | 2 | 4 | C⁰ | 0 |
+//! | `Gimp { half_width: l }` | uGIMP, [`gimp`] | 3 | 9 | C¹ | `l` |
+//! | `QuadraticBSpline` | [`bspline::quadratic`] | 3 | 9 | C¹ | 1/2 |
+//! | `CubicBSpline` | [`bspline::cubic`] | 4 | 16 | C² | 1 |
+//!
+//! ```text
+//! linear     S(ξ) = 1 − |ξ|                                  |ξ| ≤ 1
+//! uGIMP      S(ξ) = 1 − (ξ² + l²)/(2l)                       |ξ| < l
+//!                 = 1 − |ξ|                                  l ≤ |ξ| ≤ 1 − l
+//!                 = (1 + l − |ξ|)²/(4l)                      1 − l < |ξ| < 1 + l
+//! quadratic  S(ξ) = 3/4 − ξ²                                 |ξ| < 1/2
+//!                 = (3/2 − |ξ|)²/2                           1/2 ≤ |ξ| < 3/2
+//! cubic      S(ξ) = 2/3 − ξ² + |ξ|³/2                        |ξ| < 1
+//!                 = (2 − |ξ|)³/6                             1 ≤ |ξ| < 2
+//! ```
+//!
+//! Every column of N, Gx, Gy has exactly `support()²` stored entries, row indices ascending,
+//! even where a weight is exactly zero (a point at a breakpoint of the kernel), so the
+//! pattern depends only on which nodes the stencil starts at.
+//!
+//! # Near the grid's edge
+//! The library never truncates a kernel: a point's whole support must be grid nodes, so the
+//! shape functions sum to one everywhere a point is accepted. A point must therefore keep
+//! [`ShapeFunction::margin`] cells away from the grid's edge along each axis
+//! ([`ShapeFunction::allowed_region`]); otherwise [`ShapeFunction::axis_weights`] returns
+//! `None`, [`evaluate`] returns zeros and [`Operators::reassemble`](crate::Operators::reassemble)
+//! fails with [`MpmError::SupportOutsideGrid`]. A point a hair (up to
+//! `1e-9` cells, rounding) outside `[margin, cells − margin]` in cell coordinates is moved onto
+//! the allowed boundary; a point outside the grid altogether is
+//! [`MpmError::ParticleOutsideGrid`] as before.
+//!
+//! Holding [`ShapeFunction::boundary_layers`] node layers at zero normal velocity at a wall
+//! keeps particles from ever reaching the margin (in continuous time): a particle exactly at
+//! the margin has zero weight on every other node, so its normal velocity there is zero. Pad
+//! the grid by [`ShapeFunction::recommended_padding`] cells so that the innermost held layer
+//! sits at the physical wall. See docs/shape_functions.md.
+//!
+//! [`shape`] and [`dshape`] are the seed's bilinear functions whatever the family;
+//! [`evaluate`] works for every kernel.
 
+pub mod bspline;
+pub mod gimp;
 pub mod linear;
 
+use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 
-/// Largest support (nodes per axis) of any kernel the library has or will have (cubic
-/// B-splines need 4); fixed-size buffers use it.
+/// Largest support (nodes per axis) of any kernel: 4, for cubic B-splines. Fixed-size buffers
+/// use it.
 pub const MAX_SUPPORT: usize = 4;
 
+/// How far, in cell units, a point's cell coordinate may fall outside
+/// `[margin, cells − margin]` and still be accepted (and moved onto that interval): rounding
+/// in `(x − x₀)/h` and in positions computed as `x₀ + margin·h` is many orders of magnitude
+/// smaller, while moving a point by `1e-9` cells changes its weights by at most ~`1e-9`.
+pub const MARGIN_TOLERANCE: f64 = 1e-9;
+
 /// The shape-function family used to build N, Gx, Gy.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+///
+/// Kernels, support and behaviour at the grid's edge are described in the
+/// [module docs](self) and in docs/shape_functions.md.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeFunction {
     /// Bilinear (tent) functions: 2 × 2 nodes per particle, C⁰, gradients jump at grid lines.
+    /// See [`linear`].
+    ///
+    /// ```text
+    /// S(ξ) = max(0, 1 − |ξ|)
+    /// ```
     #[default]
     Linear,
+    /// uGIMP: particle domain of half-width `half_width` cells (lp = half_width·h per axis),
+    /// fixed in time. 3 × 3 nodes per particle, C¹. `half_width` must be in `(0, 1/2]`;
+    /// `1/(2k)` for `k × k` particles per cell fills the cells exactly. See [`gimp`].
+    ///
+    /// ```text
+    /// S(ξ) = 1 − (ξ² + l²)/(2l)       |ξ| < l              (l = half_width)
+    ///      = 1 − |ξ|                  l ≤ |ξ| ≤ 1 − l
+    ///      = (1 + l − |ξ|)²/(4l)      1 − l < |ξ| < 1 + l
+    ///      = 0                        otherwise
+    /// ```
+    Gimp {
+        /// Half-width `l = lp/h` of the particle domain, in cells of each axis.
+        half_width: f64,
+    },
+    /// Uniform node-centred quadratic B-spline: 3 × 3 nodes per particle, C¹. See [`bspline`].
+    ///
+    /// ```text
+    /// S(ξ) = 3/4 − ξ²                 |ξ| < 1/2
+    ///      = (3/2 − |ξ|)²/2           1/2 ≤ |ξ| < 3/2
+    ///      = 0                        otherwise
+    /// ```
+    QuadraticBSpline,
+    /// Uniform node-centred cubic B-spline: 4 × 4 nodes per particle, C². See [`bspline`].
+    ///
+    /// ```text
+    /// S(ξ) = 2/3 − ξ² + |ξ|³/2        |ξ| < 1
+    ///      = (2 − |ξ|)³/6             1 ≤ |ξ| < 2
+    ///      = 0                        otherwise
+    /// ```
+    CubicBSpline,
 }
 
 /// One axis of a point's support: nodes `first .. first + len` along that axis carry
@@ -36,11 +128,80 @@ pub struct AxisWeights {
     pub derivative: [f64; MAX_SUPPORT],
 }
 
+impl AxisWeights {
+    /// `len` weights from `first`, derivatives per unit `ξ` divided by the cell size `h`.
+    #[inline]
+    fn from_kernel<const L: usize>(first: usize, (value, derivative): ([f64; L], [f64; L]), h: f64) -> AxisWeights {
+        let mut out = AxisWeights {
+            first,
+            len: L,
+            value: [0.0; MAX_SUPPORT],
+            derivative: [0.0; MAX_SUPPORT],
+        };
+        for k in 0..L {
+            out.value[k] = value[k];
+            out.derivative[k] = derivative[k] / h;
+        }
+        out
+    }
+}
+
+/// Every family, with the given GIMP half-width.
+fn all_shape_functions(gimp_half_width: f64) -> [ShapeFunction; 4] {
+    [
+        ShapeFunction::Linear,
+        ShapeFunction::Gimp {
+            half_width: gimp_half_width,
+        },
+        ShapeFunction::QuadraticBSpline,
+        ShapeFunction::CubicBSpline,
+    ]
+}
+
+/// [`ShapeFunction::recommended_padding`] of the family called `name` (as returned by
+/// [`ShapeFunction::name`]); 1 for an unknown name. For error messages, which only carry the name.
+pub(crate) fn recommended_padding_for(name: &str) -> usize {
+    all_shape_functions(0.5)
+        .iter()
+        .find(|s| s.name() == name)
+        .map_or(1, |s| s.recommended_padding())
+}
+
 impl ShapeFunction {
-    /// Nodes per axis in a point's support (2 for linear).
+    /// The family's name: `"linear"`, `"gimp"`, `"quadratic_bspline"` or `"cubic_bspline"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            ShapeFunction::Linear => "linear",
+            ShapeFunction::Gimp { .. } => "gimp",
+            ShapeFunction::QuadraticBSpline => "quadratic_bspline",
+            ShapeFunction::CubicBSpline => "cubic_bspline",
+        }
+    }
+
+    /// Checks the family's parameters: a GIMP `half_width` must be finite and in `(0, 1/2]`.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidParameter`] named `"half_width"` otherwise.
+    pub fn validate(&self) -> Result<()> {
+        match *self {
+            ShapeFunction::Gimp { half_width } if !gimp_half_width_is_valid(half_width) => {
+                Err(MpmError::InvalidParameter {
+                    name: "half_width",
+                    value: half_width,
+                    reason: "the uGIMP particle half-width must be a finite number of cells in (0, 0.5]",
+                })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Nodes per axis in a point's support: linear 2, GIMP 3, quadratic 3, cubic 4.
     pub fn support(&self) -> usize {
         match self {
             ShapeFunction::Linear => linear::SUPPORT,
+            ShapeFunction::Gimp { .. } => gimp::SUPPORT,
+            ShapeFunction::QuadraticBSpline => bspline::QUADRATIC_SUPPORT,
+            ShapeFunction::CubicBSpline => bspline::CUBIC_SUPPORT,
         }
     }
 
@@ -49,33 +210,133 @@ impl ShapeFunction {
         self.support() * self.support()
     }
 
-    /// The 1D weights along `axis` (0 = x, 1 = y) of a point at coordinate `value`, or `None`
-    /// if the point is outside the grid along that axis.
-    pub fn axis_weights(&self, grid: &Grid, axis: usize, value: f64) -> Option<AxisWeights> {
-        let cells = grid.cells()[axis];
-        let h = grid.cell_size()[axis];
-        let [lo, hi] = [grid.bounds()[2 * axis], grid.bounds()[2 * axis + 1]];
-        if !(lo..=hi).contains(&value) {
-            return None;
-        }
-        // Inside the bounds, rounding may put (x − x₀)/h a hair outside [0, cells].
-        let s = grid.cell_coordinate(axis, value).clamp(0.0, cells as f64);
-        match self {
-            ShapeFunction::Linear => {
-                let cell = (s.floor() as usize).min(cells - 1);
-                let (w, dw) = linear::cell_weights(s - cell as f64);
-                let mut out = AxisWeights {
-                    first: cell,
-                    len: 2,
-                    value: [0.0; MAX_SUPPORT],
-                    derivative: [0.0; MAX_SUPPORT],
-                };
-                out.value[..2].copy_from_slice(&w);
-                out.derivative[..2].copy_from_slice(&[dw[0] / h, dw[1] / h]);
-                Some(out)
-            }
+    /// The distance, in cells of each axis, a point must keep from the grid's edge so that its
+    /// whole support is on the grid: linear 0, GIMP `half_width`, quadratic 1/2, cubic 1.
+    pub fn margin(&self) -> f64 {
+        match *self {
+            ShapeFunction::Linear => 0.0,
+            ShapeFunction::Gimp { half_width } => half_width,
+            ShapeFunction::QuadraticBSpline => 0.5,
+            ShapeFunction::CubicBSpline => 1.0,
         }
     }
+
+    /// How many node layers next to an edge must be held at zero normal velocity so that
+    /// particles never come closer to that edge than [`ShapeFunction::margin`]: linear 1,
+    /// GIMP 2, quadratic 2, cubic 3.
+    ///
+    /// With the layers `0 .. boundary_layers()` held, a point exactly at the margin has zero
+    /// weight on every other node (linear at `s = 0`: only node 0; GIMP at `s = l`: nodes 0
+    /// and 1 carry `1 − l` and `l`; quadratic at `s = 1/2`: `1/2, 1/2` on nodes 0, 1; cubic at
+    /// `s = 1`: `1/6, 2/3, 1/6` on nodes 0, 1, 2), so its interpolated normal velocity is zero
+    /// and, the weights being Lipschitz, it tends to zero as a particle approaches the margin.
+    /// One layer fewer leaves a node with a non-zero weight free.
+    pub fn boundary_layers(&self) -> usize {
+        match self {
+            ShapeFunction::Linear => 1,
+            ShapeFunction::Gimp { .. } | ShapeFunction::QuadraticBSpline => 2,
+            ShapeFunction::CubicBSpline => 3,
+        }
+    }
+
+    /// Cells to add on each side of a physical domain so that the innermost of the
+    /// [`boundary_layers`](ShapeFunction::boundary_layers) held at a wall lies on the wall:
+    /// `boundary_layers() − 1` (linear 0, GIMP 1, quadratic 1, cubic 2). It is at least
+    /// `⌈margin⌉`, so every point of the unpadded domain is then accepted.
+    pub fn recommended_padding(&self) -> usize {
+        self.boundary_layers() - 1
+    }
+
+    /// Fewest cells along an axis that can hold a point's support: `support() − 1`.
+    pub fn min_cells(&self) -> usize {
+        self.support() - 1
+    }
+
+    /// `[x_min, x_max, y_min, y_max]` of the region where points are accepted: the grid shrunk
+    /// by [`margin`](ShapeFunction::margin) cells on every side, `x₀ + margin·hx` to
+    /// `x₀ + (cx − margin)·hx` and likewise in y. Points on its boundary are accepted.
+    pub fn allowed_region(&self, grid: &Grid) -> [f64; 4] {
+        let m = self.margin();
+        let ([x0, y0], [hx, hy], [cx, cy]) = (grid.origin(), grid.cell_size(), grid.cells());
+        [
+            x0 + m * hx,
+            x0 + (cx as f64 - m) * hx,
+            y0 + m * hy,
+            y0 + (cy as f64 - m) * hy,
+        ]
+    }
+
+    /// The cell coordinate `s = (value − x₀)/h` of an accepted point along `axis`, clamped to
+    /// `[margin, cells − margin]`, or `None` when the point is outside the grid, inside the
+    /// margin (beyond [`MARGIN_TOLERANCE`]), the grid has too few cells along the axis or the
+    /// family's parameters are invalid.
+    #[inline]
+    pub(crate) fn accepted_coordinate(&self, grid: &Grid, axis: usize, value: f64) -> Option<f64> {
+        let cells = grid.cells()[axis];
+        let bounds = grid.bounds();
+        let [lo, hi] = [bounds[2 * axis], bounds[2 * axis + 1]];
+        if !(lo..=hi).contains(&value) || cells < self.min_cells() {
+            return None;
+        }
+        if let ShapeFunction::Gimp { half_width } = *self {
+            if !gimp_half_width_is_valid(half_width) {
+                return None;
+            }
+        }
+        let m = self.margin();
+        let top = cells as f64 - m;
+        // Inside the bounds, rounding may put (x − x₀)/h a hair outside [margin, cells − margin].
+        let s = grid.cell_coordinate(axis, value);
+        if s < m - MARGIN_TOLERANCE || s > top + MARGIN_TOLERANCE {
+            return None;
+        }
+        Some(s.clamp(m, top))
+    }
+
+    /// The 1D weights along `axis` (0 = x, 1 = y) of a point at coordinate `value`, or `None`
+    /// if the point is outside the grid along that axis or its support would leave the grid
+    /// (the point is closer than [`margin`](ShapeFunction::margin) cells to the edge, or the
+    /// grid has fewer than [`min_cells`](ShapeFunction::min_cells) cells along the axis), or
+    /// the family's parameters are invalid.
+    ///
+    /// Only the `support()` supporting nodes are evaluated, with no allocation.
+    pub fn axis_weights(&self, grid: &Grid, axis: usize, value: f64) -> Option<AxisWeights> {
+        let s = self.accepted_coordinate(grid, axis, value)?;
+        let cells = grid.cells()[axis];
+        let h = grid.cell_size()[axis];
+        // `s ∈ [margin, cells − margin]`, and `cells ≥ min_cells()`, so every `first` below
+        // leaves the whole stencil on nodes `0 ..= cells`.
+        let weights = match *self {
+            ShapeFunction::Linear => {
+                // The cell the point belongs to: half-open, the last one closed.
+                let cell = (s.floor() as usize).min(cells - 1);
+                AxisWeights::from_kernel(cell, linear::cell_weights(s - cell as f64), h)
+            }
+            ShapeFunction::Gimp { half_width } => {
+                // The nearest node in the middle, kept off the edge nodes; every node with a
+                // non-zero weight is then in the stencil (see `gimp::weights`).
+                let c = ((s + 0.5).floor() as usize).clamp(1, cells - 1);
+                AxisWeights::from_kernel(c - 1, gimp::weights(s - (c - 1) as f64, half_width), h)
+            }
+            ShapeFunction::QuadraticBSpline => {
+                // The nearest node in the middle; at `s = cells − 1/2` (exactly) the upper
+                // neighbour would be off the grid, so the stencil takes the lower one (t = 1/2).
+                let c = ((s + 0.5).floor() as usize).clamp(1, cells - 1);
+                AxisWeights::from_kernel(c - 1, bspline::quadratic_weights(s - c as f64), h)
+            }
+            ShapeFunction::CubicBSpline => {
+                // Nodes c − 1 ..= c + 2 around the cell [c, c + 1] holding the point; at
+                // `s = cells − 1` (exactly) the stencil ends at the last node (t = 1).
+                let c = (s.floor() as usize).clamp(1, cells - 2);
+                AxisWeights::from_kernel(c - 1, bspline::cubic_weights(s - c as f64), h)
+            }
+        };
+        Some(weights)
+    }
+}
+
+fn gimp_half_width_is_valid(half_width: f64) -> bool {
+    half_width > 0.0 && half_width <= 0.5
 }
 
 /// The bilinear shape function of node `node` at `(x, y)`: the seed's `shape(n, x, y)`,
@@ -111,7 +372,12 @@ pub fn dshape(grid: &Grid, node: usize, x: f64, y: f64) -> (f64, f64) {
 }
 
 /// Value and gradient `(S_I, ∂S_I/∂x, ∂S_I/∂y)` of node `node`'s shape function of family
-/// `shape` at `(x, y)`; zeros when the node is not in the point's support.
+/// `shape` at `(x, y)`, for every family: exactly the entries `N[node, p]`, `Gx[node, p]`,
+/// `Gy[node, p]` the operators assemble for a particle at `(x, y)`.
+///
+/// Zeros when the node is not in the point's support, and for every node when the point is
+/// not accepted: outside the grid, closer than [`ShapeFunction::margin`] cells to its edge
+/// (where the operators report [`MpmError::SupportOutsideGrid`]), or `shape` is invalid.
 ///
 /// # Panics
 /// If `node >= grid.num_nodes()`.

@@ -1,0 +1,298 @@
+//! Nodal boundary conditions: fixed nodes, slip (roller) walls on grid edges, prescribed
+//! velocities on edges, rectangles of nodes or lists of nodes.
+//!
+//! A condition prescribes some velocity components of a set of grid nodes. Prescribed
+//! components are eliminated from the mass solves (consistent mass: moved to the right-hand
+//! side), take the prescribed value in the grid velocity, and have zero grid acceleration:
+//!
+//! ```text
+//! v_I,c = v̂_I,c   and   a_I,c = 0      for every prescribed (node I, component c)
+//! ```
+//!
+//! | condition | prescribes |
+//! |---|---|
+//! | `Fixed` | both components, zero |
+//! | `Slip` (on an edge) | the component normal to the edge, zero; tangential motion is free |
+//! | `Velocity { vx, vy }` | the components given (either or both) |
+//!
+//! When several conditions name the same node and component, the later one wins.
+//!
+//! ## Edges and layers
+//! An edge condition covers the outermost `layers` lines of nodes along that edge. The default
+//! is [`ShapeFunction::boundary_layers`]: the number of node lines a wall must hold so that
+//! no particle can come closer to the edge than its kernel's support allows (1 for linear,
+//! 2 for GIMP and quadratic B-splines, 3 for cubic B-splines).
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{MpmError, Result};
+use crate::grid::Grid;
+use crate::mass::Constraints;
+use crate::shape::ShapeFunction;
+
+/// A side of the grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Edge {
+    /// `x = x_min`.
+    Left,
+    /// `x = x_max`.
+    Right,
+    /// `y = y_min`.
+    Bottom,
+    /// `y = y_max`.
+    Top,
+}
+
+/// What a condition prescribes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Condition {
+    /// Both velocity components zero.
+    Fixed,
+    /// The component normal to the edge zero (roller); only on an edge.
+    Slip,
+    /// The components `vx` and/or `vy` of the condition prescribed.
+    Velocity,
+}
+
+/// One boundary condition: a set of nodes (exactly one of `edge`, `rectangle`, `nodes`) and
+/// what is prescribed there.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundaryCondition {
+    /// A grid edge …
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edge: Option<Edge>,
+    /// … and how many node lines from it (default: the kernel's boundary layers).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layers: Option<usize>,
+    /// Or every node inside the rectangle `[[x_min, y_min], [x_max, y_max]]` (closed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rectangle: Option<[[f64; 2]; 2]>,
+    /// Or these nodes (grid numbering).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<Vec<usize>>,
+    /// What is prescribed.
+    pub condition: Condition,
+    /// Prescribed x velocity (with [`Condition::Velocity`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vx: Option<f64>,
+    /// Prescribed y velocity (with [`Condition::Velocity`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vy: Option<f64>,
+}
+
+impl BoundaryCondition {
+    /// `condition` on `edge`, with the kernel's default number of layers.
+    pub fn edge(edge: Edge, condition: Condition) -> BoundaryCondition {
+        BoundaryCondition {
+            edge: Some(edge),
+            layers: None,
+            rectangle: None,
+            nodes: None,
+            condition,
+            vx: None,
+            vy: None,
+        }
+    }
+
+    /// `condition` on the listed nodes.
+    pub fn nodes(nodes: Vec<usize>, condition: Condition) -> BoundaryCondition {
+        BoundaryCondition {
+            nodes: Some(nodes),
+            ..BoundaryCondition::edge(Edge::Left, condition)
+        }
+        .without_edge()
+    }
+
+    /// `condition` on the nodes inside `[[x_min, y_min], [x_max, y_max]]`.
+    pub fn rectangle(rectangle: [[f64; 2]; 2], condition: Condition) -> BoundaryCondition {
+        BoundaryCondition {
+            rectangle: Some(rectangle),
+            ..BoundaryCondition::edge(Edge::Left, condition)
+        }
+        .without_edge()
+    }
+
+    /// Sets the prescribed velocity components (and the condition to [`Condition::Velocity`]).
+    pub fn with_velocity(mut self, vx: Option<f64>, vy: Option<f64>) -> BoundaryCondition {
+        self.condition = Condition::Velocity;
+        self.vx = vx;
+        self.vy = vy;
+        self
+    }
+
+    /// Sets the number of node layers of an edge condition.
+    pub fn with_layers(mut self, layers: usize) -> BoundaryCondition {
+        self.layers = Some(layers);
+        self
+    }
+
+    fn without_edge(mut self) -> BoundaryCondition {
+        self.edge = None;
+        self
+    }
+}
+
+/// The prescribed nodal velocity components of a grid, resolved from a list of conditions.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Prescribed {
+    /// Prescribed x velocity per node, NaN where free.
+    pub vx: Vec<f64>,
+    /// Prescribed y velocity per node, NaN where free.
+    pub vy: Vec<f64>,
+    /// The prescribed degrees of freedom as lists (for the mass solves).
+    pub constraints: Constraints,
+}
+
+impl Prescribed {
+    /// Whether no component of any node is prescribed.
+    pub fn is_empty(&self) -> bool {
+        self.constraints.fixed_x.is_empty() && self.constraints.fixed_y.is_empty()
+    }
+
+    /// Overwrites the prescribed components of a grid velocity with their values.
+    pub fn apply_velocity(&self, vx: &mut [f64], vy: &mut [f64]) {
+        for &i in &self.constraints.fixed_x {
+            vx[i] = self.vx[i];
+        }
+        for &i in &self.constraints.fixed_y {
+            vy[i] = self.vy[i];
+        }
+    }
+
+    /// Sets the prescribed components of a grid acceleration (or any rate) to zero.
+    pub fn zero(&self, ax: &mut [f64], ay: &mut [f64]) {
+        for &i in &self.constraints.fixed_x {
+            ax[i] = 0.0;
+        }
+        for &i in &self.constraints.fixed_y {
+            ay[i] = 0.0;
+        }
+    }
+}
+
+/// Resolves `conditions` on `grid` for kernels `shape`.
+///
+/// # Errors
+/// [`MpmError::InvalidScene`] naming the condition (`boundaries[k]`) when it does not give
+/// exactly one node set, gives `Slip` off an edge, gives `Velocity` without `vx` or `vy`, gives
+/// velocities with another condition, has a non-finite value, names a node outside the grid,
+/// or asks for more layers than the grid has.
+pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryCondition]) -> Result<Prescribed> {
+    let n = grid.num_nodes();
+    let mut out = Prescribed {
+        vx: vec![f64::NAN; n],
+        vy: vec![f64::NAN; n],
+        constraints: Constraints::none(),
+    };
+    let [nx, ny] = grid.nodes_per_axis();
+    for (k, bc) in conditions.iter().enumerate() {
+        let err = |reason: String| MpmError::InvalidScene {
+            key: format!("boundaries[{k}]"),
+            reason,
+        };
+        let given = [bc.edge.is_some(), bc.rectangle.is_some(), bc.nodes.is_some()];
+        if given.iter().filter(|&&g| g).count() != 1 {
+            return Err(err("give exactly one of `edge`, `rectangle`, `nodes`".into()));
+        }
+        if bc.layers.is_some() && bc.edge.is_none() {
+            return Err(err("`layers` applies only to an `edge` condition".into()));
+        }
+        let (vx, vy) = match bc.condition {
+            Condition::Fixed => (Some(0.0), Some(0.0)),
+            Condition::Slip => match bc.edge {
+                Some(Edge::Left | Edge::Right) => (Some(0.0), None),
+                Some(Edge::Bottom | Edge::Top) => (None, Some(0.0)),
+                None => {
+                    return Err(err(
+                        "`slip` needs an `edge` (its normal); for other node sets use condition = \"velocity\" \
+                         with vx = 0 or vy = 0"
+                            .into(),
+                    ))
+                }
+            },
+            Condition::Velocity => {
+                if bc.vx.is_none() && bc.vy.is_none() {
+                    return Err(err("condition \"velocity\" needs `vx`, `vy` or both".into()));
+                }
+                (bc.vx, bc.vy)
+            }
+        };
+        if bc.condition != Condition::Velocity && (bc.vx.is_some() || bc.vy.is_some()) {
+            return Err(err("`vx` and `vy` go with condition = \"velocity\"".into()));
+        }
+        for (name, v) in [("vx", vx), ("vy", vy)] {
+            if let Some(v) = v {
+                if !v.is_finite() {
+                    return Err(err(format!("`{name}` = {v} is not a finite number")));
+                }
+            }
+        }
+        let mut nodes = Vec::new();
+        if let Some(edge) = bc.edge {
+            let layers = bc.layers.unwrap_or_else(|| shape.boundary_layers());
+            let across = match edge {
+                Edge::Left | Edge::Right => nx,
+                Edge::Bottom | Edge::Top => ny,
+            };
+            if layers == 0 || layers > across {
+                return Err(MpmError::InvalidScene {
+                    key: format!("boundaries[{k}].layers"),
+                    reason: format!("{layers} layers: must be between 1 and {across} (the node lines across the grid)"),
+                });
+            }
+            for j in 0..ny {
+                for i in 0..nx {
+                    let inside = match edge {
+                        Edge::Left => i < layers,
+                        Edge::Right => i >= nx - layers,
+                        Edge::Bottom => j < layers,
+                        Edge::Top => j >= ny - layers,
+                    };
+                    if inside {
+                        nodes.push(grid.node_index(i, j));
+                    }
+                }
+            }
+        } else if let Some([[x0, y0], [x1, y1]]) = bc.rectangle {
+            if ![x0, y0, x1, y1].iter().all(|v| v.is_finite()) || x0 > x1 || y0 > y1 {
+                return Err(MpmError::InvalidScene {
+                    key: format!("boundaries[{k}].rectangle"),
+                    reason: "must be [[x_min, y_min], [x_max, y_max]] with finite values and min <= max".into(),
+                });
+            }
+            let tol = 1e-9 * grid.cell_size()[0].min(grid.cell_size()[1]);
+            nodes.extend((0..n).filter(|&id| {
+                let [x, y] = grid.node_position(id);
+                x >= x0 - tol && x <= x1 + tol && y >= y0 - tol && y <= y1 + tol
+            }));
+            if nodes.is_empty() {
+                return Err(MpmError::InvalidScene {
+                    key: format!("boundaries[{k}].rectangle"),
+                    reason: "contains no grid node".into(),
+                });
+            }
+        } else if let Some(ids) = &bc.nodes {
+            if let Some(&bad) = ids.iter().find(|&&i| i >= n) {
+                return Err(MpmError::InvalidScene {
+                    key: format!("boundaries[{k}].nodes"),
+                    reason: format!("node {bad} does not exist (the grid has {n} nodes, numbered from 0)"),
+                });
+            }
+            nodes.extend_from_slice(ids);
+        }
+        for &i in &nodes {
+            if let Some(v) = vx {
+                out.vx[i] = v;
+            }
+            if let Some(v) = vy {
+                out.vy[i] = v;
+            }
+        }
+    }
+    out.constraints.fixed_x = (0..n).filter(|&i| !out.vx[i].is_nan()).collect();
+    out.constraints.fixed_y = (0..n).filter(|&i| !out.vy[i].is_nan()).collect();
+    Ok(out)
+}

@@ -1,0 +1,1092 @@
+//! The explicit time loop: update schemes, transfers, boundary conditions, time-step control and
+//! per-step reports, on the sparse operators N, Gx, Gy.
+//!
+//! Every choice is an independent axis of [`Options`]: the shape function
+//! ([`ShapeFunction`]), the update scheme ([`UpdateScheme`]), the particle velocity transfer
+//! ([`Transfer`]), the mass treatment of each solve ([`MassOptions`]), the position rule
+//! ([`PositionUpdate`]), the time step ([`TimeStep`]), gravity and the boundary conditions
+//! ([`BoundaryCondition`]). Particles belong to bodies, each with its own [`Material`]; bodies
+//! meet through the shared grid (no contact algorithm: the grid velocity is single-valued).
+//!
+//! ## One step
+//! With `w = v + Δt a` the updated grid velocity and `Π` the prescribed-velocity projection
+//! (see [`crate::boundary`]):
+//!
+//! ```text
+//! (1)  N, Gx, Gy at x_p                                   (re-sorted by cell every few steps)
+//! (2)  m_L = N m                                          one pass over N, Gx, Gy computes
+//! (3)  q   = N (m ∘ v) + N (m ∘ C (x_I − x_p))  [APIC]     (2)–(5) together
+//! (4)  f_ext = N (m ∘ b) + m_L g
+//! (5)  f_int = −[Gx (V∘σxx) + Gy (V∘σxy); Gx (V∘σxy) + Gy (V∘σyy)]
+//! (6)  v = Π M_v⁻¹ q                                      velocity scheme of MassOptions
+//!      USF: L = [Gxᵀ v, Gyᵀ v], update F, V, σ, redo (5)
+//! (7)  a = Π₀ M_a⁻¹ (f_ext + f_int)                       acceleration scheme; 0 on prescribed dofs
+//! (8)  w = Π (v + Δt a);  massless nodes in a particle's support take the particles' mean velocity
+//! (9)  v_pic = Nᵀ w,   Δv = Nᵀ (w − M_v⁻¹ q)      (the change includes the boundary's)
+//!      PIC:  v_p ← v_pic          FLIP: v_p ← v_p + Δv        blend α: α (v_p + Δv) + (1 − α) v_pic
+//!      APIC: v_p ← v_pic,  C_p ← Σ_I w_I ∇N_Iᵀ (linear, GIMP)  or  Σ_I N_I w_I (x_I − x_p)ᵀ D⁻¹ (B-splines)
+//! (10) x_p ← x_p + Δt v_pic     (or the trapezoidal rule (Δt/2)(v_p_old + v_pic))
+//! (11) USL:  L = [Gxᵀ w, Gyᵀ w]
+//!      MUSL: q' = N (m ∘ v_p) [+ APIC term],  v' = Π M_v⁻¹ q',  L = [Gxᵀ v', Gyᵀ v']
+//! (12) F ← (I + Δt L) F,   V ← V det(I + Δt L),   σ ← material(σ, L, F)
+//! ```
+//!
+//! ## Allocation
+//! With lumped mass for both solves a step allocates nothing after the first: the operators are
+//! reassembled into their buffers and every grid and particle work array is kept in the
+//! simulation. Consistent, blended, series and iterative schemes go through
+//! [`GridMass`], which reuses its factorization buffers but allocates its vectors.
+
+use serde::{Deserialize, Serialize};
+
+use crate::boundary::{self, BoundaryCondition, Prescribed};
+use crate::error::{MpmError, Result};
+use crate::grid::Grid;
+use crate::mass::{GridMass, MassOptions, MassScheme, Role, SolveOutcome, SolveReport};
+use crate::material::Material;
+use crate::operators::{Operator, Operators};
+use crate::particles::Particles;
+use crate::shape::ShapeFunction;
+use crate::step::PositionUpdate;
+use crate::transfer::VectorField;
+
+/// When the stress is updated relative to the grid solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UpdateScheme {
+    /// Update stress first, from the grid velocity of the particles' momentum.
+    Usf,
+    /// Update stress last, from the updated grid velocity. Nodes with tiny mass at a body's
+    /// edge can give large `a = f / m` and so large strain rates (the small-mass problem).
+    Usl,
+    /// Modified USL (the default): the stress is updated from a grid velocity re-projected from
+    /// the updated particle velocities (Sulsky et al. 1995), which removes the small-mass
+    /// problem of USL.
+    #[default]
+    Musl,
+}
+
+/// How the particle velocities are updated from the grid.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Transfer {
+    /// Particle velocity = interpolated grid velocity (dissipative, stable).
+    Pic,
+    /// Particle velocity incremented by the interpolated grid velocity change.
+    #[default]
+    Flip,
+    /// `flip · FLIP + (1 − flip) · PIC`.
+    Blend {
+        /// Weight of FLIP, in [0, 1].
+        flip: f64,
+    },
+    /// Affine PIC (Jiang et al. 2015): PIC plus a per-particle affine velocity matrix `C`.
+    Apic,
+}
+
+/// How the time step is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum TimeStep {
+    /// A fixed step; it must not exceed the stable estimate unless
+    /// [`Options::allow_unstable_time_step`] is set.
+    Fixed {
+        /// Step length (> 0).
+        dt: f64,
+    },
+    /// `Δt = number · Δt_stable`, recomputed every step (see [`Simulation::stable_time_step`]).
+    Cfl {
+        /// Courant number in (0, 1].
+        number: f64,
+    },
+}
+
+/// A body: a named group of particles sharing a material.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Body {
+    /// Name used in reports and errors.
+    pub name: String,
+    /// Constitutive model.
+    pub material: Material,
+}
+
+/// Every choice of a simulation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Shape-function family of N, Gx, Gy.
+    pub shape: ShapeFunction,
+    /// USF, USL or MUSL.
+    pub update: UpdateScheme,
+    /// PIC, FLIP, blend or APIC.
+    pub transfer: Transfer,
+    /// Mass scheme of the velocity projection and of the acceleration solve, singularity policy.
+    pub mass: MassOptions,
+    /// Position update rule.
+    pub position_update: PositionUpdate,
+    /// Fixed or CFL time step.
+    pub time_step: TimeStep,
+    /// Accept a fixed step above the stable estimate.
+    pub allow_unstable_time_step: bool,
+    /// Gravity (acceleration) added to every particle's body force.
+    pub gravity: [f64; 2],
+    /// Nodal boundary conditions.
+    pub boundaries: Vec<BoundaryCondition>,
+    /// Re-sort the particles by cell every this many steps (0: never).
+    pub sort_interval: usize,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            shape: ShapeFunction::Linear,
+            update: UpdateScheme::Musl,
+            transfer: Transfer::Flip,
+            mass: MassOptions::default(),
+            position_update: PositionUpdate::GridVelocity,
+            time_step: TimeStep::Cfl { number: 0.5 },
+            allow_unstable_time_step: false,
+            gravity: [0.0, 0.0],
+            boundaries: Vec::new(),
+            sort_interval: 50,
+        }
+    }
+}
+
+/// What one step did and the state after it: data, not log lines.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepReport {
+    /// Steps completed (1 after the first step).
+    pub step: usize,
+    /// Time at the end of the step.
+    pub time: f64,
+    /// Step length used.
+    pub dt: f64,
+    /// `½ Σ_p m_p |v_p|²` after the step.
+    pub kinetic_energy: f64,
+    /// `½ Σ_I m_L,I |w_I|²`: grid kinetic energy of the updated grid velocity, lumped mass.
+    pub grid_kinetic_energy_lumped: f64,
+    /// `½ wᵀ M w = ½ Σ_p m_p |(Nᵀ w)_p|²`: the same with the consistent mass.
+    pub grid_kinetic_energy_consistent: f64,
+    /// `Σ_p` strain energy of each particle's material after the step.
+    pub strain_energy: f64,
+    /// Potential of the body forces `−Σ_p m_p (b_p + g) · x_p` after the step.
+    pub potential_energy: f64,
+    /// `kinetic + strain + potential`.
+    pub total_energy: f64,
+    /// `Σ_p m_p v_p` after the step.
+    pub momentum: [f64; 2],
+    /// `Σ_p m_p (x_p × v_p)` after the step (the APIC affine part is not included).
+    pub angular_momentum: f64,
+    /// `Σ_I x_I × q_I`: angular momentum of the grid momentum of this step's (3), which APIC
+    /// conserves exactly.
+    pub grid_angular_momentum: f64,
+    /// `Σ_p m_p`.
+    pub mass: f64,
+    /// `max_p |v_p|` after the step.
+    pub max_speed: f64,
+    /// What the velocity projection did.
+    pub velocity_solve: SolveReport,
+    /// What the acceleration solve did.
+    pub acceleration_solve: SolveReport,
+}
+
+impl StepReport {
+    /// Column names of [`StepReport::values`], for a CSV header.
+    pub const COLUMNS: [&'static str; 22] = [
+        "step",
+        "time",
+        "dt",
+        "kinetic_energy",
+        "grid_kinetic_energy_lumped",
+        "grid_kinetic_energy_consistent",
+        "strain_energy",
+        "potential_energy",
+        "total_energy",
+        "momentum_x",
+        "momentum_y",
+        "angular_momentum",
+        "grid_angular_momentum",
+        "mass",
+        "max_speed",
+        "velocity_outcome",
+        "velocity_iterations",
+        "velocity_residual",
+        "acceleration_outcome",
+        "acceleration_iterations",
+        "acceleration_residual",
+        "velocity_fallback_node",
+    ];
+
+    /// The report as numbers, in the order of [`StepReport::COLUMNS`]. Outcomes are coded
+    /// 0 = solved, 1 = fell back to lumped, 2 = regularized; the fallback node is −1 when none.
+    pub fn values(&self) -> [f64; 22] {
+        let code = |r: &SolveReport| match r.outcome {
+            SolveOutcome::Solved => 0.0,
+            SolveOutcome::FellBackToLumped { .. } => 1.0,
+            SolveOutcome::Regularized { .. } => 2.0,
+        };
+        let node = match self.velocity_solve.outcome {
+            SolveOutcome::FellBackToLumped { node: Some(n), .. } | SolveOutcome::Regularized { node: Some(n), .. } => {
+                n as f64
+            }
+            _ => -1.0,
+        };
+        [
+            self.step as f64,
+            self.time,
+            self.dt,
+            self.kinetic_energy,
+            self.grid_kinetic_energy_lumped,
+            self.grid_kinetic_energy_consistent,
+            self.strain_energy,
+            self.potential_energy,
+            self.total_energy,
+            self.momentum[0],
+            self.momentum[1],
+            self.angular_momentum,
+            self.grid_angular_momentum,
+            self.mass,
+            self.max_speed,
+            code(&self.velocity_solve),
+            self.velocity_solve.iterations as f64,
+            self.velocity_solve.relative_residual,
+            code(&self.acceleration_solve),
+            self.acceleration_solve.iterations as f64,
+            self.acceleration_solve.relative_residual,
+            node,
+        ]
+    }
+}
+
+/// Work arrays kept from step to step.
+#[derive(Debug, Default)]
+struct Work {
+    // Grid (one entry per node).
+    m: Vec<f64>,
+    q: VectorField,
+    f: VectorField,
+    v: VectorField,
+    v_free: VectorField,
+    a: VectorField,
+    w: VectorField,
+    active: Vec<bool>,
+    node_x: Vec<f64>,
+    node_y: Vec<f64>,
+    ext: VectorField,
+    ext_count: Vec<u32>,
+    prescribed: VectorField,
+    // Particles.
+    v_pic: VectorField,
+    displacement: VectorField,
+    l: [Vec<f64>; 4],
+    // Sorting.
+    keys: Vec<usize>,
+    counts: Vec<usize>,
+    order: Vec<usize>,
+    scratch: Vec<f64>,
+    scratch_index: Vec<usize>,
+    grid_angular_momentum: f64,
+}
+
+/// A running simulation: grid, particles, bodies, options and everything kept between steps.
+#[derive(Debug)]
+pub struct Simulation {
+    grid: Grid,
+    particles: Particles,
+    bodies: Vec<Body>,
+    options: Options,
+    prescribed: Prescribed,
+    density: Vec<f64>,
+    ops: Operators,
+    grid_mass: GridMass,
+    time: f64,
+    steps: usize,
+    failed: Option<String>,
+    work: Work,
+}
+
+/// Stable-step factor of a mass scheme relative to the lumped mass (the ratio of the highest
+/// frequencies; about ½ for the consistent mass in 2D, see docs/mass.md).
+fn mass_time_step_factor(scheme: MassScheme) -> f64 {
+    match scheme {
+        MassScheme::Lumped | MassScheme::TruncatedSeries { k: 1 } => 1.0,
+        MassScheme::Blended { gamma } => 1.0 / (1.0 + gamma),
+        _ => 0.5,
+    }
+}
+
+impl Simulation {
+    /// A simulation of `particles` (each with `particles.body[p]` an index into `bodies`) on
+    /// `grid` with `options`, at time 0.
+    ///
+    /// # Errors
+    /// The errors of [`Particles::validate`], [`Material::validate`],
+    /// [`ShapeFunction::validate`] and [`boundary::resolve`]; [`MpmError::InvalidScene`] for a
+    /// particle naming a body that does not exist, a non-positive or non-finite fixed step or
+    /// Courant number, an invalid blend weight or a non-finite gravity;
+    /// [`MpmError::ParticleOutsideGrid`] / [`MpmError::SupportOutsideGrid`] for particles
+    /// outside the region the shape function allows.
+    pub fn new(grid: Grid, particles: Particles, bodies: Vec<Body>, options: Options) -> Result<Simulation> {
+        particles.validate()?;
+        options.shape.validate()?;
+        options.mass.velocity.validate()?;
+        options.mass.acceleration.validate()?;
+        for body in &bodies {
+            body.material.validate()?;
+        }
+        if let Some(p) = (0..particles.len()).find(|&p| particles.body[p] >= bodies.len()) {
+            return Err(MpmError::InvalidScene {
+                key: "bodies".into(),
+                reason: format!(
+                    "particle {p} belongs to body {} but there are {} bodies",
+                    particles.body[p],
+                    bodies.len()
+                ),
+            });
+        }
+        match options.time_step {
+            TimeStep::Fixed { dt } if !(dt.is_finite() && dt > 0.0) => {
+                return Err(MpmError::InvalidScene {
+                    key: "time.dt".into(),
+                    reason: format!("{dt} is not a positive finite time step"),
+                })
+            }
+            TimeStep::Cfl { number } if !(number > 0.0 && number <= 1.0) => {
+                return Err(MpmError::InvalidScene {
+                    key: "time.cfl".into(),
+                    reason: format!("{number}: the Courant number must lie in (0, 1]"),
+                })
+            }
+            _ => {}
+        }
+        if let Transfer::Blend { flip } = options.transfer {
+            if !(0.0..=1.0).contains(&flip) {
+                return Err(MpmError::InvalidScene {
+                    key: "schemes.transfer.blend.flip".into(),
+                    reason: format!("{flip}: the FLIP weight must lie in [0, 1]"),
+                });
+            }
+        }
+        if !options.gravity.iter().all(|g| g.is_finite()) {
+            return Err(MpmError::InvalidScene {
+                key: "gravity".into(),
+                reason: format!("{:?} must be finite", options.gravity),
+            });
+        }
+        let prescribed = boundary::resolve(&grid, options.shape, &options.boundaries)?;
+        // Reference density of each body: the largest m / V₀ among its particles.
+        let mut density = vec![0.0f64; bodies.len()];
+        for p in 0..particles.len() {
+            let j = particles.fxx[p] * particles.fyy[p] - particles.fxy[p] * particles.fyx[p];
+            let rho0 = particles.mass[p] / (particles.volume[p] / j);
+            density[particles.body[p]] = density[particles.body[p]].max(rho0);
+        }
+        let mut ops = Operators::default();
+        ops.reassemble(&grid, options.shape, &particles.x, &particles.y)?;
+        let n = grid.num_nodes();
+        let mut work = Work {
+            node_x: grid.node_x(),
+            node_y: grid.node_y(),
+            prescribed: VectorField {
+                x: prescribed.vx.iter().map(|v| if v.is_nan() { 0.0 } else { *v }).collect(),
+                y: prescribed.vy.iter().map(|v| if v.is_nan() { 0.0 } else { *v }).collect(),
+            },
+            ..Work::default()
+        };
+        work.m.resize(n, 0.0);
+        work.active.resize(n, false);
+        work.ext_count.resize(n, 0);
+        for field in [
+            &mut work.q,
+            &mut work.f,
+            &mut work.v,
+            &mut work.v_free,
+            &mut work.a,
+            &mut work.w,
+            &mut work.ext,
+        ] {
+            *field = VectorField::zeros(n);
+        }
+        let [cx, cy] = grid.cells();
+        work.counts.resize(cx * cy + 1, 0);
+        Ok(Simulation {
+            grid,
+            particles,
+            bodies,
+            options,
+            prescribed,
+            density,
+            ops,
+            grid_mass: GridMass::default(),
+            time: 0.0,
+            steps: 0,
+            failed: None,
+            work,
+        })
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+    /// The particles' current state.
+    pub fn particles(&self) -> &Particles {
+        &self.particles
+    }
+    /// The bodies.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+    /// The options.
+    pub fn options(&self) -> &Options {
+        &self.options
+    }
+    /// The resolved boundary conditions.
+    pub fn prescribed(&self) -> &Prescribed {
+        &self.prescribed
+    }
+    /// Current time.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+    /// Steps taken.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+    /// The operators N, Gx, Gy of the last step (of the initial configuration before the first).
+    pub fn operators(&self) -> &Operators {
+        &self.ops
+    }
+    /// Lumped grid mass `m_L` of the last step.
+    pub fn lumped_mass(&self) -> &[f64] {
+        &self.work.m
+    }
+    /// The updated grid velocity `w` of the last step.
+    pub fn grid_velocity(&self) -> &VectorField {
+        &self.work.w
+    }
+    /// Reference density of each body (largest `m_p / V₀_p` of its particles).
+    pub fn body_densities(&self) -> &[f64] {
+        &self.density
+    }
+
+    /// The stable time-step estimate for the current state:
+    ///
+    /// ```text
+    /// Δt_stable = φ_M · min(hx, hy) / max_p (c_b(p) + |v_p|)
+    /// ```
+    ///
+    /// with `c_b` the P-wave speed of particle p's body at its reference density and `φ_M` the
+    /// mass-scheme factor of the acceleration solve: 1 for lumped, ½ for consistent, series and
+    /// iterative, `1/(1 + γ)` for the blend (the 2D lattice analysis in docs/mass.md gives 0.51
+    /// for the consistent mass). It is an estimate; [`crate::stiffness::critical_time_step`]
+    /// computes the exact bound of a configuration.
+    pub fn stable_time_step(&self) -> f64 {
+        let speeds: Vec<f64> = self
+            .bodies
+            .iter()
+            .zip(&self.density)
+            .map(|(b, &rho)| if rho > 0.0 { b.material.wave_speed(rho) } else { 0.0 })
+            .collect();
+        let p = &self.particles;
+        let mut max = 0.0f64;
+        for k in 0..p.len() {
+            max = max.max(speeds[p.body[k]] + p.vx[k].hypot(p.vy[k]));
+        }
+        let [hx, hy] = self.grid.cell_size();
+        if max > 0.0 {
+            mass_time_step_factor(self.options.mass.acceleration) * hx.min(hy) / max
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn next_time_step(&self) -> Result<f64> {
+        let stable = self.stable_time_step();
+        match self.options.time_step {
+            TimeStep::Cfl { number } => {
+                if stable.is_finite() {
+                    Ok(number * stable)
+                } else {
+                    Err(MpmError::Unstable {
+                        step: self.steps,
+                        reason: "no wave speed to set a CFL time step (no particles?)".into(),
+                    })
+                }
+            }
+            TimeStep::Fixed { dt } => {
+                if dt > stable && !self.options.allow_unstable_time_step {
+                    Err(MpmError::Unstable {
+                        step: self.steps,
+                        reason: format!(
+                            "the fixed time step {dt:e} exceeds the stable estimate {stable:e} (cell size / (wave \
+                             speed + particle speed), times {} for the {} acceleration mass); use a smaller `dt`, a \
+                             CFL step (`cfl = 0.5`), or set `allow_unstable = true`",
+                            mass_time_step_factor(self.options.mass.acceleration),
+                            self.options.mass.acceleration.label()
+                        ),
+                    })
+                } else {
+                    Ok(dt)
+                }
+            }
+        }
+    }
+
+    /// Advances one step (see the [module docs](self)) and reports it.
+    ///
+    /// # Errors
+    /// [`MpmError::Unstable`] for a fixed step above the stable estimate, an inverted particle
+    /// (`det F ≤ 0`) or a non-finite velocity; [`MpmError::ParticleOutsideGrid`] /
+    /// [`MpmError::SupportOutsideGrid`] when a particle leaves the region its kernel allows;
+    /// [`MpmError::SingularMassMatrix`] under [`crate::mass::SingularityPolicy::Error`]. After an
+    /// error in the middle of a step the state is not consistent, and further steps are refused.
+    pub fn step(&mut self) -> Result<StepReport> {
+        let dt = self.next_time_step()?;
+        self.advance(dt)
+    }
+
+    /// Steps until `end_time` (the last step is shortened to land on it), calling `observe`
+    /// after every step; `observe` may stop the run by returning an error.
+    ///
+    /// # Errors
+    /// The errors of [`Simulation::step`] and of `observe`.
+    pub fn run_until<F>(&mut self, end_time: f64, mut observe: F) -> Result<()>
+    where
+        F: FnMut(&Simulation, &StepReport) -> Result<()>,
+    {
+        while self.time < end_time * (1.0 - 1e-12) {
+            let report = self.step_capped(end_time - self.time)?;
+            observe(self, &report)?;
+        }
+        Ok(())
+    }
+
+    /// One step, no longer than `max_dt`.
+    ///
+    /// # Errors
+    /// As [`Simulation::step`].
+    pub fn step_capped(&mut self, max_dt: f64) -> Result<StepReport> {
+        let dt = self.next_time_step()?.min(max_dt);
+        self.advance(dt)
+    }
+
+    /// A step of length `dt`; an error in it leaves the state unusable.
+    fn advance(&mut self, dt: f64) -> Result<StepReport> {
+        if let Some(reason) = &self.failed {
+            return Err(MpmError::Unstable {
+                step: self.steps,
+                reason: format!("an earlier step failed ({reason}); the state is not usable"),
+            });
+        }
+        let result = self.phases(dt);
+        if let Err(e) = &result {
+            self.failed = Some(e.to_string());
+        }
+        result
+    }
+
+    fn phases(&mut self, dt: f64) -> Result<StepReport> {
+        let interval = self.options.sort_interval;
+        if interval > 0 && self.steps % interval == 0 {
+            self.sort_particles();
+        }
+        let shape = self.options.shape;
+        self.ops
+            .reassemble(&self.grid, shape, &self.particles.x, &self.particles.y)?; //         (1)
+        let usf = self.options.update == UpdateScheme::Usf;
+        self.particle_to_grid(!usf); //                                                     (2)–(5)
+        self.prepare_mass()?;
+        let velocity_solve = self.project_velocity()?; //                                   (6)
+        if usf {
+            self.extend_to_inactive_nodes(false);
+            self.velocity_gradient(false);
+            self.update_stress(dt)?;
+            self.internal_force();
+        }
+        let acceleration_solve = self.solve_acceleration()?; //                             (7)
+        self.update_grid_velocity(dt); //                                                   (8)
+        self.extend_to_inactive_nodes(true);
+        self.grid_to_particle(dt, self.options.update == UpdateScheme::Usl); //             (9)–(11)
+        match self.options.update {
+            UpdateScheme::Usl => self.update_stress(dt)?, //                                (12)
+            UpdateScheme::Musl => {
+                self.reproject(); //                                                        (11)
+                self.project_velocity()?;
+                self.extend_to_inactive_nodes(false);
+                self.velocity_gradient(false);
+                self.update_stress(dt)?; //                                                 (12)
+            }
+            UpdateScheme::Usf => {}
+        }
+        self.move_particles(); //                                                           (10)
+        self.time += dt;
+        self.steps += 1;
+        self.report(dt, velocity_solve, acceleration_solve)
+    }
+
+    /// Counting sort of the particles by cell index (row-major), allocation-free.
+    fn sort_particles(&mut self) {
+        let (grid, p, w) = (&self.grid, &mut self.particles, &mut self.work);
+        let np = p.len();
+        let [cx, cy] = grid.cells();
+        w.keys.resize(np, 0);
+        w.order.resize(np, 0);
+        w.counts.iter_mut().for_each(|c| *c = 0);
+        for k in 0..np {
+            let key = grid.cell_of(p.x[k], p.y[k]).map_or(cx * cy, |(i, j)| j * cx + i);
+            w.keys[k] = key.min(cx * cy);
+            w.counts[w.keys[k]] += 1;
+        }
+        let mut start = 0;
+        for c in w.counts.iter_mut() {
+            let n = *c;
+            *c = start;
+            start += n;
+        }
+        for k in 0..np {
+            let key = w.keys[k];
+            w.order[w.counts[key]] = k;
+            w.counts[key] += 1;
+        }
+        p.permute(&w.order, &mut w.scratch, &mut w.scratch_index);
+    }
+
+    /// (2)–(5) in one pass over the shared pattern of N, Gx, Gy:
+    ///
+    /// ```text
+    /// m_L = N m,   q = N (m ∘ v) [+ N (m ∘ C (x_I − x_p))],
+    /// f = N (m ∘ b) + m_L g − [Gx (V∘σxx) + Gy (V∘σxy); Gx (V∘σxy) + Gy (V∘σyy)]
+    /// ```
+    fn particle_to_grid(&mut self, with_internal: bool) {
+        let (ops, p, w) = (&self.ops, &self.particles, &mut self.work);
+        let apic = self.options.transfer == Transfer::Apic;
+        let [gx, gy] = self.options.gravity;
+        w.m.iter_mut().for_each(|v| *v = 0.0);
+        for field in [&mut w.q, &mut w.f] {
+            field.x.iter_mut().for_each(|v| *v = 0.0);
+            field.y.iter_mut().for_each(|v| *v = 0.0);
+        }
+        let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+        let (nv, gxv, gyv) = (ops.values(Operator::N), ops.values(Operator::Gx), ops.values(Operator::Gy));
+        let internal = if with_internal { 1.0 } else { 0.0 };
+        for k in 0..p.len() {
+            let m = p.mass[k];
+            let (mvx, mvy) = (m * p.vx[k], m * p.vy[k]);
+            let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
+            let v = internal * p.volume[k];
+            let (vsxx, vsyy, vsxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
+            let c = [m * p.cxx[k], m * p.cxy[k], m * p.cyx[k], m * p.cyy[k]];
+            for e in cp[k]..cp[k + 1] {
+                let (i, n) = (ri[e], nv[e]);
+                w.m[i] += n * m;
+                let (mut qx, mut qy) = (mvx, mvy);
+                if apic {
+                    let (dx, dy) = (w.node_x[i] - p.x[k], w.node_y[i] - p.y[k]);
+                    qx += c[0] * dx + c[1] * dy;
+                    qy += c[2] * dx + c[3] * dy;
+                }
+                w.q.x[i] += n * qx;
+                w.q.y[i] += n * qy;
+                w.f.x[i] += n * mbx - (gxv[e] * vsxx + gyv[e] * vsxy);
+                w.f.y[i] += n * mby - (gxv[e] * vsxy + gyv[e] * vsyy);
+            }
+        }
+        let mut ang = 0.0;
+        for i in 0..w.m.len() {
+            w.f.x[i] += w.m[i] * gx;
+            w.f.y[i] += w.m[i] * gy;
+            ang += w.node_x[i] * w.q.y[i] - w.node_y[i] * w.q.x[i];
+        }
+        w.grid_angular_momentum = ang;
+    }
+
+    /// (5) alone, added to `f` (USF recomputes it after the stress update).
+    fn internal_force(&mut self) {
+        let (ops, p, w) = (&self.ops, &self.particles, &mut self.work);
+        let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+        let (gxv, gyv) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
+        for k in 0..p.len() {
+            let v = p.volume[k];
+            let (sxx, syy, sxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
+            for e in cp[k]..cp[k + 1] {
+                let i = ri[e];
+                w.f.x[i] -= gxv[e] * sxx + gyv[e] * sxy;
+                w.f.y[i] -= gxv[e] * sxy + gyv[e] * syy;
+            }
+        }
+    }
+
+    /// Active nodes, and the consistent mass and its factorizations when a scheme needs them.
+    fn prepare_mass(&mut self) -> Result<()> {
+        let w = &mut self.work;
+        let max = w.m.iter().cloned().fold(0.0, f64::max);
+        let threshold = self.options.mass.active_tolerance * max;
+        for i in 0..w.m.len() {
+            w.active[i] = w.m[i] > threshold && w.m[i] > 0.0;
+        }
+        if self.uses_grid_mass() {
+            self.grid_mass.update(
+                &self.ops,
+                &self.particles.mass,
+                &self.options.mass,
+                &self.prescribed.constraints,
+            )?;
+        }
+        Ok(())
+    }
+
+    fn uses_grid_mass(&self) -> bool {
+        let m = &self.options.mass;
+        m.velocity != MassScheme::Lumped || m.acceleration != MassScheme::Lumped
+    }
+
+    fn lumped_report() -> SolveReport {
+        SolveReport {
+            scheme: MassScheme::Lumped,
+            outcome: SolveOutcome::Solved,
+            iterations: 0,
+            relative_residual: 0.0,
+        }
+    }
+
+    /// (6) `v = Π M_v⁻¹ q` into `work.v`.
+    fn project_velocity(&mut self) -> Result<SolveReport> {
+        let w = &mut self.work;
+        let report = if self.options.mass.velocity == MassScheme::Lumped {
+            for i in 0..w.m.len() {
+                let inv = if w.active[i] { 1.0 / w.m[i] } else { 0.0 };
+                w.v.x[i] = w.q.x[i] * inv;
+                w.v.y[i] = w.q.y[i] * inv;
+            }
+            Simulation::lumped_report()
+        } else {
+            let (v, report) = self
+                .grid_mass
+                .solve(Role::Velocity, &w.q, Some(&w.prescribed), &self.ops)?;
+            w.v = v;
+            report
+        };
+        w.v_free.x.clone_from(&w.v.x);
+        w.v_free.y.clone_from(&w.v.y);
+        self.prescribed.apply_velocity(&mut w.v.x, &mut w.v.y);
+        Ok(report)
+    }
+
+    /// (7) `a = Π₀ M_a⁻¹ f` into `work.a`.
+    fn solve_acceleration(&mut self) -> Result<SolveReport> {
+        let w = &mut self.work;
+        let report = if self.options.mass.acceleration == MassScheme::Lumped {
+            for i in 0..w.m.len() {
+                let inv = if w.active[i] { 1.0 / w.m[i] } else { 0.0 };
+                w.a.x[i] = w.f.x[i] * inv;
+                w.a.y[i] = w.f.y[i] * inv;
+            }
+            Simulation::lumped_report()
+        } else {
+            let (a, report) = self.grid_mass.solve(Role::Acceleration, &w.f, None, &self.ops)?;
+            w.a = a;
+            report
+        };
+        self.prescribed.zero(&mut w.a.x, &mut w.a.y);
+        Ok(report)
+    }
+
+    /// (8) `w = Π (v + Δt a)` on active nodes, 0 elsewhere.
+    fn update_grid_velocity(&mut self, dt: f64) {
+        let w = &mut self.work;
+        for i in 0..w.m.len() {
+            let s = if w.active[i] { 1.0 } else { 0.0 };
+            w.w.x[i] = s * (w.v.x[i] + dt * w.a.x[i]);
+            w.w.y[i] = s * (w.v.y[i] + dt * w.a.y[i]);
+        }
+        self.prescribed.apply_velocity(&mut w.w.x, &mut w.w.y);
+    }
+
+    /// Gives the inactive nodes inside some particle's support the mean interpolated velocity of
+    /// those particles (see [`crate::transfer::extend_to_massless_nodes`]), in `w` (updated) or
+    /// `v`; prescribed components keep their values.
+    fn extend_to_inactive_nodes(&mut self, updated: bool) {
+        let (ops, w) = (&self.ops, &mut self.work);
+        let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
+        let mut any = false;
+        for k in 0..ops.num_particles() {
+            let column = cp[k]..cp[k + 1];
+            if ri[column.clone()].iter().all(|&i| w.active[i]) {
+                continue;
+            }
+            if !any {
+                w.ext.x.iter_mut().for_each(|v| *v = 0.0);
+                w.ext.y.iter_mut().for_each(|v| *v = 0.0);
+                w.ext_count.iter_mut().for_each(|c| *c = 0);
+                any = true;
+            }
+            let field = if updated { &w.w } else { &w.v };
+            let (mut vx, mut vy) = (0.0, 0.0);
+            for e in column.clone() {
+                vx += nv[e] * field.x[ri[e]];
+                vy += nv[e] * field.y[ri[e]];
+            }
+            for e in column {
+                let i = ri[e];
+                if !w.active[i] {
+                    w.ext.x[i] += vx;
+                    w.ext.y[i] += vy;
+                    w.ext_count[i] += 1;
+                }
+            }
+        }
+        if !any {
+            return;
+        }
+        let field = if updated { &mut w.w } else { &mut w.v };
+        for i in 0..w.ext_count.len() {
+            if w.ext_count[i] > 0 {
+                let c = w.ext_count[i] as f64;
+                field.x[i] = w.ext.x[i] / c;
+                field.y[i] = w.ext.y[i] / c;
+            }
+        }
+        self.prescribed.apply_velocity(&mut field.x, &mut field.y);
+    }
+
+    /// `L = [Gxᵀ u, Gyᵀ u]` at every particle into `work.l`, for `u = w` or `v`.
+    fn velocity_gradient(&mut self, updated: bool) {
+        let (ops, w) = (&self.ops, &mut self.work);
+        let np = ops.num_particles();
+        for l in w.l.iter_mut() {
+            l.resize(np, 0.0);
+        }
+        let u = if updated { &w.w } else { &w.v };
+        let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+        let (gxv, gyv) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
+        for k in 0..np {
+            let mut l = [0.0; 4];
+            for e in cp[k]..cp[k + 1] {
+                let (ux, uy) = (u.x[ri[e]], u.y[ri[e]]);
+                l[0] += gxv[e] * ux;
+                l[1] += gyv[e] * ux;
+                l[2] += gxv[e] * uy;
+                l[3] += gyv[e] * uy;
+            }
+            for c in 0..4 {
+                w.l[c][k] = l[c];
+            }
+        }
+    }
+
+    /// (9)–(11) in one pass over N, Gx, Gy: particle velocities (and APIC `C`), the position
+    /// increments (applied by [`Simulation::move_particles`]) and, when `with_gradient`,
+    /// `L = [Gxᵀ w, Gyᵀ w]`.
+    fn grid_to_particle(&mut self, dt: f64, with_gradient: bool) {
+        let (ops, p, w) = (&self.ops, &mut self.particles, &mut self.work);
+        let np = p.len();
+        for field in [&mut w.v_pic, &mut w.displacement] {
+            field.x.resize(np, 0.0);
+            field.y.resize(np, 0.0);
+        }
+        for l in w.l.iter_mut() {
+            l.resize(np, 0.0);
+        }
+        let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+        let (nv, gxv, gyv) = (ops.values(Operator::N), ops.values(Operator::Gx), ops.values(Operator::Gy));
+        let transfer = self.options.transfer;
+        let [hx, hy] = self.grid.cell_size();
+        // APIC's D⁻¹ for B-splines (D = h²/4 I quadratic, h²/3 I cubic); None: C = Σ w ∇Nᵀ.
+        let d_inv = match self.options.shape {
+            ShapeFunction::QuadraticBSpline => Some([4.0 / (hx * hx), 4.0 / (hy * hy)]),
+            ShapeFunction::CubicBSpline => Some([3.0 / (hx * hx), 3.0 / (hy * hy)]),
+            _ => None,
+        };
+        let trapezoidal = self.options.position_update == PositionUpdate::Trapezoidal;
+        let need_l = with_gradient || (transfer == Transfer::Apic && d_inv.is_none());
+        for k in 0..np {
+            let (mut vx, mut vy, mut dvx, mut dvy) = (0.0, 0.0, 0.0, 0.0);
+            let mut l = [0.0; 4];
+            let mut b = [0.0; 4];
+            for e in cp[k]..cp[k + 1] {
+                let (i, n) = (ri[e], nv[e]);
+                let (wx, wy) = (w.w.x[i], w.w.y[i]);
+                vx += n * wx;
+                vy += n * wy;
+                dvx += n * (wx - w.v_free.x[i]);
+                dvy += n * (wy - w.v_free.y[i]);
+                if need_l {
+                    l[0] += gxv[e] * wx;
+                    l[1] += gyv[e] * wx;
+                    l[2] += gxv[e] * wy;
+                    l[3] += gyv[e] * wy;
+                }
+                if transfer == Transfer::Apic && d_inv.is_some() {
+                    let (dx, dy) = (w.node_x[i] - p.x[k], w.node_y[i] - p.y[k]);
+                    b[0] += n * wx * dx;
+                    b[1] += n * wx * dy;
+                    b[2] += n * wy * dx;
+                    b[3] += n * wy * dy;
+                }
+            }
+            w.v_pic.x[k] = vx;
+            w.v_pic.y[k] = vy;
+            if with_gradient {
+                for c in 0..4 {
+                    w.l[c][k] = l[c];
+                }
+            }
+            let (old_x, old_y) = (p.vx[k], p.vy[k]);
+            let (new_x, new_y) = match transfer {
+                Transfer::Pic | Transfer::Apic => (vx, vy),
+                Transfer::Flip => (old_x + dvx, old_y + dvy),
+                Transfer::Blend { flip } => (
+                    flip * (old_x + dvx) + (1.0 - flip) * vx,
+                    flip * (old_y + dvy) + (1.0 - flip) * vy,
+                ),
+            };
+            p.vx[k] = new_x;
+            p.vy[k] = new_y;
+            if transfer == Transfer::Apic {
+                let c = match d_inv {
+                    Some([ix, iy]) => [b[0] * ix, b[1] * iy, b[2] * ix, b[3] * iy],
+                    None => l,
+                };
+                p.cxx[k] = c[0];
+                p.cxy[k] = c[1];
+                p.cyx[k] = c[2];
+                p.cyy[k] = c[3];
+            }
+            let (ux, uy) = if trapezoidal {
+                (0.5 * (old_x + vx), 0.5 * (old_y + vy))
+            } else {
+                (vx, vy)
+            };
+            w.displacement.x[k] = dt * ux;
+            w.displacement.y[k] = dt * uy;
+        }
+    }
+
+    /// MUSL's re-projection `q' = N (m ∘ v_p) [+ APIC term]` with the operators and positions of
+    /// the start of the step (particles move after it).
+    fn reproject(&mut self) {
+        let (ops, p, w) = (&self.ops, &self.particles, &mut self.work);
+        let apic = self.options.transfer == Transfer::Apic;
+        w.q.x.iter_mut().for_each(|v| *v = 0.0);
+        w.q.y.iter_mut().for_each(|v| *v = 0.0);
+        let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
+        for k in 0..p.len() {
+            let m = p.mass[k];
+            let (xs, ys) = (p.x[k], p.y[k]);
+            for e in cp[k]..cp[k + 1] {
+                let (i, n) = (ri[e], nv[e]);
+                let (mut qx, mut qy) = (m * p.vx[k], m * p.vy[k]);
+                if apic {
+                    let (dx, dy) = (w.node_x[i] - xs, w.node_y[i] - ys);
+                    qx += m * (p.cxx[k] * dx + p.cxy[k] * dy);
+                    qy += m * (p.cyx[k] * dx + p.cyy[k] * dy);
+                }
+                w.q.x[i] += n * qx;
+                w.q.y[i] += n * qy;
+            }
+        }
+    }
+
+    /// (10) `x_p ← x_p + Δt v̂_p` with the displacement stored by the grid-to-particle pass.
+    fn move_particles(&mut self) {
+        let (p, d) = (&mut self.particles, &self.work.displacement);
+        for k in 0..p.len() {
+            p.x[k] += d.x[k];
+            p.y[k] += d.y[k];
+        }
+    }
+
+    /// (12) `F ← (I + Δt L) F`, `V ← V det(I + Δt L)`, `σ ← material(σ, L, F)`.
+    fn update_stress(&mut self, dt: f64) -> Result<()> {
+        let (p, w) = (&mut self.particles, &self.work);
+        for k in 0..p.len() {
+            let l = [w.l[0][k], w.l[1][k], w.l[2][k], w.l[3][k]];
+            let g = [1.0 + dt * l[0], dt * l[1], dt * l[2], 1.0 + dt * l[3]];
+            let j_inc = g[0] * g[3] - g[1] * g[2];
+            let f = [
+                g[0] * p.fxx[k] + g[1] * p.fyx[k],
+                g[0] * p.fxy[k] + g[1] * p.fyy[k],
+                g[2] * p.fxx[k] + g[3] * p.fyx[k],
+                g[2] * p.fxy[k] + g[3] * p.fyy[k],
+            ];
+            let j = f[0] * f[3] - f[1] * f[2];
+            if !(j_inc > 0.0 && j > 0.0 && j.is_finite()) {
+                return Err(MpmError::Unstable {
+                    step: self.steps,
+                    reason: format!(
+                        "particle {} (id {}, body `{}`) inverted: det(I + Δt L) = {j_inc:e}, det F = {j:e}; reduce \
+                         the time step (Courant number) or check the material and loads",
+                        k, p.id[k], self.bodies[p.body[k]].name
+                    ),
+                });
+            }
+            let material = &self.bodies[p.body[k]].material;
+            let s = material.updated_stress([p.sxx[k], p.syy[k], p.sxy[k]], l, f, dt);
+            p.fxx[k] = f[0];
+            p.fxy[k] = f[1];
+            p.fyx[k] = f[2];
+            p.fyy[k] = f[3];
+            p.volume[k] *= j_inc;
+            p.sxx[k] = s[0];
+            p.syy[k] = s[1];
+            p.sxy[k] = s[2];
+        }
+        Ok(())
+    }
+
+    fn report(&self, dt: f64, velocity_solve: SolveReport, acceleration_solve: SolveReport) -> Result<StepReport> {
+        let (p, w) = (&self.particles, &self.work);
+        let [gx, gy] = self.options.gravity;
+        let (mut ke, mut strain, mut potential, mut ang, mut mass, mut max_speed) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0f64);
+        let (mut px, mut py, mut ke_c) = (0.0, 0.0, 0.0);
+        for k in 0..p.len() {
+            let m = p.mass[k];
+            let (vx, vy) = (p.vx[k], p.vy[k]);
+            let speed = vx.hypot(vy);
+            if !speed.is_finite() {
+                return Err(MpmError::Unstable {
+                    step: self.steps,
+                    reason: format!(
+                        "particle {k} (id {}) has a non-finite velocity ({vx}, {vy}); reduce the time step",
+                        p.id[k]
+                    ),
+                });
+            }
+            max_speed = max_speed.max(speed);
+            mass += m;
+            ke += 0.5 * m * (vx * vx + vy * vy);
+            px += m * vx;
+            py += m * vy;
+            ang += m * (p.x[k] * vy - p.y[k] * vx);
+            potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
+            strain += self.bodies[p.body[k]].material.strain_energy(
+                p.volume[k],
+                [p.sxx[k], p.syy[k], p.sxy[k]],
+                [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]],
+            );
+            ke_c += 0.5 * m * (w.v_pic.x[k].powi(2) + w.v_pic.y[k].powi(2));
+        }
+        let ke_l: f64 = (0..w.m.len())
+            .map(|i| 0.5 * w.m[i] * (w.w.x[i].powi(2) + w.w.y[i].powi(2)))
+            .sum();
+        Ok(StepReport {
+            step: self.steps,
+            time: self.time,
+            dt,
+            kinetic_energy: ke,
+            grid_kinetic_energy_lumped: ke_l,
+            grid_kinetic_energy_consistent: ke_c,
+            strain_energy: strain,
+            potential_energy: potential,
+            total_energy: ke + strain + potential,
+            momentum: [px, py],
+            angular_momentum: ang,
+            grid_angular_momentum: w.grid_angular_momentum,
+            mass,
+            max_speed,
+            velocity_solve,
+            acceleration_solve,
+        })
+    }
+}
