@@ -69,19 +69,20 @@
 //! value at fault; user data never causes a panic.
 #![deny(missing_docs)]
 
+pub mod boundary;
 pub mod error;
 pub mod grid;
 pub mod homework;
 pub mod io;
 pub mod mass;
-pub mod boundary;
 pub mod material;
 pub mod operators;
 pub mod particles;
-pub mod shape;
-pub mod spectral;
+pub mod run;
 pub mod scene;
+pub mod shape;
 pub mod simulation;
+pub mod spectral;
 pub mod step;
 pub mod stiffness;
 pub mod transfer;

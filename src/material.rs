@@ -222,8 +222,9 @@ impl Material {
     pub fn validate(&self) -> Result<()> {
         match self {
             Material::LinearElastic(m) => m.validate(),
-            Material::NeoHookean(m) => LinearElastic::new(m.youngs_modulus, m.poisson_ratio, PlaneCondition::Strain)
-                .map(|_| ()),
+            Material::NeoHookean(m) => {
+                LinearElastic::new(m.youngs_modulus, m.poisson_ratio, PlaneCondition::Strain).map(|_| ())
+            }
         }
     }
 
@@ -232,14 +233,12 @@ impl Material {
     pub fn wave_speed(&self, density: f64) -> f64 {
         match self {
             Material::LinearElastic(m) => m.wave_speed(density),
-            Material::NeoHookean(m) => {
-                LinearElastic {
-                    youngs_modulus: m.youngs_modulus,
-                    poisson_ratio: m.poisson_ratio,
-                    plane: PlaneCondition::Strain,
-                }
-                .wave_speed(density)
+            Material::NeoHookean(m) => LinearElastic {
+                youngs_modulus: m.youngs_modulus,
+                poisson_ratio: m.poisson_ratio,
+                plane: PlaneCondition::Strain,
             }
+            .wave_speed(density),
         }
     }
 

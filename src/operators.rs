@@ -28,7 +28,7 @@ use nalgebra_sparse::CscMatrix;
 use crate::error::{MpmError, Result};
 use crate::grid::{Grid, NodeOrder};
 use crate::particles::Particles;
-use crate::shape::ShapeFunction;
+use crate::shape::{AxisFrame, ShapeFunction};
 
 /// Why particle `p` at `position` is not accepted by `shape` on `grid`.
 fn rejection(grid: &Grid, shape: ShapeFunction, p: usize, position: [f64; 2]) -> MpmError {
@@ -113,15 +113,20 @@ impl Operators {
     pub fn reassemble(&mut self, grid: &Grid, shape: ShapeFunction, x: &[f64], y: &[f64]) -> Result<()> {
         assert_eq!(x.len(), y.len(), "x and y must have one entry per particle");
         shape.validate()?;
-        let accepted = |p: usize| {
-            shape.accepted_coordinate(grid, 0, x[p]).is_some() && shape.accepted_coordinate(grid, 1, y[p]).is_some()
-        };
-        if let Some(p) = (0..x.len()).find(|&p| !accepted(p)) {
+        let (fx, fy) = (shape.axis_frame(grid, 0), shape.axis_frame(grid, 1));
+        // One branch-free pass (it vectorises); the offender is looked for only on failure.
+        let all_accepted = x
+            .iter()
+            .zip(y)
+            .fold(true, |ok, (&xp, &yp)| ok & fx.accepts(xp) & fy.accepts(yp));
+        if !all_accepted {
+            let p = (0..x.len())
+                .find(|&p| !(fx.accepts(x[p]) && fy.accepts(y[p])))
+                .expect("some particle was rejected");
             return Err(rejection(grid, shape, p, [x[p], y[p]]));
         }
         let num_particles = x.len();
         let k = shape.nodes_per_particle();
-        let s = shape.support();
         self.num_nodes = grid.num_nodes();
         self.shape = shape;
         self.col_ptr.clear();
@@ -131,29 +136,43 @@ impl Operators {
         self.n.resize(nnz, 0.0);
         self.gx.resize(nnz, 0.0);
         self.gy.resize(nnz, 0.0);
+        // A fixed stencil size per call lets the compiler unroll the column loops.
+        match shape.support() {
+            2 => self.fill_columns::<2>(grid, (fx, fy), x, y),
+            3 => self.fill_columns::<3>(grid, (fx, fy), x, y),
+            4 => self.fill_columns::<4>(grid, (fx, fy), x, y),
+            other => unreachable!("no kernel has a support of {other} nodes"),
+        }
+        Ok(())
+    }
+
+    /// Writes the `S × S` entries of every column; every particle must have been accepted.
+    fn fill_columns<const S: usize>(&mut self, grid: &Grid, (fx, fy): (AxisFrame, AxisFrame), x: &[f64], y: &[f64]) {
         let [sx, sy] = grid.strides();
         // Outer loop over the axis with the larger stride, so row indices come out ascending.
         let y_outer = grid.node_order() == NodeOrder::XFastest;
-        for p in 0..num_particles {
-            let wx = shape
-                .axis_weights(grid, 0, x[p])
-                .expect("position checked against the allowed region above");
-            let wy = shape
-                .axis_weights(grid, 1, y[p])
-                .expect("position checked against the allowed region above");
-            let mut e = p * k;
-            for outer in 0..s {
-                for inner in 0..s {
+        let accepted = "position checked against the allowed region above";
+        let columns = self
+            .row_idx
+            .chunks_exact_mut(S * S)
+            .zip(self.n.chunks_exact_mut(S * S))
+            .zip(self.gx.chunks_exact_mut(S * S))
+            .zip(self.gy.chunks_exact_mut(S * S));
+        for (p, (((rows, n), gx), gy)) in columns.enumerate() {
+            let wx = fx.weights(fx.accept(x[p]).expect(accepted));
+            let wy = fy.weights(fy.accept(y[p]).expect(accepted));
+            let mut e = 0;
+            for outer in 0..S {
+                for inner in 0..S {
                     let (a, b) = if y_outer { (inner, outer) } else { (outer, inner) };
-                    self.row_idx[e] = (wx.first + a) * sx + (wy.first + b) * sy;
-                    self.n[e] = wx.value[a] * wy.value[b];
-                    self.gx[e] = wx.derivative[a] * wy.value[b];
-                    self.gy[e] = wx.value[a] * wy.derivative[b];
+                    rows[e] = (wx.first + a) * sx + (wy.first + b) * sy;
+                    n[e] = wx.value[a] * wy.value[b];
+                    gx[e] = wx.derivative[a] * wy.value[b];
+                    gy[e] = wx.value[a] * wy.derivative[b];
                     e += 1;
                 }
             }
         }
-        Ok(())
     }
 
     /// Number of rows (grid nodes) `n`.

@@ -43,7 +43,8 @@
 //!
 //! Geometries: `{ rectangle = { min = [x, y], max = [x, y] } }`, `{ disk = { center = [x, y],
 //! radius = r } }`, `{ file = "particles.csv" }` (a CSV file with a header naming at least `x`,
-//! `y` and `volume`, optionally `vx`, `vy`; a relative path is taken from the scene file's
+//! `y` and `volume`, optionally `vx`, `vy`, `mass` (default `density × volume`), `sxx`, `syy`,
+//! `sxy`; lines starting with `#` are comments; a relative path is taken from the scene file's
 //! folder). Rectangles and disks are filled with `particles_per_cell²` particles per grid cell,
 //! at the centres of a regular sub-lattice of the grid cells, each of volume
 //! `hx hy / particles_per_cell²` and mass `density × volume`.
@@ -180,7 +181,8 @@ pub enum Geometry {
         /// Radius.
         radius: f64,
     },
-    /// Particles listed in a CSV file (columns `x`, `y`, `volume`, optionally `vx`, `vy`).
+    /// Particles listed in a CSV file (columns `x`, `y`, `volume`, optionally `vx`, `vy`, `mass`,
+    /// `sxx`, `syy`, `sxy`).
     File(PathBuf),
 }
 
@@ -235,11 +237,22 @@ impl Scene {
     /// wrong: unknown key, missing key, wrong type), then the checks of [`Scene::validate`].
     pub fn from_toml_str(text: &str) -> Result<Scene> {
         let scene: Scene = toml::from_str(text).map_err(|e| {
-            let span = e.span().map(|s| {
-                let line = text[..s.start.min(text.len())].matches('\n').count() + 1;
-                format!("line {line}")
+            let place = e.span().map(|s| {
+                let start = s.start.min(text.len());
+                let line = text[..start].matches('\n').count() + 1;
+                // Name the key written on that line (or the table header) as well.
+                let source = text.lines().nth(line - 1).unwrap_or("").trim();
+                let key = match source.split_once('=') {
+                    Some((k, _)) if !source.starts_with('[') => k.trim(),
+                    _ => source,
+                };
+                if key.is_empty() {
+                    format!("line {line}")
+                } else {
+                    format!("line {line}, {key}")
+                }
             });
-            invalid(span.unwrap_or_else(|| "scene".into()), e.message().trim().to_string())
+            invalid(place.unwrap_or_else(|| "scene".into()), e.message().trim().to_string())
         })?;
         scene.validate()?;
         Ok(scene)
@@ -276,12 +289,18 @@ impl Scene {
         let g = &self.grid;
         for (k, h) in g.cell_size.iter().enumerate() {
             if !(h.is_finite() && *h > 0.0) {
-                return Err(invalid(format!("grid.cell_size[{k}]"), format!("{h} must be positive and finite")));
+                return Err(invalid(
+                    format!("grid.cell_size[{k}]"),
+                    format!("{h} must be positive and finite"),
+                ));
             }
         }
         for (k, c) in g.cells.iter().enumerate() {
             if *c == 0 {
-                return Err(invalid(format!("grid.cells[{k}]"), "the grid needs at least one cell per axis"));
+                return Err(invalid(
+                    format!("grid.cells[{k}]"),
+                    "the grid needs at least one cell per axis",
+                ));
             }
         }
         let t = &self.time;
@@ -294,13 +313,36 @@ impl Scene {
                 return Err(invalid("time.dt", format!("{dt} must be positive and finite")))
             }
             (None, Some(c)) if !(c > 0.0 && c <= 1.0) => {
-                return Err(invalid("time.cfl", format!("{c}: the Courant number must lie in (0, 1]")))
+                return Err(invalid(
+                    "time.cfl",
+                    format!("{c}: the Courant number must lie in (0, 1]"),
+                ))
             }
             _ => {}
         }
         if let Some(s) = self.output.snapshot_interval {
             if !(s.is_finite() && s > 0.0) {
-                return Err(invalid("output.snapshot_interval", format!("{s} must be positive and finite")));
+                return Err(invalid(
+                    "output.snapshot_interval",
+                    format!("{s} must be positive and finite"),
+                ));
+            }
+        }
+        let s = &self.schemes;
+        s.shape
+            .validate()
+            .map_err(|e| invalid("schemes.shape", e.to_string()))?;
+        for (role, scheme) in [("velocity", s.mass.velocity), ("acceleration", s.mass.acceleration)] {
+            scheme
+                .validate()
+                .map_err(|e| invalid(format!("schemes.mass.{role}"), e.to_string()))?;
+        }
+        if let Transfer::Blend { flip } = s.transfer {
+            if !(0.0..=1.0).contains(&flip) {
+                return Err(invalid(
+                    "schemes.transfer.blend.flip",
+                    format!("{flip} must lie in [0, 1]"),
+                ));
             }
         }
         if self.bodies.is_empty() {
@@ -309,7 +351,10 @@ impl Scene {
         for (k, b) in self.bodies.iter().enumerate() {
             let key = |f: &str| format!("bodies[{k}].{f}");
             if !(b.density.is_finite() && b.density > 0.0) {
-                return Err(invalid(key("density"), format!("{} must be positive and finite", b.density)));
+                return Err(invalid(
+                    key("density"),
+                    format!("{} must be positive and finite", b.density),
+                ));
             }
             if b.particles_per_cell == 0 {
                 return Err(invalid(key("particles_per_cell"), "must be at least 1"));
@@ -325,7 +370,10 @@ impl Scene {
                 }
                 Geometry::Disk { center, radius } => {
                     if !(center.iter().all(|v| v.is_finite()) && radius.is_finite() && *radius > 0.0) {
-                        return Err(invalid(key("geometry.disk"), "needs a finite centre and a positive radius"));
+                        return Err(invalid(
+                            key("geometry.disk"),
+                            "needs a finite centre and a positive radius",
+                        ));
                     }
                 }
                 Geometry::File(_) => {}
@@ -382,7 +430,7 @@ impl Scene {
 
     fn body_particles(&self, k: usize, body: &BodySpec, grid: &Grid) -> Result<Particles> {
         let key = |f: &str| format!("bodies[{k}].{f}");
-        let (x, y, volume, vx, vy) = match &body.geometry {
+        let columns = match &body.geometry {
             Geometry::File(path) => {
                 let path = match &self.base_dir {
                     Some(dir) if path.is_relative() => dir.join(path),
@@ -391,6 +439,25 @@ impl Scene {
                 read_particle_file(&path).map_err(|reason| invalid(key("geometry.file"), reason))?
             }
             geometry => {
+                let [x0, x1, y0, y1] = grid.bounds();
+                let (lo, hi) = match geometry {
+                    Geometry::Rectangle { min, max } => (*min, *max),
+                    Geometry::Disk { center, radius } => (
+                        [center[0] - radius, center[1] - radius],
+                        [center[0] + radius, center[1] + radius],
+                    ),
+                    Geometry::File(_) => unreachable!("handled above"),
+                };
+                let tol = 1e-9 * (x1 - x0).max(y1 - y0);
+                if lo[0] < x0 - tol || lo[1] < y0 - tol || hi[0] > x1 + tol || hi[1] > y1 + tol {
+                    return Err(invalid(
+                        key("geometry"),
+                        format!(
+                            "spans [{}, {}] x [{}, {}], which is not inside the grid [{x0}, {x1}] x [{y0}, {y1}]",
+                            lo[0], hi[0], lo[1], hi[1]
+                        ),
+                    ));
+                }
                 let n = body.particles_per_cell;
                 let [hx, hy] = grid.cell_size();
                 let [ox, oy] = grid.origin();
@@ -401,32 +468,35 @@ impl Scene {
                     Geometry::Disk { center, radius } => (px - center[0]).hypot(py - center[1]) < *radius,
                     Geometry::File(_) => unreachable!("handled above"),
                 };
-                let (mut x, mut y) = (Vec::new(), Vec::new());
+                let mut c = ParticleColumns::default();
                 for j in 0..cy * n {
                     for i in 0..cx * n {
                         let (px, py) = (ox + (i as f64 + 0.5) * dx, oy + (j as f64 + 0.5) * dy);
                         if inside(px, py) {
-                            x.push(px);
-                            y.push(py);
+                            c.x.push(px);
+                            c.y.push(py);
+                            c.volume.push(dx * dy);
                         }
                     }
                 }
-                let count = x.len();
-                (x, y, vec![dx * dy; count], vec![0.0; count], vec![0.0; count])
+                c
             }
         };
-        if x.is_empty() {
+        let count = columns.x.len();
+        if count == 0 {
             return Err(invalid(
                 key("geometry"),
                 "contains no particle (is it inside the grid, and larger than a particle spacing?)",
             ));
         }
-        let mass = volume.iter().map(|v| body.density * v).collect();
-        let count = x.len();
-        let vx = vx.iter().map(|v| v + body.velocity[0]).collect();
-        let vy = vy.iter().map(|v| v + body.velocity[1]).collect();
-        Particles::new(x, y, mass, volume)
+        let [vx, vy, mass, sxx, syy, sxy] = columns.optional;
+        let or_zero = |v: Option<Vec<f64>>| v.unwrap_or_else(|| vec![0.0; count]);
+        let mass = mass.unwrap_or_else(|| columns.volume.iter().map(|v| body.density * v).collect());
+        let vx = or_zero(vx).iter().map(|v| v + body.velocity[0]).collect();
+        let vy = or_zero(vy).iter().map(|v| v + body.velocity[1]).collect();
+        Particles::new(columns.x, columns.y, mass, columns.volume)
             .and_then(|p| p.with_velocity(vx, vy))
+            .and_then(|p| p.with_stress(or_zero(sxx), or_zero(syy), or_zero(sxy)))
             .and_then(|p| p.with_body_force(vec![body.body_force[0]; count], vec![body.body_force[1]; count]))
             .map_err(|e| invalid(key("geometry"), e.to_string()))
     }
@@ -456,13 +526,28 @@ impl Scene {
     }
 }
 
-type ParticleColumns = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+/// Columns of a particle file; optional ones are `None` when absent.
+#[derive(Default)]
+struct ParticleColumns {
+    x: Vec<f64>,
+    y: Vec<f64>,
+    volume: Vec<f64>,
+    optional: [Option<Vec<f64>>; 6],
+}
 
-/// Reads `x, y, volume[, vx, vy]` columns from a CSV particle file.
+/// Optional particle-file columns, in the order of `ParticleColumns::optional`.
+const OPTIONAL_COLUMNS: [&str; 6] = ["vx", "vy", "mass", "sxx", "syy", "sxy"];
+
+/// Reads a CSV particle file: columns `x, y, volume` and optionally `vx, vy, mass, sxx, syy, sxy`.
 fn read_particle_file(path: &Path) -> std::result::Result<ParticleColumns, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines.next().ok_or_else(|| format!("{}: the file is empty", path.display()))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+    let (_, header) = lines
+        .next()
+        .ok_or_else(|| format!("{}: the file is empty", path.display()))?;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let column = |name: &str| names.iter().position(|n| *n == name);
     let (Some(cx), Some(cy), Some(cv)) = (column("x"), column("y"), column("volume")) else {
@@ -471,8 +556,23 @@ fn read_particle_file(path: &Path) -> std::result::Result<ParticleColumns, Strin
             path.display()
         ));
     };
-    let (cvx, cvy) = (column("vx"), column("vy"));
-    let mut out: ParticleColumns = Default::default();
+    if let Some(unknown) = names
+        .iter()
+        .find(|n| !["x", "y", "volume"].contains(n) && !OPTIONAL_COLUMNS.contains(n))
+    {
+        return Err(format!(
+            "{}: unknown column `{unknown}` (known: x, y, volume, {})",
+            path.display(),
+            OPTIONAL_COLUMNS.join(", ")
+        ));
+    }
+    let optional: Vec<Option<usize>> = OPTIONAL_COLUMNS.iter().map(|n| column(n)).collect();
+    let mut out = ParticleColumns::default();
+    for (k, c) in optional.iter().enumerate() {
+        if c.is_some() {
+            out.optional[k] = Some(Vec::new());
+        }
+    }
     for (line_no, line) in lines {
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         if cells.len() != names.len() {
@@ -495,11 +595,22 @@ fn read_particle_file(path: &Path) -> std::result::Result<ParticleColumns, Strin
                 )
             })
         };
-        out.0.push(value(cx)?);
-        out.1.push(value(cy)?);
-        out.2.push(value(cv)?);
-        out.3.push(cvx.map_or(Ok(0.0), value)?);
-        out.4.push(cvy.map_or(Ok(0.0), value)?);
+        out.x.push(value(cx)?);
+        out.y.push(value(cy)?);
+        let volume = value(cv)?;
+        if !(volume > 0.0 && volume.is_finite()) {
+            return Err(format!(
+                "{} line {}: column `volume` = {volume} must be positive",
+                path.display(),
+                line_no + 1
+            ));
+        }
+        out.volume.push(volume);
+        for (k, c) in optional.iter().enumerate() {
+            if let (Some(c), Some(v)) = (c, out.optional[k].as_mut()) {
+                v.push(value(*c)?);
+            }
+        }
     }
     Ok(out)
 }

@@ -388,8 +388,16 @@ impl Simulation {
             node_x: grid.node_x(),
             node_y: grid.node_y(),
             prescribed: VectorField {
-                x: prescribed.vx.iter().map(|v| if v.is_nan() { 0.0 } else { *v }).collect(),
-                y: prescribed.vy.iter().map(|v| if v.is_nan() { 0.0 } else { *v }).collect(),
+                x: prescribed
+                    .vx
+                    .iter()
+                    .map(|v| if v.is_nan() { 0.0 } else { *v })
+                    .collect(),
+                y: prescribed
+                    .vy
+                    .iter()
+                    .map(|v| if v.is_nan() { 0.0 } else { *v })
+                    .collect(),
             },
             ..Work::default()
         };
@@ -588,7 +596,7 @@ impl Simulation {
 
     fn phases(&mut self, dt: f64) -> Result<StepReport> {
         let interval = self.options.sort_interval;
-        if interval > 0 && self.steps % interval == 0 {
+        if interval > 0 && self.steps.is_multiple_of(interval) {
             self.sort_particles();
         }
         let shape = self.options.shape;
@@ -668,7 +676,11 @@ impl Simulation {
             field.y.iter_mut().for_each(|v| *v = 0.0);
         }
         let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-        let (nv, gxv, gyv) = (ops.values(Operator::N), ops.values(Operator::Gx), ops.values(Operator::Gy));
+        let (nv, gxv, gyv) = (
+            ops.values(Operator::N),
+            ops.values(Operator::Gx),
+            ops.values(Operator::Gy),
+        );
         let internal = if with_internal { 1.0 } else { 0.0 };
         for k in 0..p.len() {
             let m = p.mass[k];
@@ -889,7 +901,11 @@ impl Simulation {
             l.resize(np, 0.0);
         }
         let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-        let (nv, gxv, gyv) = (ops.values(Operator::N), ops.values(Operator::Gx), ops.values(Operator::Gy));
+        let (nv, gxv, gyv) = (
+            ops.values(Operator::N),
+            ops.values(Operator::Gx),
+            ops.values(Operator::Gy),
+        );
         let transfer = self.options.transfer;
         let [hx, hy] = self.grid.cell_size();
         // APIC's D⁻¹ for B-splines (D = h²/4 I quadratic, h²/3 I cubic); None: C = Σ w ∇Nᵀ.

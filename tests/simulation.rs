@@ -17,7 +17,12 @@ const SHAPES: [ShapeFunction; 4] = [
     ShapeFunction::CubicBSpline,
 ];
 const UPDATES: [UpdateScheme; 3] = [UpdateScheme::Usf, UpdateScheme::Usl, UpdateScheme::Musl];
-const TRANSFERS: [Transfer; 4] = [Transfer::Pic, Transfer::Flip, Transfer::Blend { flip: 0.7 }, Transfer::Apic];
+const TRANSFERS: [Transfer; 4] = [
+    Transfer::Pic,
+    Transfer::Flip,
+    Transfer::Blend { flip: 0.7 },
+    Transfer::Apic,
+];
 
 fn steel_like() -> Material {
     Material::LinearElastic(LinearElastic {
@@ -106,7 +111,11 @@ fn free_fall_matches_the_closed_form_for_every_scheme_combination() {
                         }
                         let t = steps as f64 * dt;
                         // Semi-implicit Euler adds ½ g Δt t; the trapezoidal rule is exact.
-                        let extra = if rule == PositionUpdate::Trapezoidal { 0.0 } else { t * dt };
+                        let extra = if rule == PositionUpdate::Trapezoidal {
+                            0.0
+                        } else {
+                            t * dt
+                        };
                         let p = sim.particles();
                         let label = format!("{shape:?} {update:?} {transfer:?} {mass:?} {rule:?}");
                         for k in 0..p.len() {
@@ -115,9 +124,17 @@ fn free_fall_matches_the_closed_form_for_every_scheme_combination() {
                             let ey = y0[id] + v0[1] * t + 0.5 * g[1] * (t * t + extra);
                             assert!((p.x[k] - ex).abs() < ROUND_OFF, "{label}: x {} vs {ex}", p.x[k]);
                             assert!((p.y[k] - ey).abs() < ROUND_OFF, "{label}: y {} vs {ey}", p.y[k]);
-                            assert!((p.vx[k] - (v0[0] + g[0] * t)).abs() < ROUND_OFF, "{label}: vx {} {}", p.vx[k], v0[0] + g[0] * t);
+                            assert!(
+                                (p.vx[k] - (v0[0] + g[0] * t)).abs() < ROUND_OFF,
+                                "{label}: vx {} {}",
+                                p.vx[k],
+                                v0[0] + g[0] * t
+                            );
                             assert!((p.vy[k] - (v0[1] + g[1] * t)).abs() < ROUND_OFF, "{label}: vy");
-                            assert!(p.sxx[k].abs() + p.syy[k].abs() + p.sxy[k].abs() < 1e-6, "{label}: stress");
+                            assert!(
+                                p.sxx[k].abs() + p.syy[k].abs() + p.sxy[k].abs() < 1e-6,
+                                "{label}: stress"
+                            );
                         }
                         combinations += 1;
                     }
@@ -152,8 +169,16 @@ fn a_rigid_translation_stays_rigid() {
             let p = sim.particles();
             for k in 0..p.len() {
                 let id = p.id[k];
-                assert!((p.x[k] - (x0[id] + 0.7 * t)).abs() < ROUND_OFF, "{shape:?} {transfer:?} {} {}", p.x[k], x0[id] + 0.7 * t);
-                assert!((p.y[k] - (y0[id] - 0.4 * t)).abs() < ROUND_OFF, "{shape:?} {transfer:?}");
+                assert!(
+                    (p.x[k] - (x0[id] + 0.7 * t)).abs() < ROUND_OFF,
+                    "{shape:?} {transfer:?} {} {}",
+                    p.x[k],
+                    x0[id] + 0.7 * t
+                );
+                assert!(
+                    (p.y[k] - (y0[id] - 0.4 * t)).abs() < ROUND_OFF,
+                    "{shape:?} {transfer:?}"
+                );
                 assert!((p.fxx[k] - 1.0).abs() + p.fxy[k].abs() + p.fyx[k].abs() + (p.fyy[k] - 1.0).abs() < ROUND_OFF);
                 assert!(p.sxx[k].abs() + p.syy[k].abs() + p.sxy[k].abs() < 1e-6);
             }
@@ -195,7 +220,10 @@ fn momentum_is_conserved_without_boundaries() {
         (MassScheme::Lumped, MassScheme::Lumped),
         (MassScheme::Consistent, MassScheme::Lumped),
         (MassScheme::Blended { gamma: 0.5 }, MassScheme::Blended { gamma: 0.5 }),
-        (MassScheme::TruncatedSeries { k: 3 }, MassScheme::TruncatedSeries { k: 3 }),
+        (
+            MassScheme::TruncatedSeries { k: 3 },
+            MassScheme::TruncatedSeries { k: 3 },
+        ),
     ];
     for shape in [ShapeFunction::Linear, ShapeFunction::QuadraticBSpline] {
         for transfer in TRANSFERS {
@@ -237,8 +265,16 @@ fn momentum_is_conserved_without_boundaries() {
                     for _ in 0..40 {
                         let label = format!("{shape:?} {transfer:?} {update:?} {velocity:?} {acceleration:?}");
                         let r = sim.step().unwrap_or_else(|e| panic!("{label}: {e}"));
-                        assert!((r.momentum[0] - p0[0]).abs() < 1e-9 * scale, "{label}: {:?}", r.momentum);
-                        assert!((r.momentum[1] - p0[1]).abs() < 1e-9 * scale, "{label}: {:?}", r.momentum);
+                        assert!(
+                            (r.momentum[0] - p0[0]).abs() < 1e-9 * scale,
+                            "{label}: {:?}",
+                            r.momentum
+                        );
+                        assert!(
+                            (r.momentum[1] - p0[1]).abs() < 1e-9 * scale,
+                            "{label}: {:?}",
+                            r.momentum
+                        );
                     }
                 }
             }
@@ -279,7 +315,10 @@ fn energy_never_grows_under_pic_with_lumped_mass() {
                 let r = sim.step().unwrap();
                 let e = r.kinetic_energy + r.strain_energy;
                 first.get_or_insert(e);
-                assert!(e <= previous * (1.0 + ROUND_OFF), "{shape:?} {update:?}: energy grew {previous} -> {e}");
+                assert!(
+                    e <= previous * (1.0 + ROUND_OFF),
+                    "{shape:?} {update:?}: energy grew {previous} -> {e}"
+                );
                 previous = e;
             }
             assert!(previous < first.unwrap(), "{shape:?} {update:?}: PIC should dissipate");
@@ -353,7 +392,10 @@ fn a_fixed_step_above_the_stable_estimate_is_refused_unless_allowed() {
     let err = sim.step().unwrap_err();
     let text = err.to_string();
     assert!(matches!(err, MpmError::Unstable { step: 0, .. }), "{text}");
-    assert!(text.contains("exceeds the stable estimate") && text.contains("allow_unstable"), "{text}");
+    assert!(
+        text.contains("exceeds the stable estimate") && text.contains("allow_unstable"),
+        "{text}"
+    );
     // The refusal happens before anything moves: the state is still usable.
     assert_eq!(sim.particles().x, particles.x);
     options.allow_unstable_time_step = true;
@@ -406,7 +448,11 @@ fn report_energies_agree_with_independent_sums() {
         e += 0.5 * v * (w.x[i] * w.x[j] + w.y[i] * w.y[j]);
     }
     // The operators are those of the step's start, and so is the report's M.
-    assert!((r.grid_kinetic_energy_consistent - e).abs() < 1e-8 * e, "{} vs {e}", r.grid_kinetic_energy_consistent);
+    assert!(
+        (r.grid_kinetic_energy_consistent - e).abs() < 1e-8 * e,
+        "{} vs {e}",
+        r.grid_kinetic_energy_consistent
+    );
     assert!(r.grid_kinetic_energy_consistent <= r.grid_kinetic_energy_lumped * (1.0 + ROUND_OFF));
     assert!((r.total_energy - (r.kinetic_energy + r.strain_energy + r.potential_energy)).abs() < 1e-12);
 }

@@ -1,10 +1,26 @@
-//! Reading and writing: Matrix Market for the operators and matrices.
+//! Reading and writing files.
+//!
+//! * Matrix Market for the operators and matrices: [`write_matrix_market`],
+//!   [`read_matrix_market`].
+//! * Particle snapshots for ParaView: [`vtk::write_vtp`] writes one VTK XML PolyData file
+//!   (`.vtp`) per snapshot, [`vtk::PvdWriter`] keeps a `.pvd` collection that lists them with their
+//!   times, so ParaView opens a whole run as a time series. [`vtk::read_vtp`] and
+//!   [`vtk::read_pvd`] read those files back.
+//! * Time histories (energies, probe values …) as CSV: [`csv::CsvWriter`], read back with
+//!   [`csv::read_csv`].
+//!
+//! Every failure is an [`MpmError::Io`] naming the file; a file that does not have the layout
+//! these readers expect gives an [`std::io::ErrorKind::InvalidData`] error whose message says what
+//! is wrong.
 
 use std::path::Path;
 
 use nalgebra_sparse::CscMatrix;
 
 use crate::error::{MpmError, Result};
+
+pub mod csv;
+pub mod vtk;
 
 /// Writes a sparse matrix in Matrix Market coordinate format (1-based indices), readable by
 /// SciPy's `scipy.io.mmread`, MATLAB's `mmread` and nalgebra-sparse.
@@ -28,4 +44,35 @@ pub fn read_matrix_market(path: &Path) -> Result<CscMatrix<f64>> {
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()),
     })?;
     Ok(CscMatrix::from(&coo))
+}
+
+/// Wraps an I/O error with the file it concerns.
+pub(crate) fn io_error(path: &Path, source: std::io::Error) -> MpmError {
+    MpmError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// An [`MpmError::Io`] of kind `InvalidData` (a file that does not have the expected layout).
+pub(crate) fn invalid_data(path: &Path, message: impl Into<String>) -> MpmError {
+    io_error(
+        path,
+        std::io::Error::new(std::io::ErrorKind::InvalidData, message.into()),
+    )
+}
+
+/// Appends `value` in the shortest form that reads back bit-for-bit with `str::parse::<f64>`:
+/// Rust's `{}` for zero, non-finite values and magnitudes in `[1e-5, 1e16)`, and `{:e}` (also
+/// shortest round-trip, e.g. `1e-300`) outside it, where `{}` would spell out hundreds of zeros.
+/// NaN and the infinities are written `NaN`, `inf`, `-inf`; negative zero is `-0`.
+pub(crate) fn push_f64(out: &mut String, value: f64) {
+    use std::fmt::Write;
+    let magnitude = value.abs();
+    // Writing into a String cannot fail.
+    if value == 0.0 || !value.is_finite() || (1e-5..1e16).contains(&magnitude) {
+        let _ = write!(out, "{value}");
+    } else {
+        let _ = write!(out, "{value:e}");
+    }
 }

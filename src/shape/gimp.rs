@@ -30,8 +30,8 @@
 pub const SUPPORT: usize = 3;
 
 /// Value and derivative per unit `ξ`, `(S(ξ), S'(ξ))`, of the uGIMP kernel of half-width
-/// `l` cells (`0 < l ≤ 1/2`; other values give meaningless numbers). See the module docs.
-#[inline]
+/// `l` cells (`0 < l ≤ 1/2`; other values give meaningless numbers): the piecewise formula of
+/// the module docs, for one node. The operators use [`nearest_weights`] instead.
 pub fn kernel(xi: f64, l: f64) -> (f64, f64) {
     let a = xi.abs();
     if a < l {
@@ -56,15 +56,40 @@ pub fn derivative(xi: f64, l: f64) -> f64 {
     kernel(xi, l).1
 }
 
-/// Weights of the three nodes `first, first + 1, first + 2` for a point at `s − first = r`
-/// cell units from the first one: values and derivatives per unit `ξ`, node `k` at
-/// `ξ = r − k`. The three hold every node with a non-zero weight when `r ∈ [l, 2 − l]`: in
-/// particular when the middle node is the point's nearest (`r ∈ [1/2, 3/2]`), and at the
-/// grid's edge for a point no closer than `l` cells to it, the first or last node.
+/// Weights of the nodes `c − 1, c, c + 1` for a point at `t = s − c ∈ [−1/2, 1/2]` cell units
+/// from its nearest node `c`: values and derivatives per unit `ξ`. No other node has a
+/// non-zero weight (`|t ± 2| ≥ 3/2 ≥ 1 + l`).
+///
+/// In that range the middle node is in the inner or the linear piece and each neighbour in
+/// the linear, the outer or the zero piece:
+///
+/// ```text
+/// node c:      S = 1 − (t² + l²)/(2l),  S' = −t/l           |t| < l
+///                = 1 − |t|,             S' = −sign(t)        otherwise
+/// node c + 1:  S = t,                   S' = 1               t ≥ l
+///                = q²/(4l),             S' = q/(2l)          otherwise, q = max(t + l, 0)
+/// node c − 1:  the same with t → −t and S' → −S'
+/// ```
+///
+/// Every piece is computed and the right one selected, so the compiler can avoid branches:
+/// where a point falls relative to the breakpoints is as good as random from one particle to
+/// the next, and mispredicted branches would cost more than the arithmetic.
 #[inline]
-pub fn weights(r: f64, l: f64) -> ([f64; SUPPORT], [f64; SUPPORT]) {
-    let (w0, d0) = kernel(r, l);
-    let (w1, d1) = kernel(r - 1.0, l);
-    let (w2, d2) = kernel(r - 2.0, l);
-    ([w0, w1, w2], [d0, d1, d2])
+pub fn nearest_weights(t: f64, l: f64) -> ([f64; SUPPORT], [f64; SUPPORT]) {
+    let half_inv_l = 0.5 / l;
+    let quarter_inv_l = 0.5 * half_inv_l;
+    let select = |c: bool, a: f64, b: f64| if c { a } else { b };
+    // Node c + 1.
+    let (linear, q) = (t >= l, (t + l).max(0.0));
+    let w_right = select(linear, t, q * q * quarter_inv_l);
+    let d_right = select(linear, 1.0, q * half_inv_l);
+    // Node c − 1: t → −t, derivative sign flipped.
+    let (linear, q) = (-t >= l, (l - t).max(0.0));
+    let w_left = select(linear, -t, q * q * quarter_inv_l);
+    let d_left = select(linear, -1.0, -q * half_inv_l);
+    // Node c.
+    let (inner, a) = (t.abs() < l, t.abs());
+    let w_mid = select(inner, 1.0 - (t * t + l * l) * half_inv_l, 1.0 - a);
+    let d_mid = select(inner, -2.0 * t * half_inv_l, -(1.0_f64.copysign(t)));
+    ([w_left, w_mid, w_right], [d_left, d_mid, d_right])
 }

@@ -103,6 +103,7 @@ pub enum ShapeFunction {
     ///      = (3/2 − |ξ|)²/2           1/2 ≤ |ξ| < 3/2
     ///      = 0                        otherwise
     /// ```
+    #[serde(rename = "quadratic_bspline")]
     QuadraticBSpline,
     /// Uniform node-centred cubic B-spline: 4 × 4 nodes per particle, C². See [`bspline`].
     ///
@@ -111,6 +112,7 @@ pub enum ShapeFunction {
     ///      = (2 − |ξ|)³/6             1 ≤ |ξ| < 2
     ///      = 0                        otherwise
     /// ```
+    #[serde(rename = "cubic_bspline")]
     CubicBSpline,
 }
 
@@ -266,31 +268,28 @@ impl ShapeFunction {
         ]
     }
 
-    /// The cell coordinate `s = (value − x₀)/h` of an accepted point along `axis`, clamped to
-    /// `[margin, cells − margin]`, or `None` when the point is outside the grid, inside the
-    /// margin (beyond [`MARGIN_TOLERANCE`]), the grid has too few cells along the axis or the
-    /// family's parameters are invalid.
+    /// The constants that accept points along `axis` and compute their weights, worked out
+    /// once per grid, axis and family (the operators use one per axis for all particles).
     #[inline]
-    pub(crate) fn accepted_coordinate(&self, grid: &Grid, axis: usize, value: f64) -> Option<f64> {
+    pub(crate) fn axis_frame(&self, grid: &Grid, axis: usize) -> AxisFrame {
         let cells = grid.cells()[axis];
         let bounds = grid.bounds();
-        let [lo, hi] = [bounds[2 * axis], bounds[2 * axis + 1]];
-        if !(lo..=hi).contains(&value) || cells < self.min_cells() {
-            return None;
+        let margin = self.margin();
+        let valid = match *self {
+            ShapeFunction::Gimp { half_width } => gimp_half_width_is_valid(half_width),
+            _ => true,
+        };
+        AxisFrame {
+            shape: *self,
+            origin: grid.origin()[axis],
+            h: grid.cell_size()[axis],
+            lo: bounds[2 * axis],
+            hi: bounds[2 * axis + 1],
+            cells,
+            margin,
+            top: cells as f64 - margin,
+            usable: valid && cells >= self.min_cells(),
         }
-        if let ShapeFunction::Gimp { half_width } = *self {
-            if !gimp_half_width_is_valid(half_width) {
-                return None;
-            }
-        }
-        let m = self.margin();
-        let top = cells as f64 - m;
-        // Inside the bounds, rounding may put (x − x₀)/h a hair outside [margin, cells − margin].
-        let s = grid.cell_coordinate(axis, value);
-        if s < m - MARGIN_TOLERANCE || s > top + MARGIN_TOLERANCE {
-            return None;
-        }
-        Some(s.clamp(m, top))
     }
 
     /// The 1D weights along `axis` (0 = x, 1 = y) of a point at coordinate `value`, or `None`
@@ -300,23 +299,79 @@ impl ShapeFunction {
     /// the family's parameters are invalid.
     ///
     /// Only the `support()` supporting nodes are evaluated, with no allocation.
+    #[inline]
     pub fn axis_weights(&self, grid: &Grid, axis: usize, value: f64) -> Option<AxisWeights> {
-        let s = self.accepted_coordinate(grid, axis, value)?;
-        let cells = grid.cells()[axis];
-        let h = grid.cell_size()[axis];
+        let frame = self.axis_frame(grid, axis);
+        frame.accept(value).map(|s| frame.weights(s))
+    }
+}
+
+/// Per-axis constants for accepting points and computing their weights; see
+/// [`ShapeFunction::axis_frame`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct AxisFrame {
+    shape: ShapeFunction,
+    origin: f64,
+    h: f64,
+    lo: f64,
+    hi: f64,
+    cells: usize,
+    margin: f64,
+    top: f64,
+    /// The family's parameters are valid and the axis has at least `min_cells()` cells.
+    usable: bool,
+}
+
+impl AxisFrame {
+    /// Whether a point at `value` is accepted: inside the grid, no closer to its edge than the
+    /// margin (up to [`MARGIN_TOLERANCE`]), and the frame usable. This is the one definition
+    /// of an accepted point. Branch-free (non-short-circuit `&`), so a pass over all
+    /// particles vectorises; NaN is rejected.
+    #[inline]
+    pub(crate) fn accepts(&self, value: f64) -> bool {
+        // Inside the bounds, rounding may put (x − x₀)/h a hair outside [margin, cells − margin].
+        let s = (value - self.origin) / self.h;
+        self.usable
+            & (value >= self.lo)
+            & (value <= self.hi)
+            & (s >= self.margin - MARGIN_TOLERANCE)
+            & (s <= self.top + MARGIN_TOLERANCE)
+    }
+
+    /// The cell coordinate `s = (value − x₀)/h` of an accepted point (see
+    /// [`AxisFrame::accepts`]), clamped to `[margin, cells − margin]`; `None` otherwise.
+    #[inline]
+    pub(crate) fn accept(&self, value: f64) -> Option<f64> {
+        self.accepts(value)
+            .then(|| ((value - self.origin) / self.h).clamp(self.margin, self.top))
+    }
+
+    /// The weights at an accepted, clamped cell coordinate `s` (from [`AxisFrame::accept`]).
+    #[inline]
+    pub(crate) fn weights(&self, s: f64) -> AxisWeights {
+        let (cells, h) = (self.cells, self.h);
         // `s ∈ [margin, cells − margin]`, and `cells ≥ min_cells()`, so every `first` below
         // leaves the whole stencil on nodes `0 ..= cells`.
-        let weights = match *self {
+        match self.shape {
             ShapeFunction::Linear => {
                 // The cell the point belongs to: half-open, the last one closed.
                 let cell = (s.floor() as usize).min(cells - 1);
                 AxisWeights::from_kernel(cell, linear::cell_weights(s - cell as f64), h)
             }
             ShapeFunction::Gimp { half_width } => {
-                // The nearest node in the middle, kept off the edge nodes; every node with a
-                // non-zero weight is then in the stencil (see `gimp::weights`).
-                let c = ((s + 0.5).floor() as usize).clamp(1, cells - 1);
-                AxisWeights::from_kernel(c - 1, gimp::weights(s - (c - 1) as f64, half_width), h)
+                // The nearest node in the middle. Within half a cell of the edge (c = 0 or
+                // c = cells) the outer neighbour is off the grid but has weight 0 (the point is
+                // at least `half_width` cells inside), and so has the node on the other side
+                // two cells away: shift the stencil onto the grid.
+                let c = (s + 0.5).floor() as usize;
+                let (w, d) = gimp::nearest_weights(s - c as f64, half_width);
+                if c == 0 {
+                    AxisWeights::from_kernel(0, ([w[1], w[2], 0.0], [d[1], d[2], 0.0]), h)
+                } else if c >= cells {
+                    AxisWeights::from_kernel(cells - 2, ([0.0, w[0], w[1]], [0.0, d[0], d[1]]), h)
+                } else {
+                    AxisWeights::from_kernel(c - 1, (w, d), h)
+                }
             }
             ShapeFunction::QuadraticBSpline => {
                 // The nearest node in the middle; at `s = cells − 1/2` (exactly) the upper
@@ -330,8 +385,7 @@ impl ShapeFunction {
                 let c = (s.floor() as usize).clamp(1, cells - 2);
                 AxisWeights::from_kernel(c - 1, bspline::cubic_weights(s - c as f64), h)
             }
-        };
-        Some(weights)
+        }
     }
 }
 

@@ -1,0 +1,274 @@
+//! `mpm`: run scene files, export the matrices of a scene, print the worked problem.
+//!
+//! ```text
+//! mpm run [SCENE.toml] [--out DIR] [--end-time T] [--steps N] [--quiet]
+//! mpm matrices SCENE.toml [--out DIR]
+//! mpm check SCENE.toml
+//! mpm homework [--json]
+//! ```
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use sparse_mpm::run::{run_scene, write_matrices, Progress, RunLimits};
+use sparse_mpm::scene::Scene;
+
+/// The scene `mpm run` uses when none is given.
+const DEFAULT_SCENE: (&str, &str) = ("two_disks", include_str!("../../scenes/two_disks.toml"));
+
+const USAGE: &str = "\
+mpm: the 2D material point method in sparse-matrix form
+
+USAGE:
+    mpm run [SCENE.toml] [--out DIR] [--end-time T] [--steps N] [--quiet]
+        Run a scene (default: the built-in two-disk impact, scenes/two_disks.toml).
+        Writes DIR/particles_*.vtp, DIR/particles.pvd (open it in ParaView),
+        DIR/report.csv (one row per step) and DIR/scene.toml.
+        DIR defaults to out/<scene name>.
+    mpm matrices SCENE.toml [--out DIR]
+        Write N, Gx, Gy, M (consistent mass) and mL (lumped mass) of the initial
+        configuration as Matrix Market files, with nodes.csv and particles.csv.
+        DIR defaults to out/<scene name>/matrices.
+    mpm check SCENE.toml
+        Read and validate a scene; print its size and stable time step.
+    mpm homework [--json]
+        Print the answers of the worked problem (the seed assignment).
+    mpm help
+        This text.
+";
+
+struct Args {
+    positional: Vec<String>,
+    out: Option<PathBuf>,
+    end_time: Option<f64>,
+    steps: Option<usize>,
+    quiet: bool,
+    json: bool,
+}
+
+fn parse(args: &[String]) -> Result<Args, String> {
+    let mut a = Args {
+        positional: Vec::new(),
+        out: None,
+        end_time: None,
+        steps: None,
+        quiet: false,
+        json: false,
+    };
+    let mut it = args.iter();
+    while let Some(arg) = it.next() {
+        let mut value = |name: &str| it.next().cloned().ok_or_else(|| format!("{name} needs a value"));
+        match arg.as_str() {
+            "--out" | "-o" => a.out = Some(PathBuf::from(value("--out")?)),
+            "--end-time" => {
+                let v = value("--end-time")?;
+                a.end_time = Some(
+                    v.parse::<f64>()
+                        .ok()
+                        .filter(|t| t.is_finite() && *t > 0.0)
+                        .ok_or_else(|| format!("--end-time {v}: expected a positive number"))?,
+                );
+            }
+            "--steps" => {
+                let v = value("--steps")?;
+                a.steps = Some(v.parse().map_err(|_| format!("--steps {v}: expected a whole number"))?);
+            }
+            "--quiet" | "-q" => a.quiet = true,
+            "--json" => a.json = true,
+            s if s.starts_with('-') => return Err(format!("unknown option `{s}`")),
+            s => a.positional.push(s.to_string()),
+        }
+    }
+    Ok(a)
+}
+
+/// The scene named on the command line, or the built-in default; and its name.
+fn load_scene(args: &Args, allow_default: bool) -> Result<(Scene, String), String> {
+    match args.positional.first() {
+        Some(path) => {
+            let path = Path::new(path);
+            let scene = Scene::load(path).map_err(|e| e.to_string())?;
+            let name = path
+                .file_stem()
+                .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+            Ok((scene, name))
+        }
+        None if allow_default => {
+            let scene = Scene::from_toml_str(DEFAULT_SCENE.1).map_err(|e| format!("built-in scene: {e}"))?;
+            Ok((scene, DEFAULT_SCENE.0.to_string()))
+        }
+        None => Err("a scene file is required".into()),
+    }
+}
+
+/// A one-line progress bar on stderr, redrawn at most every 0.2 s, shown once a run has taken
+/// more than a second.
+struct Bar {
+    enabled: bool,
+    last: Option<Instant>,
+}
+
+impl Bar {
+    fn update(&mut self, p: &Progress) {
+        if !self.enabled || p.elapsed < Duration::from_secs(1) {
+            return;
+        }
+        if self.last.is_some_and(|t| t.elapsed() < Duration::from_millis(200)) {
+            return;
+        }
+        self.last = Some(Instant::now());
+        let fraction = (p.time / p.end_time).clamp(0.0, 1.0);
+        let width = 30;
+        let filled = (fraction * width as f64).round() as usize;
+        let eta = if fraction > 0.0 {
+            p.elapsed.as_secs_f64() * (1.0 - fraction) / fraction
+        } else {
+            0.0
+        };
+        eprint!(
+            "\r[{}{}] {:5.1}%  t = {:.4e} / {:.4e}  step {}  eta {:.0} s   ",
+            "#".repeat(filled),
+            " ".repeat(width - filled),
+            100.0 * fraction,
+            p.time,
+            p.end_time,
+            p.steps,
+            eta
+        );
+    }
+
+    fn finish(&self) {
+        if self.last.is_some() {
+            eprintln!();
+        }
+    }
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let (scene, name) = load_scene(args, true)?;
+    let out = args.out.clone().unwrap_or_else(|| Path::new("out").join(&name));
+    let title = scene.title.clone().unwrap_or_else(|| name.clone());
+    if !args.quiet {
+        println!("scene: {title}");
+    }
+    let mut bar = Bar {
+        enabled: !args.quiet && std::io::stderr().is_terminal(),
+        last: None,
+    };
+    let limits = RunLimits {
+        end_time: args.end_time,
+        max_steps: args.steps,
+    };
+    let result = run_scene(&scene, &out, limits, |p| bar.update(p));
+    bar.finish();
+    let summary = result.map_err(|e| format!("{e}\n(output written so far is in {})", out.display()))?;
+    if !args.quiet {
+        println!(
+            "{} particles, {} steps to t = {:.6e} in {:.2} s ({:.2} s stepping)",
+            summary.particles,
+            summary.steps,
+            summary.time,
+            summary.total.as_secs_f64(),
+            summary.stepping.as_secs_f64()
+        );
+        if let Some(r) = &summary.last {
+            println!(
+                "final: kinetic {:.6e}, strain {:.6e}, total {:.6e}, momentum ({:.6e}, {:.6e})",
+                r.kinetic_energy, r.strain_energy, r.total_energy, r.momentum[0], r.momentum[1]
+            );
+        }
+        println!(
+            "output: {} ({} snapshots; open {} in ParaView), {} (one row per step)",
+            out.display(),
+            summary.snapshots.len(),
+            summary.pvd.display(),
+            summary.report.display()
+        );
+    }
+    println!("particle-steps per second: {:.4e}", summary.particle_steps_per_second);
+    Ok(())
+}
+
+fn matrices(args: &Args) -> Result<(), String> {
+    let (scene, name) = load_scene(args, false)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(&name).join("matrices"));
+    let files = write_matrices(&scene, &out).map_err(|e| e.to_string())?;
+    for f in files {
+        println!("{}", f.display());
+    }
+    Ok(())
+}
+
+fn check(args: &Args) -> Result<(), String> {
+    let (scene, name) = load_scene(args, false)?;
+    let sim = scene.build().map_err(|e| e.to_string())?;
+    let g = sim.grid();
+    println!("{name}: {}", scene.title.as_deref().unwrap_or(""));
+    println!(
+        "grid {} x {} cells ({} nodes), {} particles in {} bodies",
+        g.cells()[0],
+        g.cells()[1],
+        g.num_nodes(),
+        sim.particles().len(),
+        sim.bodies().len()
+    );
+    println!(
+        "shape {}, update {:?}, transfer {:?}, mass velocity {} / acceleration {}",
+        scene.schemes.shape.name(),
+        scene.schemes.update,
+        scene.schemes.transfer,
+        scene.schemes.mass.velocity.label(),
+        scene.schemes.mass.acceleration.label()
+    );
+    println!("stable time step at t = 0: {:.6e}", sim.stable_time_step());
+    Ok(())
+}
+
+fn homework(args: &Args) -> Result<(), String> {
+    let answers = sparse_mpm::homework::solve().map_err(|e| e.to_string())?;
+    let text = if args.json {
+        serde_json::to_string_pretty(&answers.to_json()).expect("JSON values always serialize") + "\n"
+    } else {
+        answers.report()
+    };
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let all: Vec<String> = std::env::args().skip(1).collect();
+    let Some((command, rest)) = all.split_first() else {
+        eprint!("{USAGE}");
+        return ExitCode::from(2);
+    };
+    let args = match parse(rest) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("error: {e}\n\n{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match command.as_str() {
+        "run" => run(&args),
+        "matrices" => matrices(&args),
+        "check" => check(&args),
+        "homework" => homework(&args),
+        "help" | "--help" | "-h" => {
+            print!("{USAGE}");
+            Ok(())
+        }
+        other => Err(format!("unknown command `{other}`\n\n{USAGE}")),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
