@@ -297,6 +297,7 @@ pub struct Simulation {
     options: Options,
     prescribed: Prescribed,
     density: Vec<f64>,
+    wave_speed: Vec<f64>,
     ops: Operators,
     grid_mass: GridMass,
     time: f64,
@@ -381,6 +382,11 @@ impl Simulation {
             let rho0 = particles.mass[p] / (particles.volume[p] / j);
             density[particles.body[p]] = density[particles.body[p]].max(rho0);
         }
+        let wave_speed = bodies
+            .iter()
+            .zip(&density)
+            .map(|(b, &rho)| if rho > 0.0 { b.material.wave_speed(rho) } else { 0.0 })
+            .collect();
         let mut ops = Operators::default();
         ops.reassemble(&grid, options.shape, &particles.x, &particles.y)?;
         let n = grid.num_nodes();
@@ -424,6 +430,7 @@ impl Simulation {
             options,
             prescribed,
             density,
+            wave_speed,
             ops,
             grid_mass: GridMass::default(),
             time: 0.0,
@@ -490,12 +497,7 @@ impl Simulation {
     /// for the consistent mass). It is an estimate; [`crate::stiffness::critical_time_step`]
     /// computes the exact bound of a configuration.
     pub fn stable_time_step(&self) -> f64 {
-        let speeds: Vec<f64> = self
-            .bodies
-            .iter()
-            .zip(&self.density)
-            .map(|(b, &rho)| if rho > 0.0 { b.material.wave_speed(rho) } else { 0.0 })
-            .collect();
+        let speeds = &self.wave_speed;
         let p = &self.particles;
         let mut max = 0.0f64;
         for k in 0..p.len() {
