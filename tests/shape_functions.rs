@@ -498,6 +498,9 @@ const KERNEL_FD_TOL_PER_CELL_UNIT: f64 = 1e-8;
 /// different order (the uGIMP one by differences of an antiderivative): a few ulps of 1 per
 /// unit value, and of up to `1/l = 4` cell units per unit derivative.
 const KERNEL_REFERENCE_TOL: f64 = 1e-13;
+/// The same for 1D derivatives per unit `ξ` with uGIMP half-widths down to `l = 0.1`: the
+/// reference divides differences of order ε by `2l`.
+const KERNEL_DERIVATIVE_REFERENCE_TOL: f64 = 1e-12;
 /// Random points per grid and kernel, on top of the special ones.
 const RANDOM_POINTS: usize = 100;
 /// A point this far inside the margin (in cells) is far beyond rounding: it must be rejected.
@@ -1159,5 +1162,80 @@ fn a_grid_with_too_few_cells_for_the_support_is_an_invalid_grid_error() {
         assert!(all_nodes(&grid, shape, x, y).iter().all(|&w| w == (0.0, 0.0, 0.0)));
         // No particles, nothing to place: not an error.
         assert!(assemble_at(&grid, shape, &[], &[]).is_ok());
+    }
+}
+
+/// The public 1D kernels and per-stencil weight functions, swept across their support
+/// (including the breakpoints), against the independent textbook formulas above; uGIMP also
+/// with half-widths other than the two the 2D tests use.
+#[test]
+fn public_1d_kernels_and_stencil_weights_equal_the_textbook_formulas() {
+    use sparse_mpm::shape::{bspline, gimp, linear};
+    let sweep: Vec<f64> = (-2400..=2400)
+        .map(|k| k as f64 / 960.0) // hits every multiple of 1/2, 1/4, 1/6, 1/8, 1/10
+        .collect();
+    let close = |a: (f64, f64), b: (f64, f64), what: &str| {
+        assert!(
+            (a.0 - b.0).abs() <= KERNEL_REFERENCE_TOL && (a.1 - b.1).abs() <= KERNEL_DERIVATIVE_REFERENCE_TOL,
+            "{what}: {a:?}, textbook {b:?}"
+        );
+    };
+    for &xi in &sweep {
+        let q = ShapeFunction::QuadraticBSpline;
+        let c = ShapeFunction::CubicBSpline;
+        close(
+            (bspline::quadratic(xi), bspline::quadratic_derivative(xi)),
+            textbook_kernel(q, xi),
+            &format!("quadratic at ξ = {xi}"),
+        );
+        close(
+            (bspline::cubic(xi), bspline::cubic_derivative(xi)),
+            textbook_kernel(c, xi),
+            &format!("cubic at ξ = {xi}"),
+        );
+        assert_eq!(linear::tent(xi), tent(xi));
+        for l in [0.1, 1.0 / 6.0, 0.25, 0.5] {
+            let g = ShapeFunction::Gimp { half_width: l };
+            close(
+                gimp::kernel(xi, l),
+                textbook_kernel(g, xi),
+                &format!("uGIMP l = {l} at ξ = {xi}"),
+            );
+            assert_eq!((gimp::value(xi, l), gimp::derivative(xi, l)), gimp::kernel(xi, l));
+        }
+    }
+    // Stencil weights: node k of the stencil is at ξ = (offset of the point from it).
+    for &t in sweep.iter().filter(|t| t.abs() <= 0.5) {
+        let (w, d) = bspline::quadratic_weights(t);
+        for k in 0..3 {
+            let xi = t + 1.0 - k as f64;
+            close(
+                (w[k], d[k]),
+                textbook_kernel(ShapeFunction::QuadraticBSpline, xi),
+                &format!("quadratic_weights({t})[{k}]"),
+            );
+        }
+        for l in [0.1, 1.0 / 6.0, 0.25, 0.5] {
+            let (w, d) = gimp::nearest_weights(t, l);
+            for k in 0..3 {
+                let xi = t + 1.0 - k as f64;
+                close(
+                    (w[k], d[k]),
+                    textbook_kernel(ShapeFunction::Gimp { half_width: l }, xi),
+                    &format!("nearest_weights({t}, {l})[{k}]"),
+                );
+            }
+        }
+    }
+    for &t in sweep.iter().filter(|t| (0.0..=1.0).contains(*t)) {
+        let (w, d) = bspline::cubic_weights(t);
+        for k in 0..4 {
+            let xi = t + 1.0 - k as f64;
+            close(
+                (w[k], d[k]),
+                textbook_kernel(ShapeFunction::CubicBSpline, xi),
+                &format!("cubic_weights({t})[{k}]"),
+            );
+        }
     }
 }

@@ -61,35 +61,35 @@ pub fn derivative(xi: f64, l: f64) -> f64 {
 /// non-zero weight (`|t ± 2| ≥ 3/2 ≥ 1 + l`).
 ///
 /// In that range the middle node is in the inner or the linear piece and each neighbour in
-/// the linear, the outer or the zero piece:
+/// the linear, the outer or the zero piece. With `m = max(l − |t|, 0)` (non-zero only when the
+/// particle domain straddles node `c`) the pieces combine into one expression per node:
 ///
 /// ```text
-/// node c:      S = 1 − (t² + l²)/(2l),  S' = −t/l           |t| < l
-///                = 1 − |t|,             S' = −sign(t)        otherwise
-/// node c + 1:  S = t,                   S' = 1               t ≥ l
-///                = q²/(4l),             S' = q/(2l)          otherwise, q = max(t + l, 0)
-/// node c − 1:  the same with t → −t and S' → −S'
+/// node c − 1:  S = max(−t, 0) + m²/(4l)      S' = −clamp((l − t)/(2l), 0, 1)
+/// node c:      S = 1 − |t| − m²/(2l)         S' = −(S'_{c−1} + S'_{c+1})
+/// node c + 1:  S = max(t, 0) + m²/(4l)       S' = clamp((l + t)/(2l), 0, 1)
 /// ```
 ///
-/// Every piece is computed and the right one selected, so the compiler can avoid branches:
-/// where a point falls relative to the breakpoints is as good as random from one particle to
-/// the next, and mispredicted branches would cost more than the arithmetic.
+/// (for `|t| < l`: `1 − |t| − (l − |t|)²/(2l) = 1 − (t² + l²)/(2l)` and
+/// `max(t, 0) + (l − |t|)²/(4l) = (l + t)²/(4l)`; for `|t| ≥ l`: `1 − |t|`, `max(±t, 0)`).
+/// They need no branches — where a point falls relative to the breakpoints is as good as
+/// random from one particle to the next, so branches would be mispredicted — and sum to one
+/// and to zero by construction.
 #[inline]
 pub fn nearest_weights(t: f64, l: f64) -> ([f64; SUPPORT], [f64; SUPPORT]) {
-    let half_inv_l = 0.5 / l;
-    let quarter_inv_l = 0.5 * half_inv_l;
-    let select = |c: bool, a: f64, b: f64| if c { a } else { b };
-    // Node c + 1.
-    let (linear, q) = (t >= l, (t + l).max(0.0));
-    let w_right = select(linear, t, q * q * quarter_inv_l);
-    let d_right = select(linear, 1.0, q * half_inv_l);
-    // Node c − 1: t → −t, derivative sign flipped.
-    let (linear, q) = (-t >= l, (l - t).max(0.0));
-    let w_left = select(linear, -t, q * q * quarter_inv_l);
-    let d_left = select(linear, -1.0, -q * half_inv_l);
-    // Node c.
-    let (inner, a) = (t.abs() < l, t.abs());
-    let w_mid = select(inner, 1.0 - (t * t + l * l) * half_inv_l, 1.0 - a);
-    let d_mid = select(inner, -2.0 * t * half_inv_l, -(1.0_f64.copysign(t)));
-    ([w_left, w_mid, w_right], [d_left, d_mid, d_right])
+    nearest_weights_scaled(t, l, 0.5 / l)
+}
+
+/// [`nearest_weights`] with `half_inv_l = 1/(2l)` worked out once by the caller.
+#[inline]
+pub(super) fn nearest_weights_scaled(t: f64, l: f64, half_inv_l: f64) -> ([f64; SUPPORT], [f64; SUPPORT]) {
+    let a = t.abs();
+    let m = (l - a).max(0.0);
+    let shared = 0.5 * m * m * half_inv_l; // m²/(4l)
+    let d_left = -((l - t) * half_inv_l).clamp(0.0, 1.0);
+    let d_right = ((l + t) * half_inv_l).clamp(0.0, 1.0);
+    (
+        [(-t).max(0.0) + shared, 1.0 - a - 2.0 * shared, t.max(0.0) + shared],
+        [d_left, -(d_left + d_right), d_right],
+    )
 }

@@ -131,9 +131,9 @@ pub struct AxisWeights {
 }
 
 impl AxisWeights {
-    /// `len` weights from `first`, derivatives per unit `ξ` divided by the cell size `h`.
+    /// `L` weights from `first`, derivatives per unit `ξ` multiplied by `inv_h = 1/h`.
     #[inline]
-    fn from_kernel<const L: usize>(first: usize, (value, derivative): ([f64; L], [f64; L]), h: f64) -> AxisWeights {
+    fn from_kernel<const L: usize>(first: usize, (value, derivative): ([f64; L], [f64; L]), inv_h: f64) -> AxisWeights {
         let mut out = AxisWeights {
             first,
             len: L,
@@ -142,7 +142,7 @@ impl AxisWeights {
         };
         for k in 0..L {
             out.value[k] = value[k];
-            out.derivative[k] = derivative[k] / h;
+            out.derivative[k] = derivative[k] * inv_h;
         }
         out
     }
@@ -288,6 +288,11 @@ impl ShapeFunction {
             cells,
             margin,
             top: cells as f64 - margin,
+            half_inv_l: match *self {
+                ShapeFunction::Gimp { half_width } if valid => 0.5 / half_width,
+                _ => 0.0,
+            },
+            inv_h: 1.0 / grid.cell_size()[axis],
             usable: valid && cells >= self.min_cells(),
         }
     }
@@ -318,6 +323,10 @@ pub(crate) struct AxisFrame {
     cells: usize,
     margin: f64,
     top: f64,
+    /// `1/(2·half_width)` for GIMP (0 otherwise), so that weights need no division.
+    half_inv_l: f64,
+    /// `1/h`.
+    inv_h: f64,
     /// The family's parameters are valid and the axis has at least `min_cells()` cells.
     usable: bool,
 }
@@ -349,41 +358,42 @@ impl AxisFrame {
     /// The weights at an accepted, clamped cell coordinate `s` (from [`AxisFrame::accept`]).
     #[inline]
     pub(crate) fn weights(&self, s: f64) -> AxisWeights {
-        let (cells, h) = (self.cells, self.h);
+        let (cells, inv_h) = (self.cells, self.inv_h);
         // `s ∈ [margin, cells − margin]`, and `cells ≥ min_cells()`, so every `first` below
-        // leaves the whole stencil on nodes `0 ..= cells`.
+        // leaves the whole stencil on nodes `0 ..= cells`. As `s ≥ 0`, `as usize` (truncation)
+        // is the floor, without a call to libm's `floor`.
         match self.shape {
             ShapeFunction::Linear => {
                 // The cell the point belongs to: half-open, the last one closed.
-                let cell = (s.floor() as usize).min(cells - 1);
-                AxisWeights::from_kernel(cell, linear::cell_weights(s - cell as f64), h)
+                let cell = (s as usize).min(cells - 1);
+                AxisWeights::from_kernel(cell, linear::cell_weights(s - cell as f64), inv_h)
             }
             ShapeFunction::Gimp { half_width } => {
                 // The nearest node in the middle. Within half a cell of the edge (c = 0 or
                 // c = cells) the outer neighbour is off the grid but has weight 0 (the point is
                 // at least `half_width` cells inside), and so has the node on the other side
                 // two cells away: shift the stencil onto the grid.
-                let c = (s + 0.5).floor() as usize;
-                let (w, d) = gimp::nearest_weights(s - c as f64, half_width);
+                let c = (s + 0.5) as usize;
+                let (w, d) = gimp::nearest_weights_scaled(s - c as f64, half_width, self.half_inv_l);
                 if c == 0 {
-                    AxisWeights::from_kernel(0, ([w[1], w[2], 0.0], [d[1], d[2], 0.0]), h)
+                    AxisWeights::from_kernel(0, ([w[1], w[2], 0.0], [d[1], d[2], 0.0]), inv_h)
                 } else if c >= cells {
-                    AxisWeights::from_kernel(cells - 2, ([0.0, w[0], w[1]], [0.0, d[0], d[1]]), h)
+                    AxisWeights::from_kernel(cells - 2, ([0.0, w[0], w[1]], [0.0, d[0], d[1]]), inv_h)
                 } else {
-                    AxisWeights::from_kernel(c - 1, (w, d), h)
+                    AxisWeights::from_kernel(c - 1, (w, d), inv_h)
                 }
             }
             ShapeFunction::QuadraticBSpline => {
                 // The nearest node in the middle; at `s = cells − 1/2` (exactly) the upper
                 // neighbour would be off the grid, so the stencil takes the lower one (t = 1/2).
-                let c = ((s + 0.5).floor() as usize).clamp(1, cells - 1);
-                AxisWeights::from_kernel(c - 1, bspline::quadratic_weights(s - c as f64), h)
+                let c = ((s + 0.5) as usize).clamp(1, cells - 1);
+                AxisWeights::from_kernel(c - 1, bspline::quadratic_weights(s - c as f64), inv_h)
             }
             ShapeFunction::CubicBSpline => {
                 // Nodes c − 1 ..= c + 2 around the cell [c, c + 1] holding the point; at
                 // `s = cells − 1` (exactly) the stencil ends at the last node (t = 1).
-                let c = (s.floor() as usize).clamp(1, cells - 2);
-                AxisWeights::from_kernel(c - 1, bspline::cubic_weights(s - c as f64), h)
+                let c = (s as usize).clamp(1, cells - 2);
+                AxisWeights::from_kernel(c - 1, bspline::cubic_weights(s - c as f64), inv_h)
             }
         }
     }
