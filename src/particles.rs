@@ -4,7 +4,7 @@
 //! (column `p` of N, Gx, Gy). Stresses are Cauchy stresses in Voigt-like components
 //! `σxx, σyy, σxy`; the body force `b` is per unit mass (an acceleration, e.g. gravity).
 //! Each particle also carries its deformation gradient `F` (identity at the start), the APIC
-//! affine velocity matrix `C` (zero unless APIC transfers are used), the index of the body it
+//! moment `B` (zero unless APIC transfers are used), the index of the body it
 //! belongs to (which selects its material in a [`crate::simulation::Simulation`]) and a
 //! permanent id that survives re-sorting.
 
@@ -44,14 +44,16 @@ pub struct Particles {
     pub fyx: Vec<f64>,
     /// Deformation gradient `F_yy`.
     pub fyy: Vec<f64>,
-    /// APIC affine velocity matrix `C_xx` (the velocity field near the particle is `v_p + C (x − x_p)`).
-    pub cxx: Vec<f64>,
-    /// APIC affine velocity matrix `C_xy`.
-    pub cxy: Vec<f64>,
-    /// APIC affine velocity matrix `C_yx`.
-    pub cyx: Vec<f64>,
-    /// APIC affine velocity matrix `C_yy`.
-    pub cyy: Vec<f64>,
+    /// APIC moment `B_xx` of `B_p = Σ_I N_I w_I (x_I − x_p)ᵀ`; the particle's affine velocity
+    /// is `C_p = B_p D_p⁻¹` with `D_p = Σ_I N_I (x_I − x_p)(x_I − x_p)ᵀ` at its current position.
+    /// With linear shape functions the four fields hold `C_p = Σ_I w_I ∇N_Iᵀ` itself.
+    pub affine_xx: Vec<f64>,
+    /// APIC moment `B_xy`.
+    pub affine_xy: Vec<f64>,
+    /// APIC moment `B_yx`.
+    pub affine_yx: Vec<f64>,
+    /// APIC moment `B_yy`.
+    pub affine_yy: Vec<f64>,
     /// Index of the body (material) the particle belongs to.
     pub body: Vec<usize>,
     /// Permanent particle id: the particle's index when the state was created. Re-sorting
@@ -87,10 +89,10 @@ impl Particles {
             fxy: vec![0.0; n],
             fyx: vec![0.0; n],
             fyy: vec![1.0; n],
-            cxx: vec![0.0; n],
-            cxy: vec![0.0; n],
-            cyx: vec![0.0; n],
-            cyy: vec![0.0; n],
+            affine_xx: vec![0.0; n],
+            affine_xy: vec![0.0; n],
+            affine_yx: vec![0.0; n],
+            affine_yy: vec![0.0; n],
             body: vec![0; n],
             id: (0..n).collect(),
         };
@@ -282,10 +284,10 @@ impl Particles {
             ("fxy", &mut self.fxy),
             ("fyx", &mut self.fyx),
             ("fyy", &mut self.fyy),
-            ("cxx", &mut self.cxx),
-            ("cxy", &mut self.cxy),
-            ("cyx", &mut self.cyx),
-            ("cyy", &mut self.cyy),
+            ("affine_xx", &mut self.affine_xx),
+            ("affine_xy", &mut self.affine_xy),
+            ("affine_yx", &mut self.affine_yx),
+            ("affine_yy", &mut self.affine_yy),
         ]
     }
 
@@ -306,10 +308,10 @@ impl Particles {
             ("fxy", &self.fxy),
             ("fyx", &self.fyx),
             ("fyy", &self.fyy),
-            ("cxx", &self.cxx),
-            ("cxy", &self.cxy),
-            ("cyx", &self.cyx),
-            ("cyy", &self.cyy),
+            ("affine_xx", &self.affine_xx),
+            ("affine_xy", &self.affine_xy),
+            ("affine_yx", &self.affine_yx),
+            ("affine_yy", &self.affine_yy),
         ]
     }
 }

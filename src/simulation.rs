@@ -24,7 +24,7 @@
 //! (8)  w = Π (v + Δt a);  massless nodes in a particle's support take the particles' mean velocity
 //! (9)  v_pic = Nᵀ w,   Δv = Nᵀ (w − M_v⁻¹ q)      (the change includes the boundary's)
 //!      PIC:  v_p ← v_pic          FLIP: v_p ← v_p + Δv        blend α: α (v_p + Δv) + (1 − α) v_pic
-//!      APIC: v_p ← v_pic,  C_p ← Σ_I w_I ∇N_Iᵀ (linear, GIMP)  or  Σ_I N_I w_I (x_I − x_p)ᵀ D⁻¹ (B-splines)
+//!      APIC: v_p ← v_pic,  B_p ← Σ_I N_I w_I (x_I − x_p)ᵀ;  in (3) C_p = B_p D_p⁻¹ at the new position
 //! (10) x_p ← x_p + Δt v_pic     (or the trapezoidal rule (Δt/2)(v_p_old + v_pic))
 //! (11) USL:  L = [Gxᵀ w, Gyᵀ w]
 //!      MUSL: q' = N (m ∘ v_p) [+ APIC term],  v' = Π M_v⁻¹ q',  L = [Gxᵀ v', Gyᵀ v']
@@ -665,12 +665,13 @@ impl Simulation {
     /// (2)–(5) in one pass over the shared pattern of N, Gx, Gy:
     ///
     /// ```text
-    /// m_L = N m,   q = N (m ∘ v) [+ N (m ∘ C (x_I − x_p))],
+    /// m_L = N m,   q = N (m ∘ v) [+ APIC: Σ_p N_Ip m_p B_p D_p⁻¹ (x_I − x_p)],
     /// f = N (m ∘ b) + m_L g − [Gx (V∘σxx) + Gy (V∘σxy); Gx (V∘σxy) + Gy (V∘σyy)]
     /// ```
     fn particle_to_grid(&mut self, with_internal: bool) {
         let (ops, p, w) = (&self.ops, &self.particles, &mut self.work);
         let apic = self.options.transfer == Transfer::Apic;
+        let inertia = ApicInertia::of(self.options.shape, &self.grid);
         let [gx, gy] = self.options.gravity;
         w.m.iter_mut().for_each(|v| *v = 0.0);
         for field in [&mut w.q, &mut w.f] {
@@ -690,18 +691,17 @@ impl Simulation {
             let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
             let v = internal * p.volume[k];
             let (vsxx, vsyy, vsxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
-            let c = [m * p.cxx[k], m * p.cxy[k], m * p.cyx[k], m * p.cyy[k]];
+            let affine = if apic {
+                apic_affine(p, k, &w.node_x, &w.node_y, ops, inertia)
+            } else {
+                Affine::None
+            };
             for e in cp[k]..cp[k + 1] {
                 let (i, n) = (ri[e], nv[e]);
                 w.m[i] += n * m;
-                let (mut qx, mut qy) = (mvx, mvy);
-                if apic {
-                    let (dx, dy) = (w.node_x[i] - p.x[k], w.node_y[i] - p.y[k]);
-                    qx += c[0] * dx + c[1] * dy;
-                    qy += c[2] * dx + c[3] * dy;
-                }
-                w.q.x[i] += n * qx;
-                w.q.y[i] += n * qy;
+                let [ax, ay] = affine.velocity(i, &w.node_x, &w.node_y, n);
+                w.q.x[i] += n * mvx + m * ax;
+                w.q.y[i] += n * mvy + m * ay;
                 w.f.x[i] += n * mbx - (gxv[e] * vsxx + gyv[e] * vsxy);
                 w.f.y[i] += n * mby - (gxv[e] * vsxy + gyv[e] * vsyy);
             }
@@ -909,15 +909,10 @@ impl Simulation {
             ops.values(Operator::Gy),
         );
         let transfer = self.options.transfer;
-        let [hx, hy] = self.grid.cell_size();
-        // APIC's D⁻¹ for B-splines (D = h²/4 I quadratic, h²/3 I cubic); None: C = Σ w ∇Nᵀ.
-        let d_inv = match self.options.shape {
-            ShapeFunction::QuadraticBSpline => Some([4.0 / (hx * hx), 4.0 / (hy * hy)]),
-            ShapeFunction::CubicBSpline => Some([3.0 / (hx * hx), 3.0 / (hy * hy)]),
-            _ => None,
-        };
         let trapezoidal = self.options.position_update == PositionUpdate::Trapezoidal;
-        let need_l = with_gradient || (transfer == Transfer::Apic && d_inv.is_none());
+        // Linear kernels keep C_p = Σ_I w_I ∇N_Iᵀ itself (see `apic_affine`).
+        let linear_apic = transfer == Transfer::Apic && self.options.shape == ShapeFunction::Linear;
+        let need_l = with_gradient || linear_apic;
         for k in 0..np {
             let (mut vx, mut vy, mut dvx, mut dvy) = (0.0, 0.0, 0.0, 0.0);
             let mut l = [0.0; 4];
@@ -935,7 +930,7 @@ impl Simulation {
                     l[2] += gxv[e] * wy;
                     l[3] += gyv[e] * wy;
                 }
-                if transfer == Transfer::Apic && d_inv.is_some() {
+                if transfer == Transfer::Apic {
                     let (dx, dy) = (w.node_x[i] - p.x[k], w.node_y[i] - p.y[k]);
                     b[0] += n * wx * dx;
                     b[1] += n * wx * dy;
@@ -962,14 +957,11 @@ impl Simulation {
             p.vx[k] = new_x;
             p.vy[k] = new_y;
             if transfer == Transfer::Apic {
-                let c = match d_inv {
-                    Some([ix, iy]) => [b[0] * ix, b[1] * iy, b[2] * ix, b[3] * iy],
-                    None => l,
-                };
-                p.cxx[k] = c[0];
-                p.cxy[k] = c[1];
-                p.cyx[k] = c[2];
-                p.cyy[k] = c[3];
+                let b = if linear_apic { l } else { b };
+                p.affine_xx[k] = b[0];
+                p.affine_xy[k] = b[1];
+                p.affine_yx[k] = b[2];
+                p.affine_yy[k] = b[3];
             }
             let (ux, uy) = if trapezoidal {
                 (0.5 * (old_x + vx), 0.5 * (old_y + vy))
@@ -988,20 +980,20 @@ impl Simulation {
         let apic = self.options.transfer == Transfer::Apic;
         w.q.x.iter_mut().for_each(|v| *v = 0.0);
         w.q.y.iter_mut().for_each(|v| *v = 0.0);
+        let inertia = ApicInertia::of(self.options.shape, &self.grid);
         let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
         for k in 0..p.len() {
             let m = p.mass[k];
-            let (xs, ys) = (p.x[k], p.y[k]);
+            let affine = if apic {
+                apic_affine(p, k, &w.node_x, &w.node_y, ops, inertia)
+            } else {
+                Affine::None
+            };
             for e in cp[k]..cp[k + 1] {
                 let (i, n) = (ri[e], nv[e]);
-                let (mut qx, mut qy) = (m * p.vx[k], m * p.vy[k]);
-                if apic {
-                    let (dx, dy) = (w.node_x[i] - xs, w.node_y[i] - ys);
-                    qx += m * (p.cxx[k] * dx + p.cxy[k] * dy);
-                    qy += m * (p.cyx[k] * dx + p.cyy[k] * dy);
-                }
-                w.q.x[i] += n * qx;
-                w.q.y[i] += n * qy;
+                let [ax, ay] = affine.velocity(i, &w.node_x, &w.node_y, n);
+                w.q.x[i] += n * m * p.vx[k] + m * ax;
+                w.q.y[i] += n * m * p.vy[k] + m * ay;
             }
         }
     }
@@ -1107,4 +1099,76 @@ impl Simulation {
             acceleration_solve,
         })
     }
+}
+
+/// How a kernel's APIC inertia `D_p` is obtained.
+#[derive(Clone, Copy)]
+enum ApicInertia {
+    /// Linear kernels: the particle stores `C_p` itself.
+    StoredC,
+    /// B-splines: `D_p = diag(dxx, dyy)`, the same for every particle.
+    Constant([f64; 2]),
+    /// GIMP: summed over the particle's column.
+    Column,
+}
+
+impl ApicInertia {
+    fn of(shape: ShapeFunction, grid: &Grid) -> ApicInertia {
+        let [hx, hy] = grid.cell_size();
+        match shape {
+            ShapeFunction::Linear => ApicInertia::StoredC,
+            ShapeFunction::QuadraticBSpline => ApicInertia::Constant([hx * hx / 4.0, hy * hy / 4.0]),
+            ShapeFunction::CubicBSpline => ApicInertia::Constant([hx * hx / 3.0, hy * hy / 3.0]),
+            ShapeFunction::Gimp { .. } => ApicInertia::Column,
+        }
+    }
+}
+
+/// The APIC affine velocity of one particle at the nodes of its column.
+enum Affine {
+    /// Not APIC.
+    None,
+    /// `C_p` and the particle's position: the affine velocity at node I is `C_p (x_I − x_p)`.
+    Matrix([f64; 4], [f64; 2]),
+}
+
+impl Affine {
+    /// The affine momentum per unit particle mass at node `i` with weight `n`:
+    /// `m_p⁻¹ × N_I m_p C_p (x_I − x_p)`.
+    #[inline]
+    fn velocity(&self, i: usize, node_x: &[f64], node_y: &[f64], n: f64) -> [f64; 2] {
+        match *self {
+            Affine::None => [0.0, 0.0],
+            Affine::Matrix(c, [x, y]) => {
+                let (dx, dy) = (node_x[i] - x, node_y[i] - y);
+                [n * (c[0] * dx + c[1] * dy), n * (c[2] * dx + c[3] * dy)]
+            }
+        }
+    }
+}
+
+/// Particle `k`'s APIC affine velocity matrix at its current position: `C_p = B_p D_p⁻¹` with
+/// `D_p = diag(Σ_I N_I dx², Σ_I N_I dy²)` (the off-diagonal part vanishes for tensor-product
+/// kernels; `h²/4` for quadratic and `h²/3` for cubic B-splines, summed over the column for
+/// GIMP). Linear kernels store `C_p = Σ_I w_I ∇N_Iᵀ` itself (their `D_p` vanishes on grid
+/// lines; `∇N_I = D_p⁻¹ N_I (x_I − x_p)` at the old position).
+fn apic_affine(p: &Particles, k: usize, node_x: &[f64], node_y: &[f64], ops: &Operators, kind: ApicInertia) -> Affine {
+    let b = [p.affine_xx[k], p.affine_xy[k], p.affine_yx[k], p.affine_yy[k]];
+    let position = [p.x[k], p.y[k]];
+    match kind {
+        ApicInertia::StoredC => return Affine::Matrix(b, position),
+        ApicInertia::Constant([dxx, dyy]) => {
+            return Affine::Matrix([b[0] / dxx, b[1] / dyy, b[2] / dxx, b[3] / dyy], position)
+        }
+        ApicInertia::Column => {}
+    }
+    let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
+    let (mut dxx, mut dyy) = (0.0, 0.0);
+    for e in cp[k]..cp[k + 1] {
+        let (dx, dy) = (node_x[ri[e]] - p.x[k], node_y[ri[e]] - p.y[k]);
+        dxx += nv[e] * dx * dx;
+        dyy += nv[e] * dy * dy;
+    }
+    // D_p > 0 for GIMP and B-splines: their weights always spread over more than one node.
+    Affine::Matrix([b[0] / dxx, b[1] / dyy, b[2] / dxx, b[3] / dyy], [p.x[k], p.y[k]])
 }
