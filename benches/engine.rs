@@ -352,34 +352,17 @@ fn print_outcome(o: &Outcome) {
 }
 
 /// Parses `1e5`, `100000`, `3.5e5`.
-fn parse_count(s: &str) -> Option<usize> {
-    let v: f64 = s.trim().parse().ok()?;
-    (v >= 1.0 && v.is_finite()).then_some(v.round() as usize)
-}
-
 fn main() {
     faer::set_global_parallelism(Par::Seq);
-    let mut sizes = vec![100_000, 1_000_000];
-    let mut repeats = 5;
-    let mut args = std::env::args().skip(1);
-    while let Some(arg) = args.next() {
-        match arg.as_str() {
-            "--quick" => {
-                sizes = vec![10_000, 100_000];
-                repeats = 3;
-            }
-            "--sizes" => {
-                let list = args.next().unwrap_or_default();
-                sizes = list
-                    .split(',')
-                    .map(|s| parse_count(s).unwrap_or_else(|| panic!("--sizes: cannot read {s:?} as a particle count")))
-                    .collect();
-            }
-            // cargo bench passes --bench to harness = false targets.
-            "--bench" => {}
-            other => eprintln!("ignoring unknown argument {other:?} (known: --quick, --sizes 1e5,1e6)"),
+    let args = common::args(1);
+    let sizes = args.sizes.unwrap_or_else(|| {
+        if args.quick {
+            vec![10_000, 100_000]
+        } else {
+            vec![100_000, 1_000_000]
         }
-    }
+    });
+    let repeats = if args.quick { 3 } else { 5 };
 
     let base = Scene::load(Path::new(SCENE)).expect("the block-in-box scene loads");
     let base_count = base.particles().expect("the scene has particles").len();

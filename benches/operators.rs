@@ -510,30 +510,16 @@ fn run_shuffled(prob: &Problem, ops: &mut Operators, t: &Table) {
 }
 
 /// Parses `1e5`, `100000`, `3.5e5`.
-fn parse_count(s: &str) -> Option<usize> {
-    let v: f64 = s.trim().parse().ok()?;
-    (v >= 4.0 && v.is_finite()).then_some(v.round() as usize)
-}
-
 fn main() {
     faer::set_global_parallelism(Par::Seq);
-    let mut sizes = vec![100_000, 1_000_000];
-    let mut args = std::env::args().skip(1);
-    while let Some(arg) = args.next() {
-        match arg.as_str() {
-            "--quick" => sizes = vec![100_000],
-            "--sizes" => {
-                let list = args.next().unwrap_or_default();
-                sizes = list
-                    .split(',')
-                    .map(|s| parse_count(s).unwrap_or_else(|| panic!("--sizes: cannot read {s:?} as a particle count")))
-                    .collect();
-            }
-            // cargo bench passes --bench to harness = false targets.
-            "--bench" => {}
-            other => eprintln!("ignoring unknown argument {other:?} (known: --quick, --sizes 1e5,1e6)"),
+    let args = common::args(4);
+    let sizes = args.sizes.unwrap_or_else(|| {
+        if args.quick {
+            vec![100_000]
+        } else {
+            vec![100_000, 1_000_000]
         }
-    }
+    });
 
     println!("# sparse-mpm operator benchmark");
     println!();

@@ -755,25 +755,11 @@ impl Simulation {
         m.velocity != MassScheme::Lumped || m.acceleration != MassScheme::Lumped
     }
 
-    fn lumped_report() -> SolveReport {
-        SolveReport {
-            scheme: MassScheme::Lumped,
-            outcome: SolveOutcome::Solved,
-            iterations: 0,
-            relative_residual: 0.0,
-        }
-    }
-
     /// (6) `v = Π M_v⁻¹ q` into `work.v`.
     fn project_velocity(&mut self) -> Result<SolveReport> {
         let w = &mut self.work;
         let report = if self.options.mass.velocity == MassScheme::Lumped {
-            for i in 0..w.m.len() {
-                let inv = if w.active[i] { 1.0 / w.m[i] } else { 0.0 };
-                w.v.x[i] = w.q.x[i] * inv;
-                w.v.y[i] = w.q.y[i] * inv;
-            }
-            Simulation::lumped_report()
+            divide_by_lumped(&w.m, &w.active, &w.q, &mut w.v)
         } else {
             let (v, report) = self
                 .grid_mass
@@ -791,12 +777,7 @@ impl Simulation {
     fn solve_acceleration(&mut self) -> Result<SolveReport> {
         let w = &mut self.work;
         let report = if self.options.mass.acceleration == MassScheme::Lumped {
-            for i in 0..w.m.len() {
-                let inv = if w.active[i] { 1.0 / w.m[i] } else { 0.0 };
-                w.a.x[i] = w.f.x[i] * inv;
-                w.a.y[i] = w.f.y[i] * inv;
-            }
-            Simulation::lumped_report()
+            divide_by_lumped(&w.m, &w.active, &w.f, &mut w.a)
         } else {
             let (a, report) = self.grid_mass.solve(Role::Acceleration, &w.f, None, &self.ops)?;
             w.a = a;
@@ -1098,6 +1079,21 @@ impl Simulation {
             velocity_solve,
             acceleration_solve,
         })
+    }
+}
+
+/// The lumped solve `u_I = r_I / m_L,I` on active nodes, 0 elsewhere, into `u`; its report.
+fn divide_by_lumped(m: &[f64], active: &[bool], r: &VectorField, u: &mut VectorField) -> SolveReport {
+    for i in 0..m.len() {
+        let inv = if active[i] { 1.0 / m[i] } else { 0.0 };
+        u.x[i] = r.x[i] * inv;
+        u.y[i] = r.y[i] * inv;
+    }
+    SolveReport {
+        scheme: MassScheme::Lumped,
+        outcome: SolveOutcome::Solved,
+        iterations: 0,
+        relative_residual: 0.0,
     }
 }
 

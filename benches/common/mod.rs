@@ -97,3 +97,44 @@ pub fn block(target_particles: usize) -> (sparse_mpm::Grid, Vec<f64>, Vec<f64>) 
     }
     (grid, x, y)
 }
+
+/// The benchmarks' command line: `--quick` and `--sizes a,b` (particle counts such as `1e5`).
+/// `cargo bench` also passes `--bench`, which is ignored.
+pub struct Args {
+    /// `--quick` was given.
+    pub quick: bool,
+    /// The sizes of `--sizes`, if given.
+    pub sizes: Option<Vec<usize>>,
+}
+
+/// Reads the command line; particle counts below `min_count` are refused.
+pub fn args(min_count: usize) -> Args {
+    let mut out = Args {
+        quick: false,
+        sizes: None,
+    };
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        match arg.as_str() {
+            "--quick" => out.quick = true,
+            "--sizes" => {
+                let list = args.next().unwrap_or_default();
+                out.sizes = Some(
+                    list.split(',')
+                        .map(|s| {
+                            let v: Option<f64> = s.trim().parse().ok();
+                            v.filter(|v| v.is_finite() && *v >= min_count as f64)
+                                .map(|v| v.round() as usize)
+                                .unwrap_or_else(|| {
+                                    panic!("--sizes: cannot read {s:?} as a particle count >= {min_count}")
+                                })
+                        })
+                        .collect(),
+                );
+            }
+            "--bench" => {}
+            other => eprintln!("ignoring unknown argument {other:?} (known: --quick, --sizes 1e5,1e6)"),
+        }
+    }
+    out
+}
