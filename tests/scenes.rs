@@ -446,3 +446,60 @@ fn mpm_matrices_writes_matrix_market_files() {
     assert_eq!((n.nrows(), n.ncols(), n.nnz()), (6, 4, 16));
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+#[test]
+fn every_documented_scheme_spelling_parses_to_its_value() {
+    use sparse_mpm::mass::{MassScheme, SingularityPolicy};
+    use sparse_mpm::simulation::{Transfer, UpdateScheme};
+    use sparse_mpm::step::PositionUpdate;
+    use sparse_mpm::ShapeFunction;
+    let text = BASE.replace(
+        "[time]",
+        r#"[schemes]
+shape = { gimp = { half_width = 0.25 } }
+update = "usf"
+transfer = { blend = { flip = 0.95 } }
+position_update = "trapezoidal"
+sort_interval = 0
+mass = { velocity = { truncated_series = { k = 3 } }, acceleration = { iterative = { tolerance = 1e-8, max_iterations = 100 } }, singularity = { regularize = { epsilon = 0.01 } }, active_tolerance = 1e-10 }
+
+[time]"#,
+    );
+    let scene = Scene::from_toml_str(&text).unwrap();
+    let s = &scene.schemes;
+    assert_eq!(s.shape, ShapeFunction::Gimp { half_width: 0.25 });
+    assert_eq!(s.update, UpdateScheme::Usf);
+    assert_eq!(s.transfer, Transfer::Blend { flip: 0.95 });
+    assert_eq!(s.position_update, PositionUpdate::Trapezoidal);
+    assert_eq!(s.sort_interval, 0);
+    assert_eq!(s.mass.velocity, MassScheme::TruncatedSeries { k: 3 });
+    assert_eq!(
+        s.mass.acceleration,
+        MassScheme::Iterative {
+            tolerance: 1e-8,
+            max_iterations: 100
+        }
+    );
+    assert_eq!(s.mass.singularity, SingularityPolicy::Regularize { epsilon: 0.01 });
+    assert_eq!(s.mass.active_tolerance, 1e-10);
+    for (spelling, shape) in [
+        ("linear", ShapeFunction::Linear),
+        ("quadratic_bspline", ShapeFunction::QuadraticBSpline),
+        ("cubic_bspline", ShapeFunction::CubicBSpline),
+    ] {
+        let text = BASE.replace("[time]", &format!("[schemes]\nshape = \"{spelling}\"\n\n[time]"));
+        assert_eq!(Scene::from_toml_str(&text).unwrap().schemes.shape, shape);
+    }
+    for (spelling, policy) in [
+        ("error", SingularityPolicy::Error),
+        ("fallback_to_lumped", SingularityPolicy::FallbackToLumped),
+    ] {
+        let text = BASE.replace(
+            "[time]",
+            &format!("[schemes]\nmass = {{ singularity = \"{spelling}\" }}\n\n[time]"),
+        );
+        assert_eq!(Scene::from_toml_str(&text).unwrap().schemes.mass.singularity, policy);
+    }
+    // And it round-trips.
+    assert_eq!(Scene::from_toml_str(&scene.to_toml_string()).unwrap(), scene);
+}
