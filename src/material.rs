@@ -195,6 +195,24 @@ impl NeoHookean {
         ]
     }
 
+    /// [`NeoHookean::stress`] and [`NeoHookean::strain_energy_density`] together, sharing
+    /// `ln J`.
+    pub fn stress_and_energy_density(&self, f: [f64; 4]) -> ([f64; 3], f64) {
+        let (mu, lambda) = self.lame();
+        let [fxx, fxy, fyx, fyy] = f;
+        let j = fxx * fyy - fxy * fyx;
+        let ln_j = j.ln();
+        let (a, b) = (mu / j, lambda * ln_j / j);
+        let stress = [
+            a * (fxx * fxx + fxy * fxy - 1.0) + b,
+            a * (fyx * fyx + fyy * fyy - 1.0) + b,
+            a * (fxx * fyx + fxy * fyy),
+        ];
+        let energy =
+            0.5 * mu * (fxx * fxx + fxy * fxy + fyx * fyx + fyy * fyy - 2.0) - mu * ln_j + 0.5 * lambda * ln_j * ln_j;
+        (stress, energy)
+    }
+
     /// Strain energy per unit reference volume `W(F)` (equation in the type's docs).
     pub fn strain_energy_density(&self, f: [f64; 4]) -> f64 {
         let (mu, lambda) = self.lame();
@@ -257,6 +275,22 @@ impl Material {
                 [sigma[0] + d[0], sigma[1] + d[1], sigma[2] + d[2]]
             }
             Material::NeoHookean(m) => m.stress(f),
+        }
+    }
+
+    /// [`Material::updated_stress`] and the particle's strain energy after the update
+    /// ([`Material::strain_energy`] with the new stress and `F`, current volume `volume`), in one
+    /// evaluation.
+    pub fn update(&self, sigma: [f64; 3], l: [f64; 4], f: [f64; 4], dt: f64, volume: f64) -> ([f64; 3], f64) {
+        match self {
+            Material::LinearElastic(m) => {
+                let s = self.updated_stress(sigma, l, f, dt);
+                (s, volume * m.strain_energy_density(s[0], s[1], s[2]))
+            }
+            Material::NeoHookean(m) => {
+                let (s, w) = m.stress_and_energy_density(f);
+                (s, volume / (f[0] * f[3] - f[1] * f[2]) * w)
+            }
         }
     }
 

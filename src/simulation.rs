@@ -286,6 +286,8 @@ struct Work {
     scratch: Vec<f64>,
     scratch_index: Vec<usize>,
     grid_angular_momentum: f64,
+    strain_energy: f64,
+    inv_m: Vec<f64>,
 }
 
 /// A running simulation: grid, particles, bodies, options and everything kept between steps.
@@ -408,6 +410,7 @@ impl Simulation {
             ..Work::default()
         };
         work.m.resize(n, 0.0);
+        work.inv_m.resize(n, 0.0);
         work.active.resize(n, false);
         work.ext_count.resize(n, 0);
         for field in [
@@ -501,7 +504,7 @@ impl Simulation {
         let p = &self.particles;
         let mut max = 0.0f64;
         for k in 0..p.len() {
-            max = max.max(speeds[p.body[k]] + p.vx[k].hypot(p.vy[k]));
+            max = max.max(speeds[p.body[k]] + (p.vx[k] * p.vx[k] + p.vy[k] * p.vy[k]).sqrt());
         }
         let [hx, hy] = self.grid.cell_size();
         if max > 0.0 {
@@ -738,6 +741,7 @@ impl Simulation {
         let threshold = self.options.mass.active_tolerance * max;
         for i in 0..w.m.len() {
             w.active[i] = w.m[i] > threshold && w.m[i] > 0.0;
+            w.inv_m[i] = if w.active[i] { 1.0 / w.m[i] } else { 0.0 };
         }
         if self.uses_grid_mass() {
             self.grid_mass.update(
@@ -759,7 +763,7 @@ impl Simulation {
     fn project_velocity(&mut self) -> Result<SolveReport> {
         let w = &mut self.work;
         let report = if self.options.mass.velocity == MassScheme::Lumped {
-            divide_by_lumped(&w.m, &w.active, &w.q, &mut w.v)
+            divide_by_lumped(&w.inv_m, &w.q, &mut w.v)
         } else {
             let (v, report) = self
                 .grid_mass
@@ -777,7 +781,7 @@ impl Simulation {
     fn solve_acceleration(&mut self) -> Result<SolveReport> {
         let w = &mut self.work;
         let report = if self.options.mass.acceleration == MassScheme::Lumped {
-            divide_by_lumped(&w.m, &w.active, &w.f, &mut w.a)
+            divide_by_lumped(&w.inv_m, &w.f, &mut w.a)
         } else {
             let (a, report) = self.grid_mass.solve(Role::Acceleration, &w.f, None, &self.ops)?;
             w.a = a;
@@ -990,7 +994,8 @@ impl Simulation {
 
     /// (12) `F ← (I + Δt L) F`, `V ← V det(I + Δt L)`, `σ ← material(σ, L, F)`.
     fn update_stress(&mut self, dt: f64) -> Result<()> {
-        let (p, w) = (&mut self.particles, &self.work);
+        let (p, w) = (&mut self.particles, &mut self.work);
+        let mut energy = 0.0;
         for k in 0..p.len() {
             let l = [w.l[0][k], w.l[1][k], w.l[2][k], w.l[3][k]];
             let g = [1.0 + dt * l[0], dt * l[1], dt * l[2], 1.0 + dt * l[3]];
@@ -1013,28 +1018,32 @@ impl Simulation {
                 });
             }
             let material = &self.bodies[p.body[k]].material;
-            let s = material.updated_stress([p.sxx[k], p.syy[k], p.sxy[k]], l, f, dt);
+            let volume = p.volume[k] * j_inc;
+            let (s, e) = material.update([p.sxx[k], p.syy[k], p.sxy[k]], l, f, dt, volume);
+            energy += e;
             p.fxx[k] = f[0];
             p.fxy[k] = f[1];
             p.fyx[k] = f[2];
             p.fyy[k] = f[3];
-            p.volume[k] *= j_inc;
+            p.volume[k] = volume;
             p.sxx[k] = s[0];
             p.syy[k] = s[1];
             p.sxy[k] = s[2];
         }
+        w.strain_energy = energy;
         Ok(())
     }
 
     fn report(&self, dt: f64, velocity_solve: SolveReport, acceleration_solve: SolveReport) -> Result<StepReport> {
         let (p, w) = (&self.particles, &self.work);
         let [gx, gy] = self.options.gravity;
-        let (mut ke, mut strain, mut potential, mut ang, mut mass, mut max_speed) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0f64);
+        let strain = w.strain_energy;
+        let (mut ke, mut potential, mut ang, mut mass, mut max_speed) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
         let (mut px, mut py, mut ke_c) = (0.0, 0.0, 0.0);
         for k in 0..p.len() {
             let m = p.mass[k];
             let (vx, vy) = (p.vx[k], p.vy[k]);
-            let speed = vx.hypot(vy);
+            let speed = (vx * vx + vy * vy).sqrt();
             if !speed.is_finite() {
                 return Err(MpmError::Unstable {
                     step: self.steps,
@@ -1051,11 +1060,6 @@ impl Simulation {
             py += m * vy;
             ang += m * (p.x[k] * vy - p.y[k] * vx);
             potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
-            strain += self.bodies[p.body[k]].material.strain_energy(
-                p.volume[k],
-                [p.sxx[k], p.syy[k], p.sxy[k]],
-                [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]],
-            );
             ke_c += 0.5 * m * (w.v_pic.x[k].powi(2) + w.v_pic.y[k].powi(2));
         }
         let ke_l: f64 = (0..w.m.len())
@@ -1082,12 +1086,12 @@ impl Simulation {
     }
 }
 
-/// The lumped solve `u_I = r_I / m_L,I` on active nodes, 0 elsewhere, into `u`; its report.
-fn divide_by_lumped(m: &[f64], active: &[bool], r: &VectorField, u: &mut VectorField) -> SolveReport {
-    for i in 0..m.len() {
-        let inv = if active[i] { 1.0 / m[i] } else { 0.0 };
-        u.x[i] = r.x[i] * inv;
-        u.y[i] = r.y[i] * inv;
+/// The lumped solve `u_I = r_I / m_L,I` on active nodes, 0 elsewhere, into `u` (`inv_m` holds
+/// `1 / m_L,I` on active nodes and 0 elsewhere); its report.
+fn divide_by_lumped(inv_m: &[f64], r: &VectorField, u: &mut VectorField) -> SolveReport {
+    for i in 0..inv_m.len() {
+        u.x[i] = r.x[i] * inv_m[i];
+        u.y[i] = r.y[i] * inv_m[i];
     }
     SolveReport {
         scheme: MassScheme::Lumped,
