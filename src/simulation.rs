@@ -48,7 +48,7 @@ use crate::operators::{Operator, Operators};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::step::PositionUpdate;
-use crate::transfer::VectorField;
+use crate::transfer::{extend_to_inactive_nodes, ExtensionScratch, VectorField};
 
 /// When the stress is updated relative to the grid solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -272,8 +272,7 @@ struct Work {
     active: Vec<bool>,
     node_x: Vec<f64>,
     node_y: Vec<f64>,
-    ext: VectorField,
-    ext_count: Vec<u32>,
+    extension: ExtensionScratch,
     prescribed: VectorField,
     // Particles.
     v_pic: VectorField,
@@ -411,8 +410,8 @@ impl Simulation {
         };
         work.m.resize(n, 0.0);
         work.inv_m.resize(n, 0.0);
+        work.extension = ExtensionScratch::new(n);
         work.active.resize(n, false);
-        work.ext_count.resize(n, 0);
         for field in [
             &mut work.q,
             &mut work.f,
@@ -420,7 +419,6 @@ impl Simulation {
             &mut work.v_free,
             &mut work.a,
             &mut work.w,
-            &mut work.ext,
         ] {
             *field = VectorField::zeros(n);
         }
@@ -806,47 +804,11 @@ impl Simulation {
     /// those particles (see [`crate::transfer::extend_to_massless_nodes`]), in `w` (updated) or
     /// `v`; prescribed components keep their values.
     fn extend_to_inactive_nodes(&mut self, updated: bool) {
-        let (ops, w) = (&self.ops, &mut self.work);
-        let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
-        let mut any = false;
-        for k in 0..ops.num_particles() {
-            let column = cp[k]..cp[k + 1];
-            if ri[column.clone()].iter().all(|&i| w.active[i]) {
-                continue;
-            }
-            if !any {
-                w.ext.x.iter_mut().for_each(|v| *v = 0.0);
-                w.ext.y.iter_mut().for_each(|v| *v = 0.0);
-                w.ext_count.iter_mut().for_each(|c| *c = 0);
-                any = true;
-            }
-            let field = if updated { &w.w } else { &w.v };
-            let (mut vx, mut vy) = (0.0, 0.0);
-            for e in column.clone() {
-                vx += nv[e] * field.x[ri[e]];
-                vy += nv[e] * field.y[ri[e]];
-            }
-            for e in column {
-                let i = ri[e];
-                if !w.active[i] {
-                    w.ext.x[i] += vx;
-                    w.ext.y[i] += vy;
-                    w.ext_count[i] += 1;
-                }
-            }
-        }
-        if !any {
-            return;
-        }
+        let w = &mut self.work;
         let field = if updated { &mut w.w } else { &mut w.v };
-        for i in 0..w.ext_count.len() {
-            if w.ext_count[i] > 0 {
-                let c = w.ext_count[i] as f64;
-                field.x[i] = w.ext.x[i] / c;
-                field.y[i] = w.ext.y[i] / c;
-            }
+        if extend_to_inactive_nodes(&self.ops, &w.active, field, &mut w.extension) {
+            self.prescribed.apply_velocity(&mut field.x, &mut field.y);
         }
-        self.prescribed.apply_velocity(&mut field.x, &mut field.y);
     }
 
     /// `L = [Gxᵀ u, Gyᵀ u]` at every particle into `work.l`, for `u = w` or `v`.

@@ -301,22 +301,83 @@ pub fn extend_to_massless_nodes(ops: &Operators, active: &[usize], v: &mut Vecto
     let n = ops.num_nodes();
     let mut is_active = vec![false; n];
     active.iter().for_each(|&i| is_active[i] = true);
-    let vp = interpolate(ops, v);
-    let (mut sum, mut count) = (VectorField::zeros(n), vec![0usize; n]);
-    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    let mut scratch = ExtensionScratch::default();
+    extend_to_inactive_nodes(ops, &is_active, v, &mut scratch);
+}
+
+/// Work arrays of [`extend_to_inactive_nodes`], kept between calls so that it allocates
+/// nothing once they have grown to the node count.
+#[derive(Debug, Clone, Default)]
+pub struct ExtensionScratch {
+    sum: VectorField,
+    count: Vec<u32>,
+}
+
+impl ExtensionScratch {
+    /// Work arrays already sized for `num_nodes` nodes.
+    pub fn new(num_nodes: usize) -> ExtensionScratch {
+        ExtensionScratch {
+            sum: VectorField::zeros(num_nodes),
+            count: vec![0; num_nodes],
+        }
+    }
+}
+
+/// [`extend_to_massless_nodes`] with the active nodes as a mask (`is_active[I]`) and reused work
+/// arrays. Only the columns of particles that touch an inactive node are visited; returns
+/// whether any node was changed.
+///
+/// # Panics
+/// If `v` or `is_active` does not have one entry per node.
+pub fn extend_to_inactive_nodes(
+    ops: &Operators,
+    is_active: &[bool],
+    v: &mut VectorField,
+    scratch: &mut ExtensionScratch,
+) -> bool {
+    let n = ops.num_nodes();
+    assert!(
+        v.len() == n && is_active.len() == n,
+        "one velocity and one flag per node"
+    );
+    let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
+    let mut any = false;
     for p in 0..ops.num_particles() {
-        for &i in &ri[cp[p]..cp[p + 1]] {
+        let column = cp[p]..cp[p + 1];
+        if ri[column.clone()].iter().all(|&i| is_active[i]) {
+            continue;
+        }
+        if !any {
+            scratch.sum.x.clear();
+            scratch.sum.x.resize(n, 0.0);
+            scratch.sum.y.clear();
+            scratch.sum.y.resize(n, 0.0);
+            scratch.count.clear();
+            scratch.count.resize(n, 0);
+            any = true;
+        }
+        let (mut vx, mut vy) = (0.0, 0.0);
+        for e in column.clone() {
+            vx += nv[e] * v.x[ri[e]];
+            vy += nv[e] * v.y[ri[e]];
+        }
+        for e in column {
+            let i = ri[e];
             if !is_active[i] {
-                sum.x[i] += vp.x[p];
-                sum.y[i] += vp.y[p];
-                count[i] += 1;
+                scratch.sum.x[i] += vx;
+                scratch.sum.y[i] += vy;
+                scratch.count[i] += 1;
             }
         }
     }
-    for i in 0..n {
-        if count[i] > 0 {
-            v.x[i] = sum.x[i] / count[i] as f64;
-            v.y[i] = sum.y[i] / count[i] as f64;
+    if any {
+        for i in 0..n {
+            if scratch.count[i] > 0 {
+                let c = scratch.count[i] as f64;
+                v.x[i] = scratch.sum.x[i] / c;
+                v.y[i] = scratch.sum.y[i] / c;
+            }
         }
     }
+    any
 }
