@@ -149,7 +149,7 @@ pub fn run_scene(
     let mut sim = scene.build()?;
     create_dir(out)?;
     let scene_copy = out.join("scene.toml");
-    std::fs::write(&scene_copy, scene.to_toml_string()).map_err(|source| MpmError::Io {
+    std::fs::write(&scene_copy, scene.to_toml_string()?).map_err(|source| MpmError::Io {
         path: scene_copy.clone(),
         source,
     })?;

@@ -209,6 +209,12 @@ pub struct BodySpec {
     pub geometry: Geometry,
 }
 
+/// Largest grid accepted from a scene file (nodes).
+pub const MAX_NODES: f64 = 1e8;
+
+/// Largest `particles_per_cell` (per axis) accepted from a scene file.
+pub const MAX_PARTICLES_PER_CELL: usize = 32;
+
 fn default_ppc() -> usize {
     2
 }
@@ -276,8 +282,12 @@ impl Scene {
     }
 
     /// The scene as TOML text; [`Scene::from_toml_str`] reads it back to an equal scene.
-    pub fn to_toml_string(&self) -> String {
-        toml::to_string(self).expect("every scene value has a TOML form")
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidScene`] when a value has no TOML form (a particle-file path that is
+    /// not valid UTF-8).
+    pub fn to_toml_string(&self) -> Result<String> {
+        toml::to_string(self).map_err(|e| invalid("scene", format!("cannot be written as TOML: {e}")))
     }
 
     /// Checks what the file format cannot: positive sizes and times, one time-step rule, at
@@ -302,6 +312,17 @@ impl Scene {
                     "the grid needs at least one cell per axis",
                 ));
             }
+        }
+        let nodes = (g.cells[0] as f64 + 1.0) * (g.cells[1] as f64 + 1.0);
+        if nodes > MAX_NODES {
+            return Err(invalid(
+                "grid.cells",
+                format!(
+                    "{:?} cells make {nodes:.3e} nodes, more than the {MAX_NODES:.0e} this program accepts \
+                     (about 20 values per node are kept)",
+                    g.cells
+                ),
+            ));
         }
         let t = &self.time;
         if !(t.end.is_finite() && t.end > 0.0) {
@@ -356,8 +377,14 @@ impl Scene {
                     format!("{} must be positive and finite", b.density),
                 ));
             }
-            if b.particles_per_cell == 0 {
-                return Err(invalid(key("particles_per_cell"), "must be at least 1"));
+            if b.particles_per_cell == 0 || b.particles_per_cell > MAX_PARTICLES_PER_CELL {
+                return Err(invalid(
+                    key("particles_per_cell"),
+                    format!(
+                        "{} must lie between 1 and {MAX_PARTICLES_PER_CELL} (per axis)",
+                        b.particles_per_cell
+                    ),
+                ));
             }
             b.material
                 .validate()
