@@ -55,18 +55,6 @@ const MIN_STEPS: usize = 3;
 /// particle inverts after about 230–250 steps (at r = 1 and r = 4).
 const MAX_STEPS: usize = 100;
 
-fn fmt_ms(ms: f64) -> String {
-    if ms >= 100.0 {
-        format!("{ms:.0}")
-    } else if ms >= 10.0 {
-        format!("{ms:.1}")
-    } else if ms >= 1.0 {
-        format!("{ms:.2}")
-    } else {
-        format!("{ms:.3}")
-    }
-}
-
 fn median(mut v: Vec<f64>) -> f64 {
     assert!(!v.is_empty());
     v.sort_by(f64::total_cmp);
@@ -309,7 +297,7 @@ fn print_outcome(o: &Outcome) {
     println!("|---|---:|");
     println!(
         "| step, median of the repeat means (ms) | **{}** |",
-        fmt_ms(o.step_ms())
+        common::fmt_ms(o.step_ms())
     );
     println!(
         "| particle-steps per second | **{:.3e}** |",
@@ -319,14 +307,14 @@ fn print_outcome(o: &Outcome) {
         "| range of the repeat means (ms), {} repeats × {} steps | {}–{} ({:+.0}% / {:+.0}% of the median) |",
         o.repeat_ms.len(),
         o.steps_per_repeat,
-        fmt_ms(lo),
-        fmt_ms(hi),
+        common::fmt_ms(lo),
+        common::fmt_ms(hi),
         100.0 * (lo / o.step_ms() - 1.0),
         100.0 * (hi / o.step_ms() - 1.0)
     );
     println!(
         "| single steps without re-sorting: median (ms), count | {}, {} |",
-        fmt_ms(median(o.plain_ms.clone())),
+        common::fmt_ms(median(o.plain_ms.clone())),
         o.plain_ms.len()
     );
     if o.sorting_ms.is_empty() {
@@ -334,14 +322,14 @@ fn print_outcome(o: &Outcome) {
     } else {
         println!(
             "| steps that re-sorted the particles: median (ms), count | {}, {} |",
-            fmt_ms(median(o.sorting_ms.clone())),
+            common::fmt_ms(median(o.sorting_ms.clone())),
             o.sorting_ms.len()
         );
     }
     println!(
         "| `Operators::reassemble` alone: median (min) ms, samples × calls | {} ({}), {} × {} |",
-        fmt_ms(o.reassemble.median_ms),
-        fmt_ms(o.reassemble.min_ms),
+        common::fmt_ms(o.reassemble.median_ms),
+        common::fmt_ms(o.reassemble.min_ms),
         o.reassemble.samples,
         o.reassemble.calls_per_sample
     );
@@ -410,11 +398,11 @@ fn main() {
             "| {} | {} | {} | {}–{} | {:.3e} | {} | {:.0}% |",
             o.particles,
             shape_label(o.shape),
-            fmt_ms(o.step_ms()),
-            fmt_ms(lo),
-            fmt_ms(hi),
+            common::fmt_ms(o.step_ms()),
+            common::fmt_ms(lo),
+            common::fmt_ms(hi),
             o.particle_steps_per_second(),
-            fmt_ms(o.reassemble.median_ms),
+            common::fmt_ms(o.reassemble.median_ms),
             100.0 * o.reassemble.median_ms / o.step_ms()
         );
     }

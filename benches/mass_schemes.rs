@@ -52,18 +52,6 @@ fn measure_round_robin(kernels: &mut [Kernel<'_>]) -> Vec<Stats> {
         .collect()
 }
 
-fn fmt_ms(ms: f64) -> String {
-    if ms >= 100.0 {
-        format!("{ms:.0}")
-    } else if ms >= 10.0 {
-        format!("{ms:.1}")
-    } else if ms >= 1.0 {
-        format!("{ms:.2}")
-    } else {
-        format!("{ms:.3}")
-    }
-}
-
 /// `a / b` of the medians, formatted.
 fn ratio(a: Stats, b: Stats) -> String {
     let r = a.median_ms / b.median_ms;
@@ -234,8 +222,8 @@ fn run_size(target: usize) {
         println!(
             "| {} | {np} | {} | {} | {} | {iterations} | {residual} |",
             scheme.label(),
-            fmt_ms(s.median_ms),
-            fmt_ms(s.min_ms),
+            common::fmt_ms(s.median_ms),
+            common::fmt_ms(s.min_ms),
             ratio(*s, stats[0]),
         );
     }
@@ -291,8 +279,8 @@ fn run_size(target: usize) {
     for (row, s) in rows.iter().zip(&detail) {
         println!(
             "| {row} | {np} | {} | {} | {} × {} | {} |",
-            fmt_ms(s.median_ms),
-            fmt_ms(s.min_ms),
+            common::fmt_ms(s.median_ms),
+            common::fmt_ms(s.min_ms),
             s.samples,
             s.calls_per_sample,
             ratio(*s, detail[1])

@@ -65,24 +65,12 @@ impl Table {
         println!(
             "| {operation} | {} | {} | {} | {} × {} | {notes} |",
             self.p,
-            fmt_ms(s.median_ms),
-            fmt_ms(s.min_ms),
+            common::fmt_ms(s.median_ms),
+            common::fmt_ms(s.min_ms),
             s.samples,
             s.calls_per_sample
         );
         s
-    }
-}
-
-fn fmt_ms(ms: f64) -> String {
-    if ms >= 100.0 {
-        format!("{ms:.0}")
-    } else if ms >= 10.0 {
-        format!("{ms:.1}")
-    } else if ms >= 1.0 {
-        format!("{ms:.2}")
-    } else {
-        format!("{ms:.3}")
     }
 }
 
@@ -208,7 +196,7 @@ impl Problem {
 fn versus(ours: &str, ours_stats: Stats, theirs: Stats) -> String {
     format!(
         "ours ({ours}, {} ms interleaved) / this = **{}**",
-        fmt_ms(ours_stats.median_ms),
+        common::fmt_ms(ours_stats.median_ms),
         ratio(ours_stats, theirs)
     )
 }
@@ -450,7 +438,7 @@ fn run_shuffled(prob: &Problem, ops: &mut Operators, t: &Table) {
         format!(
             "shuffled / sorted = **{}** (sorted {} ms interleaved)",
             ratio(shuffled, sorted),
-            fmt_ms(sorted.median_ms)
+            common::fmt_ms(sorted.median_ms)
         )
     };
 

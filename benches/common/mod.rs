@@ -138,3 +138,16 @@ pub fn args(min_count: usize) -> Args {
     }
     out
 }
+
+/// Milliseconds with three significant digits or so (`123`, `12.3`, `1.23`, `0.123`).
+pub fn fmt_ms(ms: f64) -> String {
+    if ms >= 100.0 {
+        format!("{ms:.0}")
+    } else if ms >= 10.0 {
+        format!("{ms:.1}")
+    } else if ms >= 1.0 {
+        format!("{ms:.2}")
+    } else {
+        format!("{ms:.3}")
+    }
+}
