@@ -672,7 +672,7 @@ impl Simulation {
     fn particle_to_grid(&mut self, with_internal: bool) {
         let (ops, p, w) = (&self.ops, &self.particles, &mut self.work);
         let apic = self.options.transfer == Transfer::Apic;
-        let inertia = ApicInertia::of(self.options.shape, &self.grid);
+        let inertia = apic.then(|| ApicInertia::of(self.options.shape, &self.grid));
         let [gx, gy] = self.options.gravity;
         w.m.iter_mut().for_each(|v| *v = 0.0);
         for field in [&mut w.q, &mut w.f] {
@@ -692,11 +692,7 @@ impl Simulation {
             let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
             let v = internal * p.volume[k];
             let (vsxx, vsyy, vsxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
-            let affine = if apic {
-                apic_affine(p, k, &w.node_x, &w.node_y, ops, inertia)
-            } else {
-                Affine::None
-            };
+            let affine = apic_affine(p, k, &w.node_x, &w.node_y, ops, inertia);
             for e in cp[k]..cp[k + 1] {
                 let (i, n) = (ri[e], nv[e]);
                 w.m[i] += n * m;
@@ -927,15 +923,11 @@ impl Simulation {
         let apic = self.options.transfer == Transfer::Apic;
         w.q.x.iter_mut().for_each(|v| *v = 0.0);
         w.q.y.iter_mut().for_each(|v| *v = 0.0);
-        let inertia = ApicInertia::of(self.options.shape, &self.grid);
+        let inertia = apic.then(|| ApicInertia::of(self.options.shape, &self.grid));
         let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
         for k in 0..p.len() {
             let m = p.mass[k];
-            let affine = if apic {
-                apic_affine(p, k, &w.node_x, &w.node_y, ops, inertia)
-            } else {
-                Affine::None
-            };
+            let affine = apic_affine(p, k, &w.node_x, &w.node_y, ops, inertia);
             for e in cp[k]..cp[k + 1] {
                 let (i, n) = (ri[e], nv[e]);
                 let [ax, ay] = affine.velocity(i, &w.node_x, &w.node_y, n);
@@ -1114,7 +1106,17 @@ impl Affine {
 /// kernels; `h²/4` for quadratic and `h²/3` for cubic B-splines, summed over the column for
 /// GIMP). Linear kernels store `C_p = Σ_I w_I ∇N_Iᵀ` itself (their `D_p` vanishes on grid
 /// lines; `∇N_I = D_p⁻¹ N_I (x_I − x_p)` at the old position).
-fn apic_affine(p: &Particles, k: usize, node_x: &[f64], node_y: &[f64], ops: &Operators, kind: ApicInertia) -> Affine {
+fn apic_affine(
+    p: &Particles,
+    k: usize,
+    node_x: &[f64],
+    node_y: &[f64],
+    ops: &Operators,
+    kind: Option<ApicInertia>,
+) -> Affine {
+    let Some(kind) = kind else {
+        return Affine::None;
+    };
     let b = [p.affine_xx[k], p.affine_xy[k], p.affine_yx[k], p.affine_yy[k]];
     let position = [p.x[k], p.y[k]];
     match kind {
