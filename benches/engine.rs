@@ -339,17 +339,10 @@ fn print_outcome(o: &Outcome) {
     );
 }
 
-/// Parses `1e5`, `100000`, `3.5e5`.
 fn main() {
     faer::set_global_parallelism(Par::Seq);
     let args = common::args(1);
-    let sizes = args.sizes.unwrap_or_else(|| {
-        if args.quick {
-            vec![10_000, 100_000]
-        } else {
-            vec![100_000, 1_000_000]
-        }
-    });
+    let sizes = args.sizes_or(&[10_000, 100_000], &[100_000, 1_000_000]);
     let repeats = if args.quick { 3 } else { 5 };
 
     let base = Scene::load(Path::new(SCENE)).expect("the block-in-box scene loads");

@@ -293,17 +293,10 @@ fn run_size(target: usize) {
     );
 }
 
-/// Parses `1e5`, `100000`, `3.5e5`.
 fn main() {
     faer::set_global_parallelism(Par::Seq);
     let args = common::args(4);
-    let sizes = args.sizes.unwrap_or_else(|| {
-        if args.quick {
-            vec![100_000]
-        } else {
-            vec![100_000, 1_000_000]
-        }
-    });
+    let sizes = args.sizes_or(&[100_000], &[100_000, 1_000_000]);
 
     println!("# sparse-mpm mass-scheme benchmark: one step's mass treatment");
     println!();

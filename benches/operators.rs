@@ -497,17 +497,10 @@ fn run_shuffled(prob: &Problem, ops: &mut Operators, t: &Table) {
     );
 }
 
-/// Parses `1e5`, `100000`, `3.5e5`.
 fn main() {
     faer::set_global_parallelism(Par::Seq);
     let args = common::args(4);
-    let sizes = args.sizes.unwrap_or_else(|| {
-        if args.quick {
-            vec![100_000]
-        } else {
-            vec![100_000, 1_000_000]
-        }
-    });
+    let sizes = args.sizes_or(&[100_000], &[100_000, 1_000_000]);
 
     println!("# sparse-mpm operator benchmark");
     println!();

@@ -107,6 +107,17 @@ pub struct Args {
     pub sizes: Option<Vec<usize>>,
 }
 
+impl Args {
+    /// The sizes asked for with `--sizes`, else `quick` with `--quick`, else `full`.
+    pub fn sizes_or(&self, quick: &[usize], full: &[usize]) -> Vec<usize> {
+        match &self.sizes {
+            Some(sizes) => sizes.clone(),
+            None if self.quick => quick.to_vec(),
+            None => full.to_vec(),
+        }
+    }
+}
+
 /// Reads the command line; particle counts below `min_count` are refused.
 pub fn args(min_count: usize) -> Args {
     let mut out = Args {
