@@ -42,7 +42,7 @@ fn main() -> sparse_mpm::Result<()> {
     );
     for (name, p) in &cases {
         let ops = Operators::assemble(&grid, ShapeFunction::Linear, p)?;
-        let consistent = MassOptions::both(MassScheme::Consistent);
+        let consistent = MassOptions::plain(MassScheme::Consistent);
         let d = MassDiagnostics::compute(&ops, &p.mass, &consistent)?;
         let outcome = match GridMass::new(&ops, &p.mass, &consistent, &Constraints::none()) {
             Ok(_) => "ok".to_string(),
@@ -93,7 +93,7 @@ fn main() -> sparse_mpm::Result<()> {
     ] {
         let options = MassOptions {
             singularity: policy,
-            ..MassOptions::both(MassScheme::Consistent)
+            ..MassOptions::plain(MassScheme::Consistent)
         };
         let mass = GridMass::new(&ops, &p.mass, &options, &Constraints::none())?;
         let (a_g, report) = mass.solve(Role::Acceleration, &gravity, None, &ops)?;
@@ -121,7 +121,7 @@ fn main() -> sparse_mpm::Result<()> {
         let grid = Grid::new([0.0, 0.0], [1.0, 1.0], [cells, cells])?;
         let p = block(1, range.clone(), range)?;
         let ops = Operators::assemble(&grid, ShapeFunction::Linear, &p)?;
-        let d = MassDiagnostics::compute(&ops, &p.mass, &MassOptions::both(MassScheme::Consistent))?;
+        let d = MassDiagnostics::compute(&ops, &p.mass, &MassOptions::plain(MassScheme::Consistent))?;
         let n = DMatrix::from(&ops.n_matrix());
         let lumped = sparse_mpm::mass::lumped_mass(&ops, &p.mass);
         let active: Vec<usize> = (0..n.nrows()).filter(|&i| lumped[i] > 0.0).collect();
@@ -164,7 +164,7 @@ fn main() -> sparse_mpm::Result<()> {
         MassScheme::Consistent,
         MassScheme::TruncatedSeries { k: 2 },
     ] {
-        let mass = GridMass::new(&ops, &p.mass, &MassOptions::both(scheme), &Constraints::none())?;
+        let mass = GridMass::new(&ops, &p.mass, &MassOptions::plain(scheme), &Constraints::none())?;
         let dt = critical_time_step(&ops, &p.volume, &material, &mass, Role::Acceleration)?;
         if scheme == MassScheme::Lumped {
             dt_lumped = dt;

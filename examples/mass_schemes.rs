@@ -47,7 +47,7 @@ fn main() -> sparse_mpm::Result<()> {
     let mut rows = Vec::new();
     let mut active = Vec::new();
     for scheme in SCHEMES {
-        let options = MassOptions::both(scheme);
+        let options = MassOptions::plain(scheme);
         let mass = GridMass::new(&ops, m, &options, &Constraints::none())?;
         let (a_s, report) = mass.solve(Role::Acceleration, &f, None, &ops)?;
         let dt_crit = critical_time_step(&ops, vol, &material, &mass, Role::Acceleration)?;
@@ -131,7 +131,7 @@ fn main() -> sparse_mpm::Result<()> {
 }
 
 fn solve(ops: &Operators, m: &[f64], scheme: MassScheme, f: &VectorField) -> sparse_mpm::Result<VectorField> {
-    let mass = GridMass::new(ops, m, &MassOptions::both(scheme), &Constraints::none())?;
+    let mass = GridMass::new(ops, m, &MassOptions::plain(scheme), &Constraints::none())?;
     Ok(mass.solve(Role::Acceleration, f, None, ops)?.0)
 }
 

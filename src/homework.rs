@@ -137,7 +137,7 @@ pub fn solve() -> Result<Homework> {
     let consistent = GridMass::new(
         &ops,
         &particles.mass,
-        &MassOptions::both(MassScheme::Consistent),
+        &MassOptions::plain(MassScheme::Consistent),
         &Constraints::none(),
     )?;
     let mass_matrix = DMatrix::from(consistent.matrix.as_ref().expect("consistent mass requested"));

@@ -76,6 +76,7 @@ pub enum Operator {
 #[derive(Debug, Clone, Default)]
 pub struct Operators {
     num_nodes: usize,
+    grid: Option<Grid>,
     shape: ShapeFunction,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
@@ -128,6 +129,9 @@ impl Operators {
         let num_particles = x.len();
         let k = shape.nodes_per_particle();
         self.num_nodes = grid.num_nodes();
+        if self.grid.as_ref() != Some(grid) {
+            self.grid = Some(grid.clone());
+        }
         self.shape = shape;
         self.col_ptr.clear();
         self.col_ptr.extend((0..=num_particles).map(|p| p * k));
@@ -186,6 +190,10 @@ impl Operators {
     /// Stored entries per operator: `P · support²`.
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
+    }
+    /// The grid the operators were assembled on (`None` before the first assembly).
+    pub fn grid(&self) -> Option<&Grid> {
+        self.grid.as_ref()
     }
     /// The shape-function family the operators were assembled with.
     pub fn shape_function(&self) -> ShapeFunction {

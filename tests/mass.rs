@@ -332,7 +332,7 @@ fn inactive_nodes_get_exactly_zero_from_lumped_and_consistent_solves() {
             y: (0..n).map(|_| rng.range(-1e3, 1e3)).collect(),
         };
         for choice in [MassScheme::Lumped, MassScheme::Consistent] {
-            let gm = GridMass::new(&ops, &p.mass, &MassOptions::both(choice), &Constraints::none()).unwrap();
+            let gm = GridMass::new(&ops, &p.mass, &MassOptions::plain(choice), &Constraints::none()).unwrap();
             assert_eq!(gm.active, active, "{choice:?}");
             assert_eq!(gm.lumped, lumped_mass(&ops, &p.mass));
             for role in [Role::Velocity, Role::Acceleration] {
@@ -409,7 +409,7 @@ fn check_singular(grid: &Grid, p: &Particles) {
     let gm = GridMass::new(
         &ops,
         &p.mass,
-        &MassOptions::both(MassScheme::Consistent),
+        &MassOptions::plain(MassScheme::Consistent),
         &Constraints::none(),
     );
     match gm {
@@ -420,7 +420,7 @@ fn check_singular(grid: &Grid, p: &Particles) {
     assert!(GridMass::new(
         &ops,
         &p.mass,
-        &MassOptions::both(MassScheme::Lumped),
+        &MassOptions::plain(MassScheme::Lumped),
         &Constraints::none()
     )
     .is_ok());

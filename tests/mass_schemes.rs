@@ -65,7 +65,7 @@ fn rhs(n: usize) -> VectorField {
 }
 
 fn solve(ops: &Operators, p: &Particles, scheme: MassScheme) -> (VectorField, sparse_mpm::mass::SolveReport) {
-    let mass = GridMass::new(ops, &p.mass, &MassOptions::both(scheme), &Constraints::none()).unwrap();
+    let mass = GridMass::new(ops, &p.mass, &MassOptions::plain(scheme), &Constraints::none()).unwrap();
     mass.solve(Role::Acceleration, &rhs(ops.num_nodes()), None, ops)
         .unwrap()
 }
@@ -195,7 +195,7 @@ fn one_particle_per_cell_is_reported_singular_with_the_right_nullity() {
     let sv = m.clone().svd(false, false).singular_values;
     let rank = sv.iter().filter(|&&s| s > 1e-10 * sv.max()).count();
     assert_eq!(rank, 16);
-    let diag = MassDiagnostics::compute(&ops, &p.mass, &MassOptions::both(MassScheme::Consistent)).unwrap();
+    let diag = MassDiagnostics::compute(&ops, &p.mass, &MassOptions::plain(MassScheme::Consistent)).unwrap();
     assert_eq!(diag.active_nodes, 25);
     assert_eq!(diag.nullity_estimate, 25 - rank);
     assert!(diag.lambda_min_estimate < 1e-8, "λ_min = {}", diag.lambda_min_estimate);
@@ -203,7 +203,7 @@ fn one_particle_per_cell_is_reported_singular_with_the_right_nullity() {
     let err = GridMass::new(
         &ops,
         &p.mass,
-        &MassOptions::both(MassScheme::Consistent),
+        &MassOptions::plain(MassScheme::Consistent),
         &Constraints::none(),
     )
     .unwrap_err();
@@ -225,7 +225,7 @@ fn singular_mass_falls_back_to_lumped_or_is_regularized_when_asked() {
     let r = rhs(ops.num_nodes());
     let options = |policy| MassOptions {
         singularity: policy,
-        ..MassOptions::both(MassScheme::Consistent)
+        ..MassOptions::plain(MassScheme::Consistent)
     };
     let mass = GridMass::new(
         &ops,
@@ -263,7 +263,7 @@ fn singular_mass_falls_back_to_lumped_or_is_regularized_when_asked() {
 fn iterative_solve_of_a_singular_mass_is_an_error_naming_a_node() {
     let (grid, p) = one_particle_per_cell();
     let ops = Operators::assemble(&grid, ShapeFunction::Linear, &p).unwrap();
-    let options = MassOptions::both(MassScheme::Iterative {
+    let options = MassOptions::plain(MassScheme::Iterative {
         tolerance: 1e-12,
         max_iterations: 200,
     });
@@ -294,7 +294,7 @@ fn fixed_dofs_are_eliminated_and_keep_their_prescribed_values() {
             max_iterations: 500,
         },
     ] {
-        let mass = GridMass::new(&ops, &p.mass, &MassOptions::both(scheme), &constraints).unwrap();
+        let mass = GridMass::new(&ops, &p.mass, &MassOptions::plain(scheme), &constraints).unwrap();
         let r = rhs(n);
         let (u, _) = mass.solve(Role::Velocity, &r, Some(&prescribed), &ops).unwrap();
         for i in 0..7 {
@@ -323,7 +323,7 @@ fn fixed_dofs_are_eliminated_and_keep_their_prescribed_values() {
 fn symbolic_analysis_is_reused_while_the_pattern_is_unchanged() {
     let (grid, mut p) = jittered_block();
     let mut ops = Operators::assemble(&grid, ShapeFunction::Linear, &p).unwrap();
-    let options = MassOptions::both(MassScheme::Consistent);
+    let options = MassOptions::plain(MassScheme::Consistent);
     let mut mass = GridMass::new(&ops, &p.mass, &options, &Constraints::none()).unwrap();
     assert_eq!(mass.symbolic_analyses(Role::Acceleration), 1);
     // Move every particle a little inside its cell: same cells, same pattern.
@@ -403,7 +403,7 @@ fn consistent_critical_time_step_is_below_lumped_by_the_fourier_ratio() {
         fixed_y: boundary,
     };
     let dt = |scheme| {
-        let mass = GridMass::new(&ops, &p.mass, &MassOptions::both(scheme), &constraints).unwrap();
+        let mass = GridMass::new(&ops, &p.mass, &MassOptions::plain(scheme), &constraints).unwrap();
         critical_time_step(&ops, &p.volume, &material, &mass, Role::Acceleration).unwrap()
     };
     let (dt_l, dt_c) = (dt(MassScheme::Lumped), dt(MassScheme::Consistent));

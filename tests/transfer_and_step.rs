@@ -186,7 +186,7 @@ fn material(plane: PlaneCondition) -> LinearElastic {
 fn options(mass: MassScheme, position_update: PositionUpdate) -> StepOptions {
     StepOptions {
         dt: DT,
-        mass: MassOptions::both(mass),
+        mass: MassOptions::plain(mass),
         position_update,
         ..StepOptions::default()
     }

@@ -26,11 +26,13 @@ mod cg;
 mod cholesky;
 mod diagnostics;
 mod schemes;
+pub mod stabilization;
 
 pub(crate) use cholesky::SparseCholesky;
 pub use diagnostics::{solve_condition_number, MassDiagnostics, TINY_MASS_FRACTION};
 pub(crate) use schemes::spmv;
 pub use schemes::{Constraints, GridMass, MassOptions, MassScheme, Role, SingularityPolicy, SolveOutcome, SolveReport};
+pub use stabilization::Stabilization;
 
 /// Default relative mass below which a node is inactive: `m_L,I ≤ 1e-12 · max m_L`. A node
 /// that light carries less than a trillionth of the heaviest node's mass; its velocity is set

@@ -15,6 +15,7 @@
 
 use nalgebra_sparse::CscMatrix;
 
+use super::stabilization::Stabilization;
 use super::{
     active_nodes, consistent_mass, local_index, lumped_mass, singular_error, SparseCholesky,
     DEFAULT_ACTIVE_MASS_TOLERANCE, DEFAULT_PIVOT_TOLERANCE,
@@ -153,6 +154,9 @@ pub struct MassOptions {
     pub acceleration: MassScheme,
     /// What to do with a singular matrix or a failed iterative solve.
     pub singularity: SingularityPolicy,
+    /// How the consistent mass is stabilised at a body's fringe before it is solved with
+    /// (consistent, blended and conjugate-gradient schemes).
+    pub stabilization: Stabilization,
     /// Relative lumped mass at or below which a node is inactive.
     pub active_tolerance: f64,
     /// Cholesky pivot (Jacobi-scaled) at or below which the matrix counts as singular.
@@ -173,8 +177,18 @@ impl MassOptions {
             velocity: scheme,
             acceleration: scheme,
             singularity: SingularityPolicy::Error,
+            stabilization: Stabilization::default(),
             active_tolerance: DEFAULT_ACTIVE_MASS_TOLERANCE,
             pivot_tolerance: DEFAULT_PIVOT_TOLERANCE,
+        }
+    }
+
+    /// [`MassOptions::both`] with the textbook matrices: no fringe stabilisation
+    /// ([`Stabilization::None`]), so that consistent solves use `M = N diag(m) Nᵀ` itself.
+    pub fn plain(scheme: MassScheme) -> MassOptions {
+        MassOptions {
+            stabilization: Stabilization::None,
+            ..MassOptions::both(scheme)
         }
     }
 }
@@ -262,6 +276,9 @@ pub struct GridMass {
     pub active: Vec<usize>,
     /// The consistent mass matrix `M = N diag(m) Nᵀ`, when a scheme needs it.
     pub matrix: Option<CscMatrix<f64>>,
+    /// The stabilised consistent mass the factorized and iterative schemes solve with, when
+    /// [`MassOptions::stabilization`] is not [`Stabilization::None`].
+    pub stabilized: Option<CscMatrix<f64>>,
     options: Option<MassOptions>,
     is_active: Vec<bool>,
     dofs_x: Dofs,
@@ -312,6 +329,7 @@ impl GridMass {
     ) -> Result<()> {
         options.velocity.validate()?;
         options.acceleration.validate()?;
+        options.stabilization.validate()?;
         if let SingularityPolicy::Regularize { epsilon } = options.singularity {
             if !(epsilon > 0.0 && epsilon <= 1.0) {
                 return Err(MpmError::InvalidParameter {
@@ -335,6 +353,10 @@ impl GridMass {
             || options.acceleration.needs_consistent_matrix()
             || options.singularity != SingularityPolicy::Error;
         self.matrix = needs_matrix.then(|| consistent_mass(ops, m));
+        self.stabilized = match &self.matrix {
+            Some(matrix) => options.stabilization.apply(ops, matrix, &self.lumped, &self.is_active),
+            None => None,
+        };
         self.prepare(Role::Velocity, ops)?;
         if !self.shares_solver() {
             self.prepare(Role::Acceleration, ops)?;
@@ -395,7 +417,12 @@ impl GridMass {
         solver.outcome = Some(SolveOutcome::Solved);
         solver.gamma = None;
         let Some(gamma) = gamma else { return Ok(()) };
-        let matrix = self.matrix.as_ref().expect("assembled for factorized schemes");
+        // Factorized schemes are never the series: the stabilised matrix when there is one.
+        let matrix = self
+            .stabilized
+            .as_ref()
+            .or(self.matrix.as_ref())
+            .expect("assembled for factorized schemes");
         let factor_both = |s: &mut SchemeSolver, g: f64| -> std::result::Result<(), (usize, f64)> {
             let fx = s.factor_x.factor(
                 matrix,
@@ -486,7 +513,9 @@ impl GridMass {
             };
             let mut rhs: Vec<f64> = dofs.free.iter().map(|&i| rc[i]).collect();
             if prescribed.is_some() && coupling_gamma > 0.0 {
-                let m = self.matrix.as_ref().expect("matrix assembled when coupling is needed");
+                let m = self
+                    .solve_matrix(scheme)
+                    .expect("matrix assembled when coupling is needed");
                 let mud = spmv(m, &ud_full);
                 for (k, &i) in dofs.free.iter().enumerate() {
                     rhs[k] -= coupling_gamma * mud[i];
@@ -508,12 +537,12 @@ impl GridMass {
                     let mut sol = vec![rhs.clone()];
                     factor.solve_in_place(&mut sol);
                     let g = solver.gamma.expect("factorized");
-                    let res = self.relative_residual(dofs, g, &sol[0], &rhs);
+                    let res = self.relative_residual(scheme, dofs, g, &sol[0], &rhs);
                     (sol.pop().expect("one column"), 0, res)
                 }
                 (_, MassScheme::TruncatedSeries { k }) => {
                     let x = self.series_solve(dofs, &rhs, k);
-                    let res = self.relative_residual(dofs, 1.0, &x, &rhs);
+                    let res = self.relative_residual(scheme, dofs, 1.0, &x, &rhs);
                     (x, k, res)
                 }
                 (
@@ -524,7 +553,7 @@ impl GridMass {
                     },
                 ) => match self.cg_solve(dofs, &rhs, tolerance, max_iterations) {
                     Ok((x, its)) => {
-                        let res = self.relative_residual(dofs, 1.0, &x, &rhs);
+                        let res = self.relative_residual(scheme, dofs, 1.0, &x, &rhs);
                         (x, its, res)
                     }
                     Err(reason) => {
@@ -549,12 +578,12 @@ impl GridMass {
                                     epsilon,
                                 };
                                 let mut f = SparseCholesky::default();
-                                let m = self.matrix.as_ref().expect("assembled");
+                                let m = self.solve_matrix(scheme).expect("assembled");
                                 f.factor(m, &self.lumped, 1.0 - epsilon, &dofs.free, &dofs.local, 0.0)
                                     .map_err(|b| singular_error(dofs.free[b.local], b.pivot, ops))?;
                                 let mut sol = vec![rhs.clone()];
                                 f.solve_in_place(&mut sol);
-                                let res = self.relative_residual(dofs, 1.0 - epsilon, &sol[0], &rhs);
+                                let res = self.relative_residual(scheme, dofs, 1.0 - epsilon, &sol[0], &rhs);
                                 (sol.pop().expect("one column"), max_iterations, res)
                             }
                         }
@@ -587,14 +616,23 @@ impl GridMass {
         dofs.free.iter().zip(rhs).map(|(&i, r)| r / self.lumped[i]).collect()
     }
 
-    /// `(γ M + (1 − γ) M_L)_FF x`, for `x` on F.
-    fn apply(&self, dofs: &Dofs, gamma: f64, x: &[f64]) -> Vec<f64> {
+    /// The matrix `scheme` solves with: the plain consistent mass for the truncated series
+    /// (which is defined with it), the stabilised one otherwise.
+    fn solve_matrix(&self, scheme: MassScheme) -> Option<&CscMatrix<f64>> {
+        match scheme {
+            MassScheme::TruncatedSeries { .. } => self.matrix.as_ref(),
+            _ => self.stabilized.as_ref().or(self.matrix.as_ref()),
+        }
+    }
+
+    /// `(γ M + (1 − γ) M_L)_FF x`, for `x` on F, with `M` the matrix of `scheme`.
+    fn apply(&self, scheme: MassScheme, dofs: &Dofs, gamma: f64, x: &[f64]) -> Vec<f64> {
         let n = self.lumped.len();
         let mut full = vec![0.0; n];
         for (k, &i) in dofs.free.iter().enumerate() {
             full[i] = x[k];
         }
-        let mx = match (&self.matrix, gamma > 0.0) {
+        let mx = match (self.solve_matrix(scheme), gamma > 0.0) {
             (Some(m), true) => spmv(m, &full),
             _ => vec![0.0; n],
         };
@@ -605,8 +643,8 @@ impl GridMass {
             .collect()
     }
 
-    fn relative_residual(&self, dofs: &Dofs, gamma: f64, x: &[f64], rhs: &[f64]) -> f64 {
-        let ax = self.apply(dofs, gamma, x);
+    fn relative_residual(&self, scheme: MassScheme, dofs: &Dofs, gamma: f64, x: &[f64], rhs: &[f64]) -> f64 {
+        let ax = self.apply(scheme, dofs, gamma, x);
         let num: f64 = ax.iter().zip(rhs).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
         let den: f64 = rhs.iter().map(|b| b * b).sum::<f64>().sqrt();
         if den == 0.0 {
@@ -621,7 +659,7 @@ impl GridMass {
         let mut du = self.lumped_solve(dofs, rhs);
         let mut u = du.clone();
         for _ in 1..k {
-            let mdu = self.apply(dofs, 1.0, &du);
+            let mdu = self.apply(MassScheme::TruncatedSeries { k }, dofs, 1.0, &du);
             for (j, &i) in dofs.free.iter().enumerate() {
                 du[j] -= mdu[j] / self.lumped[i];
                 u[j] += du[j];
@@ -639,7 +677,7 @@ impl GridMass {
         max_iterations: usize,
     ) -> std::result::Result<(Vec<f64>, usize), String> {
         super::cg::solve(
-            |x| self.apply(dofs, 1.0, x),
+            |x| self.apply(MassScheme::Consistent, dofs, 1.0, x),
             dofs.free.iter().map(|&i| self.lumped[i]).collect(),
             rhs,
             self.lumped_solve(dofs, rhs),
@@ -650,7 +688,7 @@ impl GridMass {
 
     /// Runs the Cholesky check on `M_FF` to name a singular node, if there is one.
     fn locate_singularity(&self, dofs: &Dofs) -> Option<(usize, f64)> {
-        let m = self.matrix.as_ref()?;
+        let m = self.solve_matrix(MassScheme::Consistent)?;
         let mut f = SparseCholesky::default();
         f.factor(
             m,
