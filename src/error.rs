@@ -107,6 +107,17 @@ pub enum MpmError {
         /// What happened and what to change.
         reason: String,
     },
+    /// A fixed time step exceeds the stable step of the update with the chosen masses.
+    TimeStepAboveStable {
+        /// Step number (from 0) at which the stable step was estimated.
+        step: usize,
+        /// The fixed step asked for.
+        dt: f64,
+        /// The stable step estimate (safety factor included).
+        stable: f64,
+        /// The masses of the velocity and acceleration solves, as labels.
+        masses: String,
+    },
     /// Reading or writing a file failed.
     Io {
         /// The file.
@@ -185,6 +196,18 @@ impl fmt::Display for MpmError {
             MpmError::Solver { reason } => write!(f, "sparse solver failed: {reason}"),
             MpmError::InvalidScene { key, reason } => write!(f, "`{key}`: {reason}"),
             MpmError::Unstable { step, reason } => write!(f, "step {step}: {reason}"),
+            MpmError::TimeStepAboveStable {
+                step,
+                dt,
+                stable,
+                masses,
+            } => write!(
+                f,
+                "step {step}: the fixed time step {dt:e} exceeds the stable step {stable:e} of the update with \
+                 {masses} mass (estimated from the operators, material stiffness and masses; {:.1}% over); use a \
+                 smaller `dt`, a CFL step (`cfl = 0.5`), or set `allow_unstable = true`",
+                100.0 * (dt / stable - 1.0)
+            ),
             MpmError::Io { path, source } => write!(f, "{}: {source}", path.display()),
         }
     }

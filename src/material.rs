@@ -260,6 +260,32 @@ impl Material {
         }
     }
 
+    /// The isotropic spatial tangent `[C11, C12, G]` at the deformation gradient `F`, which
+    /// relates a stress rate to the rate of deformation (`σ̇xx = C11 ε̇xx + C12 ε̇yy`,
+    /// `σ̇xy = 2 G ε̇xy`):
+    ///
+    /// ```text
+    /// linear elastic:  C11, C12, G of the material (independent of F)
+    /// neo-Hookean:     C11 = (λ + 2μ')/J,  C12 = λ/J,  G = μ'/J,   μ' = μ − λ ln J,  J = det F
+    /// ```
+    ///
+    /// (the neo-Hookean one without the initial-stress term). It sets the stiffness of the
+    /// stable-time-step estimate.
+    pub fn tangent(&self, f: [f64; 4]) -> [f64; 3] {
+        match self {
+            Material::LinearElastic(m) => {
+                let (c11, c12) = m.normal_stiffness();
+                [c11, c12, m.shear_modulus()]
+            }
+            Material::NeoHookean(m) => {
+                let (mu, lambda) = m.lame();
+                let j = f[0] * f[3] - f[1] * f[2];
+                let mu_j = mu - lambda * j.ln();
+                [(lambda + 2.0 * mu_j) / j, lambda / j, mu_j / j]
+            }
+        }
+    }
+
     /// New stress of one particle after a step of length `dt` with velocity gradient
     /// `L = [[lxx, lxy], [lyx, lyy]]`, given its stress before and its updated deformation
     /// gradient `F`:

@@ -38,6 +38,10 @@ pub struct Progress {
     pub steps: usize,
     /// Wall time since the start.
     pub elapsed: Duration,
+    /// Length of the last step.
+    pub dt: f64,
+    /// The stable step at the start of the last step.
+    pub stable_time_step: f64,
 }
 
 /// What a run did.
@@ -190,13 +194,15 @@ pub fn run_scene(
             snapshot(&sim, &mut pvd)?;
             next_snapshot += interval;
         }
-        last = Some(report);
         progress(&Progress {
             time: sim.time(),
             end_time,
             steps: sim.steps(),
             elapsed: start.elapsed(),
+            dt: report.dt,
+            stable_time_step: report.stable_time_step,
         });
+        last = Some(report);
     }
     if pvd.entries().last().map(|e| e.0) != Some(sim.time()) {
         snapshot(&sim, &mut pvd)?;

@@ -21,6 +21,7 @@
 //! end = 3.0
 //! cfl = 0.5                      # or dt = 1e-3 (checked against the stable estimate)
 //! allow_unstable = false
+//! stability_interval = 50        # steps between estimates of the stable step
 //!
 //! [loads]
 //! gravity = [0.0, 0.0]
@@ -153,6 +154,10 @@ pub struct TimeSpec {
     /// Accept a fixed step above the stable estimate.
     #[serde(default)]
     pub allow_unstable: bool,
+    /// Re-estimate the stable step every this many steps (default
+    /// [`crate::simulation::DEFAULT_STABILITY_INTERVAL`]; 0: only before the first step).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stability_interval: Option<usize>,
 }
 
 /// Loads applied to every particle.
@@ -435,6 +440,10 @@ impl Scene {
             gravity: self.loads.gravity,
             boundaries: self.boundaries.clone(),
             sort_interval: s.sort_interval,
+            stability_interval: self
+                .time
+                .stability_interval
+                .unwrap_or(crate::simulation::DEFAULT_STABILITY_INTERVAL),
         }
     }
 

@@ -48,7 +48,11 @@ use crate::operators::{Operator, Operators};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::step::PositionUpdate;
+use crate::stiffness::{self, FrequencyEstimate};
 use crate::transfer::{extend_to_inactive_nodes, ExtensionScratch, VectorField};
+
+/// Default [`Options::stability_interval`]: steps between estimates of the stable time step.
+pub const DEFAULT_STABILITY_INTERVAL: usize = 50;
 
 /// When the stress is updated relative to the grid solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -133,6 +137,9 @@ pub struct Options {
     pub boundaries: Vec<BoundaryCondition>,
     /// Re-sort the particles by cell every this many steps (0: never).
     pub sort_interval: usize,
+    /// Re-estimate the stable time step every this many steps (it is always estimated before
+    /// the first step; 0: never again). See [`Simulation::stable_time_step`].
+    pub stability_interval: usize,
 }
 
 impl Default for Options {
@@ -148,6 +155,7 @@ impl Default for Options {
             gravity: [0.0, 0.0],
             boundaries: Vec::new(),
             sort_interval: 50,
+            stability_interval: DEFAULT_STABILITY_INTERVAL,
         }
     }
 }
@@ -161,6 +169,8 @@ pub struct StepReport {
     pub time: f64,
     /// Step length used.
     pub dt: f64,
+    /// The stable step at the start of the step ([`Simulation::stable_time_step`]).
+    pub stable_time_step: f64,
     /// `½ Σ_p m_p |v_p|²` after the step.
     pub kinetic_energy: f64,
     /// `½ Σ_I m_L,I |w_I|²`: grid kinetic energy of the updated grid velocity, lumped mass.
@@ -192,10 +202,11 @@ pub struct StepReport {
 
 impl StepReport {
     /// Column names of [`StepReport::values`], for a CSV header.
-    pub const COLUMNS: [&'static str; 22] = [
+    pub const COLUMNS: [&'static str; 23] = [
         "step",
         "time",
         "dt",
+        "stable_time_step",
         "kinetic_energy",
         "grid_kinetic_energy_lumped",
         "grid_kinetic_energy_consistent",
@@ -219,7 +230,7 @@ impl StepReport {
 
     /// The report as numbers, in the order of [`StepReport::COLUMNS`]. Outcomes are coded
     /// 0 = solved, 1 = fell back to lumped, 2 = regularized; the fallback node is −1 when none.
-    pub fn values(&self) -> [f64; 22] {
+    pub fn values(&self) -> [f64; 23] {
         let code = |r: &SolveReport| match r.outcome {
             SolveOutcome::Solved => 0.0,
             SolveOutcome::FellBackToLumped { .. } => 1.0,
@@ -235,6 +246,7 @@ impl StepReport {
             self.step as f64,
             self.time,
             self.dt,
+            self.stable_time_step,
             self.kinetic_energy,
             self.grid_kinetic_energy_lumped,
             self.grid_kinetic_energy_consistent,
@@ -298,23 +310,25 @@ pub struct Simulation {
     options: Options,
     prescribed: Prescribed,
     density: Vec<f64>,
-    wave_speed: Vec<f64>,
     ops: Operators,
     grid_mass: GridMass,
     time: f64,
     steps: usize,
     failed: Option<String>,
+    stability: Option<Stability>,
     work: Work,
 }
 
-/// Stable-step factor of a mass scheme relative to the lumped mass (the ratio of the highest
-/// frequencies; about ½ for the consistent mass in 2D, see docs/mass.md).
-fn mass_time_step_factor(scheme: MassScheme) -> f64 {
-    match scheme {
-        MassScheme::Lumped | MassScheme::TruncatedSeries { k: 1 } => 1.0,
-        MassScheme::Blended { gamma } => 1.0 / (1.0 + gamma),
-        _ => 0.5,
-    }
+/// The stable step found by the last frequency estimate.
+#[derive(Debug, Clone, Copy)]
+struct Stability {
+    /// `TIME_STEP_SAFETY · 2/ω_max` at that estimate.
+    wave_step: f64,
+    /// Largest tangent P-wave speed over the particles then.
+    wave_speed: f64,
+    /// Steps completed when it was made.
+    at_step: usize,
+    estimate: FrequencyEstimate,
 }
 
 impl Simulation {
@@ -383,11 +397,6 @@ impl Simulation {
             let rho0 = particles.mass[p] / (particles.volume[p] / j);
             density[particles.body[p]] = density[particles.body[p]].max(rho0);
         }
-        let wave_speed = bodies
-            .iter()
-            .zip(&density)
-            .map(|(b, &rho)| if rho > 0.0 { b.material.wave_speed(rho) } else { 0.0 })
-            .collect();
         let mut ops = Operators::default();
         ops.reassemble(&grid, options.shape, &particles.x, &particles.y)?;
         let n = grid.num_nodes();
@@ -424,21 +433,25 @@ impl Simulation {
         }
         let [cx, cy] = grid.cells();
         work.counts.resize(cx * cy + 1, 0);
-        Ok(Simulation {
+        let mut sim = Simulation {
             grid,
             particles,
             bodies,
             options,
             prescribed,
             density,
-            wave_speed,
             ops,
             grid_mass: GridMass::default(),
             time: 0.0,
             steps: 0,
             failed: None,
+            stability: None,
             work,
-        })
+        };
+        // The stable step before the first step, so that a fixed step above it is refused now.
+        sim.prepare_grid()?;
+        sim.next_time_step(sim.stable_time_step())?;
+        Ok(sim)
     }
 
     /// The grid.
@@ -486,34 +499,116 @@ impl Simulation {
         &self.density
     }
 
-    /// The stable time-step estimate for the current state:
+    /// The stable time step for the current state:
     ///
     /// ```text
-    /// Δt_stable = φ_M · min(hx, hy) / max_p (c_b(p) + |v_p|)
+    /// Δt_stable = 1 / (1/Δt_wave + max_p |v_p| / min(hx, hy)),
+    /// Δt_wave = TIME_STEP_SAFETY · 2/ω_max · min(1, c_est / c_now)
     /// ```
     ///
-    /// with `c_b` the P-wave speed of particle p's body at its reference density and `φ_M` the
-    /// mass-scheme factor of the acceleration solve: 1 for lumped, ½ for consistent, series and
-    /// iterative, `1/(1 + γ)` for the blend (the 2D lattice analysis in docs/mass.md gives 0.51
-    /// for the consistent mass). It is an estimate; [`crate::stiffness::critical_time_step`]
-    /// computes the exact bound of a configuration.
+    /// `ω²_max` is the largest squared frequency of the update with this simulation's masses
+    /// ([`stiffness::mpm_max_frequency_squared`]: `λ_max(M_a⁻¹ K M_v⁻¹ M)` from the current
+    /// operators, tangent stiffness and masses, by Lanczos), estimated when the simulation is
+    /// made and again every [`Options::stability_interval`] steps; between estimates the step
+    /// shrinks if the largest tangent P-wave speed `c = √(C11/ρ)` over the particles rises above
+    /// its value at the estimate. The particle-speed term keeps particles from crossing more than
+    /// a cell per step.
     pub fn stable_time_step(&self) -> f64 {
-        let speeds = &self.wave_speed;
+        let Some(s) = self.stability else {
+            return f64::INFINITY;
+        };
         let p = &self.particles;
-        let mut max = 0.0f64;
-        for k in 0..p.len() {
-            max = max.max(speeds[p.body[k]] + (p.vx[k] * p.vx[k] + p.vy[k] * p.vy[k]).sqrt());
-        }
-        let [hx, hy] = self.grid.cell_size();
-        if max > 0.0 {
-            mass_time_step_factor(self.options.mass.acceleration) * hx.min(hy) / max
+        let max_speed = (0..p.len())
+            .map(|k| (p.vx[k] * p.vx[k] + p.vy[k] * p.vy[k]).sqrt())
+            .fold(0.0, f64::max);
+        let c_now = self.max_wave_speed();
+        let wave = if c_now > s.wave_speed {
+            s.wave_step * s.wave_speed / c_now
         } else {
-            f64::INFINITY
-        }
+            s.wave_step
+        };
+        let [hx, hy] = self.grid.cell_size();
+        1.0 / (1.0 / wave + max_speed / hx.min(hy))
     }
 
-    fn next_time_step(&self) -> Result<f64> {
-        let stable = self.stable_time_step();
+    /// The last frequency estimate behind [`Simulation::stable_time_step`] and the number of
+    /// steps completed when it was made.
+    pub fn frequency_estimate(&self) -> Option<(FrequencyEstimate, usize)> {
+        self.stability.map(|s| (s.estimate, s.at_step))
+    }
+
+    /// Largest tangent P-wave speed `√(C11_p / ρ_p)` over the particles, `ρ_p = m_p / V_p`.
+    fn max_wave_speed(&self) -> f64 {
+        let p = &self.particles;
+        (0..p.len())
+            .map(|k| {
+                let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
+                let c11 = self.bodies[p.body[k]].material.tangent(f)[0];
+                (c11 * p.volume[k] / p.mass[k]).max(0.0).sqrt()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Estimates `ω²_max` of the update with the grid prepared for the current configuration
+    /// ((1)–(5) and the mass) and keeps it.
+    fn estimate_stability(&mut self) -> Result<()> {
+        let (ops, p, w) = (&self.ops, &self.particles, &self.work);
+        let n = ops.num_nodes();
+        let tangent: Vec<[f64; 3]> = (0..p.len())
+            .map(|k| {
+                let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
+                self.bodies[p.body[k]].material.tangent(f)
+            })
+            .collect();
+        let mut free: Vec<bool> = w.active.iter().chain(&w.active).copied().collect();
+        let c = &self.prescribed.constraints;
+        c.fixed_x.iter().for_each(|&i| free[i] = false);
+        c.fixed_y.iter().for_each(|&i| free[n + i] = false);
+        let free = &free;
+        let grid_mass = &self.grid_mass;
+        let inverse = |role: Role| {
+            let scheme = match role {
+                Role::Velocity => self.options.mass.velocity,
+                Role::Acceleration => self.options.mass.acceleration,
+            };
+            move |r: &VectorField| -> Result<VectorField> {
+                if scheme != MassScheme::Lumped {
+                    return grid_mass.solve(role, r, None, ops).map(|(u, _)| u);
+                }
+                let mut u = VectorField::zeros(n);
+                for i in 0..n {
+                    u.x[i] = if free[i] { r.x[i] * w.inv_m[i] } else { 0.0 };
+                    u.y[i] = if free[n + i] { r.y[i] * w.inv_m[i] } else { 0.0 };
+                }
+                Ok(u)
+            }
+        };
+        let mut velocity = inverse(Role::Velocity);
+        let mut acceleration = inverse(Role::Acceleration);
+        let same = self.options.mass.velocity == self.options.mass.acceleration;
+        let estimate = stiffness::mpm_max_frequency_squared(
+            ops,
+            &p.mass,
+            &p.volume,
+            &tangent,
+            free,
+            &mut velocity,
+            if same { None } else { Some(&mut acceleration) },
+        )?;
+        let wave_speed = self.max_wave_speed();
+
+        self.stability = Some(Stability {
+            wave_step: stiffness::mpm_critical_time_step(&estimate),
+            wave_speed,
+            at_step: self.steps,
+            estimate,
+        });
+        Ok(())
+    }
+
+    /// The step to take now: the fixed one (refused above the stable step unless allowed) or
+    /// the Courant number times the stable step.
+    fn next_time_step(&self, stable: f64) -> Result<f64> {
         match self.options.time_step {
             TimeStep::Cfl { number } => {
                 if stable.is_finite() {
@@ -521,21 +616,22 @@ impl Simulation {
                 } else {
                     Err(MpmError::Unstable {
                         step: self.steps,
-                        reason: "no wave speed to set a CFL time step (no particles?)".into(),
+                        reason: "no stiffness or particle speed to set a CFL time step (no particles?)".into(),
                     })
                 }
             }
             TimeStep::Fixed { dt } => {
                 if dt > stable && !self.options.allow_unstable_time_step {
-                    Err(MpmError::Unstable {
+                    let m = &self.options.mass;
+                    Err(MpmError::TimeStepAboveStable {
                         step: self.steps,
-                        reason: format!(
-                            "the fixed time step {dt:e} exceeds the stable estimate {stable:e} (cell size / (wave \
-                             speed + particle speed), times {} for the {} acceleration mass); use a smaller `dt`, a \
-                             CFL step (`cfl = 0.5`), or set `allow_unstable = true`",
-                            mass_time_step_factor(self.options.mass.acceleration),
-                            self.options.mass.acceleration.label()
-                        ),
+                        dt,
+                        stable,
+                        masses: if m.velocity == m.acceleration {
+                            m.velocity.label()
+                        } else {
+                            format!("{} / {}", m.velocity.label(), m.acceleration.label())
+                        },
                     })
                 } else {
                     Ok(dt)
@@ -547,14 +643,14 @@ impl Simulation {
     /// Advances one step (see the [module docs](self)) and reports it.
     ///
     /// # Errors
-    /// [`MpmError::Unstable`] for a fixed step above the stable estimate, an inverted particle
-    /// (`det F ≤ 0`) or a non-finite velocity; [`MpmError::ParticleOutsideGrid`] /
-    /// [`MpmError::SupportOutsideGrid`] when a particle leaves the region its kernel allows;
-    /// [`MpmError::SingularMassMatrix`] under [`crate::mass::SingularityPolicy::Error`]. After an
-    /// error in the middle of a step the state is not consistent, and further steps are refused.
+    /// [`MpmError::TimeStepAboveStable`] for a fixed step above the stable step;
+    /// [`MpmError::Unstable`] for an inverted particle (`det F ≤ 0`) or a non-finite velocity;
+    /// [`MpmError::ParticleOutsideGrid`] / [`MpmError::SupportOutsideGrid`] when a particle leaves
+    /// the region its kernel allows; [`MpmError::SingularMassMatrix`] under
+    /// [`crate::mass::SingularityPolicy::Error`]. After an error in the middle of a step the state
+    /// is not consistent, and further steps are refused.
     pub fn step(&mut self) -> Result<StepReport> {
-        let dt = self.next_time_step()?;
-        self.advance(dt)
+        self.advance(f64::INFINITY)
     }
 
     /// Steps until `end_time` (the last step is shortened to land on it), calling `observe`
@@ -578,26 +674,27 @@ impl Simulation {
     /// # Errors
     /// As [`Simulation::step`].
     pub fn step_capped(&mut self, max_dt: f64) -> Result<StepReport> {
-        let dt = self.next_time_step()?.min(max_dt);
-        self.advance(dt)
+        self.advance(max_dt)
     }
 
-    /// A step of length `dt`; an error in it leaves the state unusable.
-    fn advance(&mut self, dt: f64) -> Result<StepReport> {
+    /// A step no longer than `max_dt`; an error in it leaves the state unusable.
+    fn advance(&mut self, max_dt: f64) -> Result<StepReport> {
         if let Some(reason) = &self.failed {
             return Err(MpmError::Unstable {
                 step: self.steps,
                 reason: format!("an earlier step failed ({reason}); the state is not usable"),
             });
         }
-        let result = self.phases(dt);
+        let result = self.phases(max_dt);
         if let Err(e) = &result {
             self.failed = Some(e.to_string());
         }
         result
     }
 
-    fn phases(&mut self, dt: f64) -> Result<StepReport> {
+    /// (1)–(5) and the grid mass for the current particle configuration (re-sorting the
+    /// particles first when due), and the stable-step estimate when due.
+    fn prepare_grid(&mut self) -> Result<()> {
         let interval = self.options.sort_interval;
         if interval > 0 && self.steps.is_multiple_of(interval) {
             self.sort_particles();
@@ -605,9 +702,26 @@ impl Simulation {
         let shape = self.options.shape;
         self.ops
             .reassemble(&self.grid, shape, &self.particles.x, &self.particles.y)?; //         (1)
-        let usf = self.options.update == UpdateScheme::Usf;
-        self.particle_to_grid(!usf); //                                                     (2)–(5)
+        self.particle_to_grid(self.options.update != UpdateScheme::Usf); //                (2)–(5)
         self.prepare_mass()?;
+        let due = match self.stability {
+            None => true,
+            Some(s) => {
+                let interval = self.options.stability_interval;
+                interval > 0 && self.steps >= s.at_step + interval
+            }
+        };
+        if due {
+            self.estimate_stability()?;
+        }
+        Ok(())
+    }
+
+    fn phases(&mut self, max_dt: f64) -> Result<StepReport> {
+        self.prepare_grid()?;
+        let stable = self.stable_time_step();
+        let dt = self.next_time_step(stable)?.min(max_dt);
+        let usf = self.options.update == UpdateScheme::Usf;
         let velocity_solve = self.project_velocity()?; //                                   (6)
         if usf {
             self.extend_to_inactive_nodes(false);
@@ -633,7 +747,7 @@ impl Simulation {
         self.move_particles(); //                                                           (10)
         self.time += dt;
         self.steps += 1;
-        self.report(dt, velocity_solve, acceleration_solve)
+        self.report(dt, stable, velocity_solve, acceleration_solve)
     }
 
     /// Counting sort of the particles by cell index (row-major), allocation-free.
@@ -988,7 +1102,13 @@ impl Simulation {
         Ok(())
     }
 
-    fn report(&self, dt: f64, velocity_solve: SolveReport, acceleration_solve: SolveReport) -> Result<StepReport> {
+    fn report(
+        &self,
+        dt: f64,
+        stable_time_step: f64,
+        velocity_solve: SolveReport,
+        acceleration_solve: SolveReport,
+    ) -> Result<StepReport> {
         let (p, w) = (&self.particles, &self.work);
         let [gx, gy] = self.options.gravity;
         let strain = w.strain_energy;
@@ -1023,6 +1143,7 @@ impl Simulation {
             step: self.steps,
             time: self.time,
             dt,
+            stable_time_step,
             kinetic_energy: ke,
             grid_kinetic_energy_lumped: ke_l,
             grid_kinetic_energy_consistent: ke_c,

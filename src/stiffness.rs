@@ -19,7 +19,7 @@ use crate::error::Result;
 use crate::mass::{weighted_product, GridMass, Role};
 use crate::material::LinearElastic;
 use crate::operators::{Operator, Operators};
-use crate::spectral::{lanczos_extremes, start_vector, DEFAULT_LANCZOS_STEPS};
+use crate::spectral::{lanczos_extremes, lanczos_max, start_vector, DEFAULT_LANCZOS_STEPS};
 use crate::transfer::{internal_force, velocity_gradient, VectorField};
 
 /// The grid stiffness `K = Bᵀ D B` (2n × 2n, x degrees of freedom first), from four weighted
@@ -80,11 +80,30 @@ pub fn stiffness_matrix(ops: &Operators, volume: &[f64], material: &LinearElasti
 /// # Panics
 /// If `u` does not have one entry per node or `volume` one per particle.
 pub fn apply_stiffness(ops: &Operators, volume: &[f64], material: &LinearElastic, u: &VectorField) -> VectorField {
+    let (c11, c12) = material.normal_stiffness();
+    let tangent = vec![[c11, c12, material.shear_modulus()]; ops.num_particles()];
+    apply_tangent_stiffness(ops, volume, &tangent, u)
+}
+
+/// [`apply_stiffness`] with a tangent `[C11, C12, G]` per particle (see
+/// [`crate::material::Material::tangent`]):
+///
+/// ```text
+/// K u = −f_int(σ),   σ_p = C_p : ε_p(u),   ε(u) = sym [Gxᵀ u, Gyᵀ u]
+/// ```
+///
+/// # Panics
+/// If `u` does not have one entry per node, or `volume` and `tangent` one per particle.
+pub fn apply_tangent_stiffness(ops: &Operators, volume: &[f64], tangent: &[[f64; 3]], u: &VectorField) -> VectorField {
     let l = velocity_gradient(ops, u);
     let np = ops.num_particles();
+    assert_eq!(tangent.len(), np, "one tangent per particle");
     let (mut sxx, mut syy, mut sxy) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
     for p in 0..np {
-        [sxx[p], syy[p], sxy[p]] = material.stress_increment(l.xx[p], l.yy[p], 0.5 * (l.xy[p] + l.yx[p]));
+        let [c11, c12, g] = tangent[p];
+        sxx[p] = c11 * l.xx[p] + c12 * l.yy[p];
+        syy[p] = c12 * l.xx[p] + c11 * l.yy[p];
+        sxy[p] = g * (l.xy[p] + l.yx[p]);
     }
     let f = internal_force(ops, volume, &sxx, &syy, &sxy);
     VectorField {
@@ -166,4 +185,125 @@ pub fn critical_time_step(
 ) -> Result<f64> {
     let w2 = max_frequency_squared(ops, volume, material, mass, role)?;
     Ok(if w2 > 0.0 { 2.0 / w2.sqrt() } else { f64::INFINITY })
+}
+
+/// Safety factor of [`mpm_critical_time_step`] on `2/ω_max`: the Lanczos estimate of `ω²_max`
+/// converges from below, and this covers what is left of its error when it stops (its
+/// tolerance is [`FREQUENCY_TOLERANCE`]), so that the step stays on the safe side of the
+/// exact limit while within a few per cent of it (tests/time_step.rs).
+pub const TIME_STEP_SAFETY: f64 = 0.98;
+
+/// Relative change of the Lanczos estimate of `ω²_max` over five steps at which
+/// [`mpm_max_frequency_squared`] stops.
+pub const FREQUENCY_TOLERANCE: f64 = 1e-3;
+
+/// Most Lanczos steps of one frequency estimate.
+pub const FREQUENCY_MAX_STEPS: usize = 150;
+
+/// The inverse of a grid mass, `u = M_s⁻¹ r`, with zero on the nodes and components that are
+/// not free (inactive or prescribed).
+pub type MassInverse<'a> = dyn FnMut(&VectorField) -> Result<VectorField> + 'a;
+
+/// The largest squared frequency of the explicit MPM update, and how it was found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrequencyEstimate {
+    /// `ω²_max` (0 when there is no stiffness).
+    pub omega_squared: f64,
+    /// Lanczos steps taken (summed over the two runs of a mixed pair).
+    pub lanczos_steps: usize,
+}
+
+/// `ω²_max` of one explicit MPM step with the mass `M_v` in the velocity projection and `M_a`
+/// in the acceleration solve (update-stress-first or modified update-stress-last):
+///
+/// ```text
+/// v_p ← v_p − Δt Nᵀ M_a⁻¹ G (V σ),   σ ← σ + Δt C Gᵀ M_v⁻¹ N (m ∘ v_p)
+///   ⇒  ω²_max = λ_max(M_a⁻¹ K M_v⁻¹ M),   K = G diag(V C) Gᵀ,   M = N diag(m) Nᵀ
+/// ```
+///
+/// The particle update is a leapfrog pair, stable for `Δt ≤ 2/ω_max`. Here `M` is always the
+/// particles' own consistent mass, whatever masses the solves use, so the lumped mass gives
+/// `λ_max(M_L⁻¹ K M_L⁻¹ M)`, which stays bounded where a node's support empties. With
+/// `M_a = M_v = M_s` the operator `M_s⁻¹ M M_s⁻¹ K` is self-adjoint in the `K` inner product and
+/// Lanczos estimates its top eigenvalue; for a mixed pair the estimate is the bound
+/// `ω²_max ≤ √(λ_max(M_v⁻¹ M M_v⁻¹ K) λ_max(M_a⁻¹ M M_a⁻¹ K))` (the norms of the two halves of
+/// the update in the energy norms). `free[d]` marks the free degrees of freedom (`d < n`: x
+/// component of node `d`, then y). Lanczos starts from a fixed pseudo-random vector.
+///
+/// # Errors
+/// Those of the mass inverses.
+///
+/// # Panics
+/// On length mismatch.
+#[allow(clippy::too_many_arguments)]
+pub fn mpm_max_frequency_squared(
+    ops: &Operators,
+    mass: &[f64],
+    volume: &[f64],
+    tangent: &[[f64; 3]],
+    free: &[bool],
+    inverse_velocity: &mut MassInverse<'_>,
+    inverse_acceleration: Option<&mut MassInverse<'_>>,
+) -> Result<FrequencyEstimate> {
+    let n = ops.num_nodes();
+    assert_eq!(free.len(), 2 * n, "one flag per degree of freedom");
+    let split = |v: &[f64]| VectorField {
+        x: v[..n].to_vec(),
+        y: v[n..].to_vec(),
+    };
+    let join = |f: VectorField| [f.x, f.y].concat();
+    let k = |v: &[f64]| {
+        let mut kv = join(apply_tangent_stiffness(ops, volume, tangent, &split(v)));
+        kv.iter_mut()
+            .zip(free)
+            .for_each(|(x, f)| *x = if *f { *x } else { 0.0 });
+        kv
+    };
+    let m_times = |u: &VectorField| {
+        let up = crate::transfer::interpolate(ops, u);
+        let mut out = VectorField::zeros(n);
+        ops.scatter_scaled(Operator::N, Some(mass), [&up.x, &up.y], [&mut out.x, &mut out.y]);
+        out
+    };
+    let start = start_vector(2 * n, |d| free[d]);
+    let run = |inverse: &mut MassInverse<'_>| -> Result<(f64, usize)> {
+        let mut failure = None;
+        let mut apply = |v: &[f64]| -> Vec<f64> {
+            let step = inverse(&split(&k(v))).and_then(|u| inverse(&m_times(&u)));
+            match step {
+                Ok(u) => join(u),
+                Err(e) => {
+                    failure.get_or_insert(e);
+                    vec![0.0; 2 * n]
+                }
+            }
+        };
+        let result = lanczos_max(&start, FREQUENCY_MAX_STEPS, FREQUENCY_TOLERANCE, &mut apply, k);
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        Ok(result.map_or((0.0, 0), |(top, steps)| (top.max(0.0), steps)))
+    };
+    let (velocity, steps_v) = run(inverse_velocity)?;
+    let (omega_squared, lanczos_steps) = match inverse_acceleration {
+        None => (velocity, steps_v),
+        Some(inverse) => {
+            let (acceleration, steps_a) = run(inverse)?;
+            ((velocity * acceleration).sqrt(), steps_v + steps_a)
+        }
+    };
+    Ok(FrequencyEstimate {
+        omega_squared,
+        lanczos_steps,
+    })
+}
+
+/// The stable step of the explicit MPM update, `TIME_STEP_SAFETY · 2/ω_max` with `ω²_max` from
+/// [`mpm_max_frequency_squared`] (`f64::INFINITY` without stiffness).
+pub fn mpm_critical_time_step(estimate: &FrequencyEstimate) -> f64 {
+    if estimate.omega_squared > 0.0 {
+        TIME_STEP_SAFETY * 2.0 / estimate.omega_squared.sqrt()
+    } else {
+        f64::INFINITY
+    }
 }

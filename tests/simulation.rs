@@ -155,10 +155,12 @@ fn a_rigid_translation_stays_rigid() {
                 .with_velocity(vec![0.7; n], vec![-0.4; n])
                 .unwrap();
             let (x0, y0) = (particles.x.clone(), particles.y.clone());
+            // Half of h / (c + |v|): APIC with linear kernels loses rigidity to round-off at steps
+            // near its stability limit (docs/simulation.md), which this test is not about.
             let options = Options {
                 shape,
                 transfer,
-                time_step: TimeStep::Cfl { number: 0.5 },
+                time_step: TimeStep::Fixed { dt: 0.004 },
                 ..Options::default()
             };
             let mut sim = Simulation::new(grid, particles, bodies(), options).unwrap();
@@ -383,29 +385,35 @@ fn a_fixed_step_above_the_stable_estimate_is_refused_unless_allowed() {
     let grid = grid(16, 0.1);
     let particles = block(&grid, 5, 8, 5, 8, 100.0);
     let mut options = Options {
-        time_step: TimeStep::Fixed { dt: 0.1 },
+        time_step: TimeStep::Cfl { number: 1.0 },
         ..Options::default()
     };
-    let mut sim = Simulation::new(grid.clone(), particles.clone(), bodies(), options.clone()).unwrap();
-    let stable = sim.stable_time_step();
-    assert!(stable < 0.1);
-    let err = sim.step().unwrap_err();
+    let stable = Simulation::new(grid.clone(), particles.clone(), bodies(), options.clone())
+        .unwrap()
+        .stable_time_step();
+    // Refused when the simulation is made, before any step.
+    options.time_step = TimeStep::Fixed { dt: 1.01 * stable };
+    let err = Simulation::new(grid.clone(), particles.clone(), bodies(), options.clone()).unwrap_err();
     let text = err.to_string();
-    assert!(matches!(err, MpmError::Unstable { step: 0, .. }), "{text}");
+    assert!(matches!(err, MpmError::TimeStepAboveStable { step: 0, .. }), "{text}");
     assert!(
-        text.contains("exceeds the stable estimate") && text.contains("allow_unstable"),
+        text.contains("exceeds the stable step") && text.contains("allow_unstable"),
         "{text}"
     );
-    // The refusal happens before anything moves: the state is still usable.
-    assert_eq!(sim.particles().x, particles.x);
+    options.time_step = TimeStep::Fixed { dt: 0.99 * stable };
+    assert!(Simulation::new(grid.clone(), particles.clone(), bodies(), options.clone()).is_ok());
     options.allow_unstable_time_step = true;
     options.time_step = TimeStep::Fixed { dt: 2.0 * stable };
     let mut sim = Simulation::new(grid, particles, bodies(), options).unwrap();
-    assert!(sim.step().is_ok());
+    let report = sim.step().unwrap();
+    assert!(
+        report.dt > report.stable_time_step,
+        "the report shows the step is above the stable one"
+    );
 }
 
 #[test]
-fn cfl_step_is_the_courant_number_times_the_stable_estimate() {
+fn cfl_step_is_the_courant_number_times_the_stable_step() {
     let grid = grid(16, 0.1);
     let particles = block(&grid, 5, 8, 5, 8, 100.0);
     let options = Options {
@@ -413,12 +421,20 @@ fn cfl_step_is_the_courant_number_times_the_stable_estimate() {
         ..Options::default()
     };
     let mut sim = Simulation::new(grid, particles, bodies(), options).unwrap();
-    // At rest: c = sqrt(C11 / rho) with C11 the plane-strain modulus.
+    let stable = sim.stable_time_step();
+    let r = sim.step().unwrap();
+    assert_eq!(r.stable_time_step, stable);
+    assert!(
+        (r.dt - 0.3 * stable).abs() < 1e-15 * stable,
+        "{} vs {}",
+        r.dt,
+        0.3 * stable
+    );
+    // The lumped stable step of the update exceeds the textbook h / c (it is about 1.6 h / c for
+    // 2 × 2 particles per cell, tests/time_step.rs checks it against the exact limit).
     let (e, nu, rho): (f64, f64, f64) = (1.0e4, 0.3, 100.0);
     let c11 = e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu));
-    let expected = 0.3 * 0.1 / (c11 / rho).sqrt();
-    let r = sim.step().unwrap();
-    assert!((r.dt - expected).abs() < 1e-12 * expected, "{} vs {expected}", r.dt);
+    assert!(stable > 0.1 / (c11 / rho).sqrt());
 }
 
 #[test]

@@ -161,7 +161,22 @@ fn run(args: &Args) -> Result<(), String> {
         end_time: args.end_time,
         max_steps: args.steps,
     };
-    let result = run_scene(&scene, &out, limits, |p| bar.update(p));
+    let mut warned = false;
+    let result = run_scene(&scene, &out, limits, |p| {
+        if p.dt > p.stable_time_step && !warned {
+            warned = true;
+            bar.finish();
+            eprintln!(
+                "warning: step {}: the fixed time step {:e} exceeds the stable step {:e} ({:.1}% over); the run \
+                 goes on because `allow_unstable = true`",
+                p.steps,
+                p.dt,
+                p.stable_time_step,
+                100.0 * (p.dt / p.stable_time_step - 1.0)
+            );
+        }
+        bar.update(p)
+    });
     bar.finish();
     let summary = result.map_err(|e| format!("{e}\n(output written so far is in {})", out.display()))?;
     if !args.quiet {
