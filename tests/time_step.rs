@@ -134,7 +134,7 @@ fn check_estimates(shape: ShapeFunction, body: fn(&Grid) -> Particles) {
         let estimate = sim.stable_time_step();
         let ratio = estimate / exact;
         assert!(
-            ratio <= 1.0 && ratio >= 1.0 - WITHIN,
+            (1.0 - WITHIN..=1.0).contains(&ratio),
             "{} with {} / {}: estimate {estimate:.5e}, exact {exact:.5e} (ratio {ratio:.4})",
             shape.name(),
             mass.acceleration.label(),
