@@ -42,14 +42,14 @@ use serde::{Deserialize, Serialize};
 use crate::boundary::{self, BoundaryCondition, Prescribed};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::mass::{GridMass, MassOptions, MassScheme, Role, SolveOutcome, SolveReport};
+use crate::mass::{Constraints, GridMass, MassOptions, MassScheme, Role, SolveOutcome, SolveReport};
 use crate::material::Material;
 use crate::operators::{Operator, Operators};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::step::PositionUpdate;
 use crate::stiffness::{self, FrequencyEstimate};
-use crate::transfer::{extend_to_inactive_nodes, ExtensionScratch, VectorField};
+use crate::transfer::{extend_to_inactive_nodes, series_velocity_into, ExtensionScratch, SeriesScratch, VectorField};
 
 /// Default [`Options::stability_interval`]: steps between estimates of the stable time step.
 pub const DEFAULT_STABILITY_INTERVAL: usize = 50;
@@ -86,6 +86,39 @@ pub enum Transfer {
     },
     /// Affine PIC (Jiang et al. 2015): PIC plus a per-particle affine velocity matrix `C`.
     Apic,
+    /// Hammerquist & Nairn's XPIC(k): the particle velocity interpolates the lumped grid
+    /// velocity of the step's start extrapolated by k terms of the full-mass series, plus the
+    /// lumped acceleration; `x ← x + Δt (Nᵀ v + ½ (v_p,new − v_p,old))`. Lumped mass only.
+    /// XPIC(1) gives PIC's velocities.
+    Xpic {
+        /// Number of series terms, at least 1.
+        k: usize,
+    },
+    /// Nairn & Hammerquist's FMPM(k): the particle velocity interpolates the updated lumped
+    /// grid velocity passed through k terms of the full-mass series (once per step, just before
+    /// the particle update), the stress update uses that velocity, and
+    /// `x ← x + (Δt/2)(v_p,old + v_p,new)`. Lumped mass only. FMPM(1) is PIC with the
+    /// trapezoidal position update.
+    Fmpm {
+        /// Number of series terms, at least 1.
+        k: usize,
+    },
+}
+
+impl Transfer {
+    /// The number of series terms of XPIC(k) and FMPM(k), `None` for the other transfers.
+    pub fn series_terms(&self) -> Option<usize> {
+        match *self {
+            Transfer::Xpic { k } | Transfer::Fmpm { k } => Some(k),
+            _ => None,
+        }
+    }
+
+    /// Whether the particle velocity is incremented by the change of the grid velocity (FLIP
+    /// and the FLIP part of a blend).
+    fn increments(&self) -> bool {
+        matches!(self, Transfer::Flip | Transfer::Blend { .. })
+    }
 }
 
 /// How the time step is chosen.
@@ -279,6 +312,8 @@ struct Work {
     f: VectorField,
     v: VectorField,
     v_free: VectorField,
+    v_series: VectorField,
+    series: SeriesScratch,
     a: VectorField,
     w: VectorField,
     active: Vec<bool>,
@@ -312,6 +347,9 @@ pub struct Simulation {
     density: Vec<f64>,
     ops: Operators,
     grid_mass: GridMass,
+    /// The velocity projection without boundary conditions, for FLIP's increment when the
+    /// velocity mass is not lumped and some degree of freedom is prescribed.
+    free_mass: GridMass,
     time: f64,
     steps: usize,
     failed: Option<String>,
@@ -383,6 +421,29 @@ impl Simulation {
                 });
             }
         }
+        if let Some(k) = options.transfer.series_terms() {
+            let name = if matches!(options.transfer, Transfer::Xpic { .. }) {
+                "xpic"
+            } else {
+                "fmpm"
+            };
+            if k == 0 {
+                return Err(MpmError::InvalidScene {
+                    key: format!("schemes.transfer.{name}.k"),
+                    reason: "the series needs at least one term (k = 1 is PIC)".into(),
+                });
+            }
+            if options.mass.velocity != MassScheme::Lumped || options.mass.acceleration != MassScheme::Lumped {
+                return Err(MpmError::InvalidScene {
+                    key: "schemes.mass".into(),
+                    reason: format!(
+                        "{} is defined on the lumped mass (its series is the full-mass correction); set both \
+                         solves to \"lumped\"",
+                        name.to_uppercase()
+                    ),
+                });
+            }
+        }
         if !options.gravity.iter().all(|g| g.is_finite()) {
             return Err(MpmError::InvalidScene {
                 key: "gravity".into(),
@@ -426,6 +487,7 @@ impl Simulation {
             &mut work.f,
             &mut work.v,
             &mut work.v_free,
+            &mut work.v_series,
             &mut work.a,
             &mut work.w,
         ] {
@@ -442,6 +504,7 @@ impl Simulation {
             density,
             ops,
             grid_mass: GridMass::default(),
+            free_mass: GridMass::default(),
             time: 0.0,
             steps: 0,
             failed: None,
@@ -566,6 +629,7 @@ impl Simulation {
         c.fixed_y.iter().for_each(|&i| free[n + i] = false);
         let free = &free;
         let grid_mass = &self.grid_mass;
+        let transfer = self.options.transfer;
         let inverse = |role: Role| {
             let scheme = match role {
                 Role::Velocity => self.options.mass.velocity,
@@ -579,6 +643,20 @@ impl Simulation {
                 for i in 0..n {
                     u.x[i] = if free[i] { r.x[i] * w.inv_m[i] } else { 0.0 };
                     u.y[i] = if free[n + i] { r.y[i] * w.inv_m[i] } else { 0.0 };
+                }
+                if let Transfer::Fmpm { k } = transfer {
+                    // FMPM's particle velocity and stress update read M_k⁻¹ M_L of the lumped
+                    // velocity: the series is the mass of both halves of the update.
+                    let constrain = |v: &mut VectorField| {
+                        for i in 0..n {
+                            v.x[i] = if free[i] { v.x[i] } else { 0.0 };
+                            v.y[i] = if free[n + i] { v.y[i] } else { 0.0 };
+                        }
+                    };
+                    let mut out = VectorField::default();
+                    let mut scratch = SeriesScratch::default();
+                    series_velocity_into(ops, &p.mass, &w.inv_m, k, &constrain, &u, &mut out, &mut scratch);
+                    return Ok(out);
                 }
                 Ok(u)
             }
@@ -724,22 +802,25 @@ impl Simulation {
         let usf = self.options.update == UpdateScheme::Usf;
         let velocity_solve = self.project_velocity()?; //                                   (6)
         if usf {
-            self.extend_to_inactive_nodes(false);
-            self.velocity_gradient(false);
+            let field = self.stress_velocity(GridField::Projected);
+            self.extend_to_inactive_nodes(field);
+            self.velocity_gradient(field);
             self.update_stress(dt)?;
             self.internal_force();
         }
         let acceleration_solve = self.solve_acceleration()?; //                             (7)
         self.update_grid_velocity(dt); //                                                   (8)
-        self.extend_to_inactive_nodes(true);
+        self.extend_to_inactive_nodes(GridField::Updated);
+        self.series_particle_velocity(); //                                          XPIC, FMPM
         self.grid_to_particle(dt, self.options.update == UpdateScheme::Usl); //             (9)–(11)
         match self.options.update {
             UpdateScheme::Usl => self.update_stress(dt)?, //                                (12)
             UpdateScheme::Musl => {
                 self.reproject(); //                                                        (11)
                 self.project_velocity()?;
-                self.extend_to_inactive_nodes(false);
-                self.velocity_gradient(false);
+                let field = self.stress_velocity(GridField::Projected);
+                self.extend_to_inactive_nodes(field);
+                self.velocity_gradient(field);
                 self.update_stress(dt)?; //                                                 (12)
             }
             UpdateScheme::Usf => {}
@@ -859,6 +940,14 @@ impl Simulation {
                 &self.prescribed.constraints,
             )?;
         }
+        if self.needs_free_projection() {
+            let velocity_only = MassOptions {
+                acceleration: MassScheme::Lumped,
+                ..self.options.mass
+            };
+            self.free_mass
+                .update(&self.ops, &self.particles.mass, &velocity_only, &Constraints::none())?;
+        }
         Ok(())
     }
 
@@ -867,8 +956,10 @@ impl Simulation {
         m.velocity != MassScheme::Lumped || m.acceleration != MassScheme::Lumped
     }
 
-    /// (6) `v = Π M_v⁻¹ q` into `work.v`.
+    /// (6) `v = Π M_v⁻¹ q` into `work.v`, and FLIP's reference `ṽ = M_v⁻¹ q` without the
+    /// boundary conditions into `work.v_free` (see [`Simulation::grid_to_particle`]).
     fn project_velocity(&mut self) -> Result<SolveReport> {
+        let free_projection = self.needs_free_projection();
         let w = &mut self.work;
         let report = if self.options.mass.velocity == MassScheme::Lumped {
             divide_by_lumped(&w.inv_m, &w.q, &mut w.v)
@@ -879,10 +970,26 @@ impl Simulation {
             w.v = v;
             report
         };
-        w.v_free.x.clone_from(&w.v.x);
-        w.v_free.y.clone_from(&w.v.y);
+        if free_projection {
+            // The velocity mass couples the prescribed nodes to their neighbours: solve again
+            // without the constraints.
+            w.v_free = self.free_mass.solve(Role::Velocity, &w.q, None, &self.ops)?.0;
+        } else {
+            w.v_free.x.clone_from(&w.v.x);
+            w.v_free.y.clone_from(&w.v.y);
+        }
         self.prescribed.apply_velocity(&mut w.v.x, &mut w.v.y);
         Ok(report)
+    }
+
+    /// Whether FLIP's reference needs a velocity solve of its own: the transfer increments, the
+    /// velocity mass is not lumped (a lumped projection is unconstrained before `Π`), and some
+    /// degree of freedom is prescribed.
+    fn needs_free_projection(&self) -> bool {
+        let c = &self.prescribed.constraints;
+        self.options.transfer.increments()
+            && self.options.mass.velocity != MassScheme::Lumped
+            && !(c.fixed_x.is_empty() && c.fixed_y.is_empty())
     }
 
     /// (7) `a = Π₀ M_a⁻¹ f` into `work.a`.
@@ -910,25 +1017,99 @@ impl Simulation {
         self.prescribed.apply_velocity(&mut w.w.x, &mut w.w.y);
     }
 
-    /// Gives the inactive nodes inside some particle's support the mean interpolated velocity of
-    /// those particles (see [`crate::transfer::extend_to_massless_nodes`]), in `w` (updated) or
-    /// `v`; prescribed components keep their values.
-    fn extend_to_inactive_nodes(&mut self, updated: bool) {
+    /// The grid velocity the stress update reads, given the one the update scheme projects:
+    /// FMPM(k) passes it through its series first (into `work.v_series`).
+    fn stress_velocity(&mut self, field: GridField) -> GridField {
+        let Transfer::Fmpm { k } = self.options.transfer else {
+            return field;
+        };
         let w = &mut self.work;
-        let field = if updated { &mut w.w } else { &mut w.v };
-        if extend_to_inactive_nodes(&self.ops, &w.active, field, &mut w.extension) {
-            self.prescribed.apply_velocity(&mut field.x, &mut field.y);
+        let source = match field {
+            GridField::Projected => &w.v,
+            GridField::Updated => &w.w,
+            GridField::Series => return field,
+        };
+        let prescribed = &self.prescribed;
+        let constrain = |u: &mut VectorField| prescribed.zero(&mut u.x, &mut u.y);
+        series_velocity_into(
+            &self.ops,
+            &self.particles.mass,
+            &w.inv_m,
+            k,
+            &constrain,
+            source,
+            &mut w.v_series,
+            &mut w.series,
+        );
+        GridField::Series
+    }
+
+    /// XPIC(k) and FMPM(k), once per step before the particle update: the grid velocity the new
+    /// particle velocities interpolate, into `work.v_series`,
+    ///
+    /// ```text
+    /// XPIC(k):  v* = Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ v + (w − v)      (v: this step's projected velocity)
+    /// FMPM(k):  v* = Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ w                 (w: the updated velocity)
+    /// ```
+    ///
+    /// each increment with its prescribed components zeroed ([`series_velocity_into`]).
+    fn series_particle_velocity(&mut self) {
+        match self.options.transfer {
+            Transfer::Fmpm { .. } => {
+                self.stress_velocity(GridField::Updated);
+            }
+            Transfer::Xpic { k } => {
+                let w = &mut self.work;
+                let prescribed = &self.prescribed;
+                let constrain = |u: &mut VectorField| prescribed.zero(&mut u.x, &mut u.y);
+                let m = &self.particles.mass;
+                series_velocity_into(
+                    &self.ops,
+                    m,
+                    &w.inv_m,
+                    k,
+                    &constrain,
+                    &w.v,
+                    &mut w.v_series,
+                    &mut w.series,
+                );
+                for i in 0..w.w.len() {
+                    w.v_series.x[i] += w.w.x[i] - w.v.x[i];
+                    w.v_series.y[i] += w.w.y[i] - w.v.y[i];
+                }
+            }
+            _ => return,
+        }
+        self.extend_to_inactive_nodes(GridField::Series);
+    }
+
+    /// Gives the inactive nodes inside some particle's support the mean interpolated velocity of
+    /// those particles (see [`crate::transfer::extend_to_massless_nodes`]), in the grid velocity
+    /// `field`; prescribed components keep their values.
+    fn extend_to_inactive_nodes(&mut self, field: GridField) {
+        let w = &mut self.work;
+        let u = match field {
+            GridField::Projected => &mut w.v,
+            GridField::Updated => &mut w.w,
+            GridField::Series => &mut w.v_series,
+        };
+        if extend_to_inactive_nodes(&self.ops, &w.active, u, &mut w.extension) {
+            self.prescribed.apply_velocity(&mut u.x, &mut u.y);
         }
     }
 
-    /// `L = [Gxᵀ u, Gyᵀ u]` at every particle into `work.l`, for `u = w` or `v`.
-    fn velocity_gradient(&mut self, updated: bool) {
+    /// `L = [Gxᵀ u, Gyᵀ u]` at every particle into `work.l`, for the grid velocity `field`.
+    fn velocity_gradient(&mut self, field: GridField) {
         let (ops, w) = (&self.ops, &mut self.work);
         let np = ops.num_particles();
         for l in w.l.iter_mut() {
             l.resize(np, 0.0);
         }
-        let u = if updated { &w.w } else { &w.v };
+        let u = match field {
+            GridField::Projected => &w.v,
+            GridField::Updated => &w.w,
+            GridField::Series => &w.v_series,
+        };
         let (cp, ri) = (ops.col_offsets(), ops.row_indices());
         let (gxv, gyv) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
         for k in 0..np {
@@ -948,7 +1129,11 @@ impl Simulation {
 
     /// (9)–(11) in one pass over N, Gx, Gy: particle velocities (and APIC `C`), the position
     /// increments (applied by [`Simulation::move_particles`]) and, when `with_gradient`,
-    /// `L = [Gxᵀ w, Gyᵀ w]`.
+    /// `L = [Gxᵀ u, Gyᵀ u]` with `u` the velocity the stress update reads (`w`, or FMPM's `v*`).
+    ///
+    /// FLIP's increment is `Nᵀ (w − ṽ)` with `ṽ = M_v⁻¹ q` the projection *without* boundary
+    /// conditions, for every mass scheme: the prescribed velocities then act on the particles as
+    /// the reaction forces that impose them would (docs/formulation.md).
     fn grid_to_particle(&mut self, dt: f64, with_gradient: bool) {
         let (ops, p, w) = (&self.ops, &mut self.particles, &mut self.work);
         let np = p.len();
@@ -970,24 +1155,46 @@ impl Simulation {
         // Linear kernels keep C_p = Σ_I w_I ∇N_Iᵀ itself (see `apic_affine`).
         let linear_apic = transfer == Transfer::Apic && self.options.shape == ShapeFunction::Linear;
         let need_l = with_gradient || linear_apic;
+        // The field the new velocity interpolates, the reference of increments (FLIP's ṽ, XPIC's
+        // v) and the field of the stress update's gradient.
+        let series = transfer.series_terms().is_some();
+        let target = if series { &w.v_series } else { &w.w };
+        let reference = if matches!(transfer, Transfer::Xpic { .. }) {
+            &w.v
+        } else {
+            &w.v_free
+        };
+        let gradient = if matches!(transfer, Transfer::Fmpm { .. }) {
+            &w.v_series
+        } else {
+            &w.w
+        };
         for k in 0..np {
-            let (mut vx, mut vy, mut dvx, mut dvy) = (0.0, 0.0, 0.0, 0.0);
+            let (mut vx, mut vy, mut tx, mut ty, mut rx, mut ry) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
             let mut l = [0.0; 4];
+            let mut lw = [0.0; 4];
             let mut b = [0.0; 4];
             for e in cp[k]..cp[k + 1] {
                 let (i, n) = (ri[e], nv[e]);
                 let (wx, wy) = (w.w.x[i], w.w.y[i]);
                 vx += n * wx;
                 vy += n * wy;
-                dvx += n * (wx - w.v_free.x[i]);
-                dvy += n * (wy - w.v_free.y[i]);
+                tx += n * target.x[i];
+                ty += n * target.y[i];
+                rx += n * reference.x[i];
+                ry += n * reference.y[i];
                 if need_l {
-                    l[0] += gxv[e] * wx;
-                    l[1] += gyv[e] * wx;
-                    l[2] += gxv[e] * wy;
-                    l[3] += gyv[e] * wy;
+                    let (gx, gy) = (gradient.x[i], gradient.y[i]);
+                    l[0] += gxv[e] * gx;
+                    l[1] += gyv[e] * gx;
+                    l[2] += gxv[e] * gy;
+                    l[3] += gyv[e] * gy;
                 }
                 if transfer == Transfer::Apic {
+                    lw[0] += gxv[e] * wx;
+                    lw[1] += gyv[e] * wx;
+                    lw[2] += gxv[e] * wy;
+                    lw[3] += gyv[e] * wy;
                     let (dx, dy) = (w.node_x[i] - p.x[k], w.node_y[i] - p.y[k]);
                     b[0] += n * wx * dx;
                     b[1] += n * wx * dy;
@@ -1003,8 +1210,10 @@ impl Simulation {
                 }
             }
             let (old_x, old_y) = (p.vx[k], p.vy[k]);
+            let (dvx, dvy) = (vx - rx, vy - ry);
             let (new_x, new_y) = match transfer {
                 Transfer::Pic | Transfer::Apic => (vx, vy),
+                Transfer::Xpic { .. } | Transfer::Fmpm { .. } => (tx, ty),
                 Transfer::Flip => (old_x + dvx, old_y + dvy),
                 Transfer::Blend { flip } => (
                     flip * (old_x + dvx) + (1.0 - flip) * vx,
@@ -1014,16 +1223,18 @@ impl Simulation {
             p.vx[k] = new_x;
             p.vy[k] = new_y;
             if transfer == Transfer::Apic {
-                let b = if linear_apic { l } else { b };
+                let b = if linear_apic { lw } else { b };
                 p.affine_xx[k] = b[0];
                 p.affine_xy[k] = b[1];
                 p.affine_yx[k] = b[2];
                 p.affine_yy[k] = b[3];
             }
-            let (ux, uy) = if trapezoidal {
-                (0.5 * (old_x + vx), 0.5 * (old_y + vy))
-            } else {
-                (vx, vy)
+            let (ux, uy) = match transfer {
+                // Nairn: x += Δt (Nᵀ v + ½ (v_p,new − v_p,old)).
+                Transfer::Xpic { .. } => (rx + 0.5 * (new_x - old_x), ry + 0.5 * (new_y - old_y)),
+                Transfer::Fmpm { .. } => (0.5 * (old_x + new_x), 0.5 * (old_y + new_y)),
+                _ if trapezoidal => (0.5 * (old_x + vx), 0.5 * (old_y + vy)),
+                _ => (vx, vy),
             };
             w.displacement.x[k] = dt * ux;
             w.displacement.y[k] = dt * uy;
@@ -1174,6 +1385,17 @@ fn divide_by_lumped(inv_m: &[f64], r: &VectorField, u: &mut VectorField) -> Solv
         iterations: 0,
         relative_residual: 0.0,
     }
+}
+
+/// Which grid velocity a phase reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum GridField {
+    /// `v`: projected from the particles (6).
+    Projected,
+    /// `w`: updated (8).
+    Updated,
+    /// `v*`: XPIC's or FMPM's series velocity.
+    Series,
 }
 
 /// How a kernel's APIC inertia `D_p` is obtained.

@@ -12,24 +12,25 @@
 //! | (5) | `f_int = −(Gx (V∘σxx) + Gy (V∘σxy), Gx (V∘σxy) + Gy (V∘σyy))` | [`internal_force`] |
 //! | (6) | `a = M⁻¹ (f_ext + f_int)` | [`GridMass::solve`] |
 //! | (7) | `v̄ = M⁻¹ q` | [`GridMass::solve`] |
+//! | (7b) | `ṽ = M⁻¹ q` without the constraints (FLIP's reference) | [`GridMass::solve`] |
 //! | (8) | `v̄' = v̄ + Δt a` | [`VectorField::add_scaled`] |
 //! | (8b) | massless nodes in a particle's support take the mean particle velocity | [`extend_to_massless_nodes`] |
 //! | (9) | `x ← x + Δt Nᵀ v̄'` (or the trapezoidal rule) | [`update_positions`] |
-//! | (10) | `v ← v + Δt Nᵀ a` | [`update_velocities`] |
+//! | (10) | `v ← v + Nᵀ (v̄' − ṽ)`, `ṽ = M⁻¹ q` without constraints (`= v + Δt Nᵀ a` when none) | [`flip_update`] |
 //! | (11) | `L = (Gxᵀ v̄', Gyᵀ v̄')`, `ε̇ = sym L` | [`velocity_gradient`], [`strain_rate`] |
 //! | (12) | `σ ← σ + C : (ε̇ Δt)` | [`LinearElastic::update_stress`] |
 //! | (13) | `V ← V (1 + Δt tr ε̇)` | [`update_volumes`] |
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::mass::{Constraints, GridMass, MassOptions, Role, SolveReport};
+use crate::mass::{Constraints, GridMass, MassOptions, MassScheme, Role, SolveReport};
 use crate::material::LinearElastic;
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::transfer::{
-    extend_to_massless_nodes, external_force, internal_force, momentum, strain_rate, update_positions,
-    update_positions_trapezoidal, update_velocities, update_volumes, velocity_gradient, StrainRate, VectorField,
+    divide_by_lumped, extend_to_massless_nodes, external_force, flip_update, internal_force, momentum, strain_rate,
+    update_positions, update_positions_trapezoidal, update_volumes, velocity_gradient, StrainRate, VectorField,
     VelocityGradient,
 };
 
@@ -124,10 +125,11 @@ pub fn explicit_step(
     let f_int = internal_force(&ops, &p.volume, &p.sxx, &p.syy, &p.sxy); //                               (5)
     let (a, a_report) = mass.solve(Role::Acceleration, &f_ext.add_scaled(1.0, &f_int), None, &ops)?; //  (6)
     let (v, v_report) = mass.solve(Role::Velocity, &q, None, &ops)?; //                                  (7)
+    let v_free = unconstrained_projection(&ops, p, &mass, &q, &v, options)?; //                          (7b)
     let mut v_new = v.add_scaled(dt, &a); //                                                             (8)
     extend_to_massless_nodes(&ops, &mass.active, &mut v_new); //                                        (8b)
     move_particles(&ops, p, &v_new, dt, options.position_update); //                                     (9)
-    update_velocities(&ops, &mut p.vx, &mut p.vy, &a, dt); //                                           (10)
+    flip_update(&ops, &mut p.vx, &mut p.vy, &v_new, &v_free); //                                        (10)
     let l = velocity_gradient(&ops, &v_new); //                                                         (11)
     let rate = strain_rate(&l); //                                                                      (11)
     material.update_stress(&mut p.sxx, &mut p.syy, &mut p.sxy, &rate, dt); //                           (12)
@@ -146,6 +148,30 @@ pub fn explicit_step(
         velocity_gradient: l,
         strain_rate: rate,
     })
+}
+
+/// (7b) FLIP's reference `ṽ = M⁻¹ q` without the constraints: `v` itself when nothing is
+/// constrained, else a solve of its own (for the lumped mass, `q / m_L` on the active nodes).
+fn unconstrained_projection(
+    ops: &Operators,
+    p: &Particles,
+    mass: &GridMass,
+    q: &VectorField,
+    v: &VectorField,
+    options: &StepOptions,
+) -> Result<VectorField> {
+    if options.constraints.is_empty() {
+        return Ok(v.clone());
+    }
+    if options.mass.velocity == MassScheme::Lumped {
+        return Ok(divide_by_lumped(q, &mass.lumped, &mass.active));
+    }
+    let velocity_only = MassOptions {
+        acceleration: MassScheme::Lumped,
+        ..options.mass
+    };
+    let free = GridMass::new(ops, &p.mass, &velocity_only, &Constraints::none())?;
+    Ok(free.solve(Role::Velocity, q, None, ops)?.0)
 }
 
 /// Step (9) with the chosen rule.

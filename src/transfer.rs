@@ -259,6 +259,25 @@ pub fn update_velocities(ops: &Operators, vx: &mut [f64], vy: &mut [f64], a: &Ve
     axpy(vy, dt, &da.y);
 }
 
+/// FLIP particle velocity update by the change of the grid velocity, the one FLIP rule of the
+/// library (docs/formulation.md):
+///
+/// ```text
+/// v_p ← v_p + Nᵀ (v̄′ − ṽ),   ṽ = M⁻¹ q  without boundary conditions
+/// ```
+///
+/// Without prescribed degrees of freedom `v̄′ − ṽ = Δt a` and this is the seed's
+/// `v_p ← v_p + Δt Nᵀ a` ([`update_velocities`]); with them, the prescribed velocities act on the
+/// particles as the reaction forces that impose them would.
+///
+/// # Panics
+/// On length mismatch.
+pub fn flip_update(ops: &Operators, vx: &mut [f64], vy: &mut [f64], updated: &VectorField, reference: &VectorField) {
+    let dv = interpolate(ops, &updated.add_scaled(-1.0, reference));
+    axpy(vx, 1.0, &dv.x);
+    axpy(vy, 1.0, &dv.y);
+}
+
 /// Volume update from the volumetric strain rate:
 ///
 /// ```text
@@ -380,4 +399,73 @@ pub fn extend_to_inactive_nodes(
         }
     }
     any
+}
+
+/// Work arrays of [`series_velocity_into`], kept between calls so that it allocates nothing
+/// once they have grown to size.
+#[derive(Debug, Clone, Default)]
+pub struct SeriesScratch {
+    increment: VectorField,
+    at_particles: VectorField,
+    momentum: VectorField,
+}
+
+/// The truncated series of the full-mass inverse applied to a lumped grid velocity `u`, by
+/// particle–grid products only (Nairn's FMPM loop; `M` is never formed):
+///
+/// ```text
+/// v(k) = Σ_{ℓ=0}^{k−1} Δv_ℓ,   Δv_0 = u,   Δv_ℓ = Π₀ (Δv_{ℓ−1} − M_L⁻¹ N (m ∘ Nᵀ Δv_{ℓ−1}))
+/// ```
+///
+/// which is `Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ u = M_k⁻¹ M_L u`, `M_k⁻¹` the series of
+/// [`crate::mass::MassScheme::TruncatedSeries`], when no component is constrained. `inv_m` holds
+/// `1/m_L,I` on active nodes and 0 elsewhere; `constrain` (`Π₀`) zeroes the prescribed components
+/// of each increment, so that the velocity boundary conditions `u` satisfies hold for `v(k)`
+/// too. `k = 1` returns `u`.
+///
+/// # Panics
+/// On length mismatch, or `k = 0`.
+#[allow(clippy::too_many_arguments)]
+pub fn series_velocity_into(
+    ops: &Operators,
+    m: &[f64],
+    inv_m: &[f64],
+    k: usize,
+    constrain: &dyn Fn(&mut VectorField),
+    u: &VectorField,
+    out: &mut VectorField,
+    scratch: &mut SeriesScratch,
+) {
+    assert!(k >= 1, "the series needs at least one term");
+    let (n, np) = (ops.num_nodes(), ops.num_particles());
+    assert!(
+        u.len() == n && inv_m.len() == n,
+        "one velocity and one inverse mass per node"
+    );
+    let SeriesScratch {
+        increment: dv,
+        at_particles: up,
+        momentum: q,
+    } = scratch;
+    for (field, len) in [(&mut *out, n), (&mut *dv, n), (&mut *q, n), (&mut *up, np)] {
+        field.x.resize(len, 0.0);
+        field.y.resize(len, 0.0);
+    }
+    out.x.copy_from_slice(&u.x);
+    out.y.copy_from_slice(&u.y);
+    dv.x.copy_from_slice(&u.x);
+    dv.y.copy_from_slice(&u.y);
+    for _ in 1..k {
+        ops.gather(Operator::N, [&dv.x, &dv.y], [&mut up.x, &mut up.y]);
+        ops.scatter_scaled(Operator::N, Some(m), [&up.x, &up.y], [&mut q.x, &mut q.y]);
+        for i in 0..n {
+            dv.x[i] -= q.x[i] * inv_m[i];
+            dv.y[i] -= q.y[i] * inv_m[i];
+        }
+        constrain(dv);
+        for i in 0..n {
+            out.x[i] += dv.x[i];
+            out.y[i] += dv.y[i];
+        }
+    }
 }

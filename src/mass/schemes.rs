@@ -142,6 +142,11 @@ impl Constraints {
     pub fn none() -> Constraints {
         Constraints::default()
     }
+
+    /// Whether no degree of freedom is prescribed.
+    pub fn is_empty(&self) -> bool {
+        self.fixed_x.is_empty() && self.fixed_y.is_empty()
+    }
 }
 
 /// The mass treatment of a step.
