@@ -114,6 +114,17 @@ impl Transfer {
         }
     }
 
+    /// The weight `α` with which the new particle velocity keeps the old one: 1 for FLIP, the
+    /// FLIP weight of a blend, 0 for PIC, APIC, XPIC and FMPM (which replace it by an
+    /// interpolated velocity). It sets the stable step ([`stiffness::mpm_critical_time_step`]).
+    pub fn flip_weight(&self) -> f64 {
+        match *self {
+            Transfer::Flip => 1.0,
+            Transfer::Blend { flip } => flip,
+            _ => 0.0,
+        }
+    }
+
     /// Whether the particle velocity is incremented by the change of the grid velocity (FLIP
     /// and the FLIP part of a blend).
     fn increments(&self) -> bool {
@@ -360,7 +371,7 @@ pub struct Simulation {
 /// The stable step found by the last frequency estimate.
 #[derive(Debug, Clone, Copy)]
 struct Stability {
-    /// `TIME_STEP_SAFETY · 2/ω_max` at that estimate.
+    /// [`stiffness::mpm_critical_time_step`] at that estimate.
     wave_step: f64,
     /// Largest tangent P-wave speed over the particles then.
     wave_speed: f64,
@@ -566,7 +577,7 @@ impl Simulation {
     ///
     /// ```text
     /// Δt_stable = 1 / (1/Δt_wave + max_p |v_p| / min(hx, hy)),
-    /// Δt_wave = TIME_STEP_SAFETY · 2/ω_max · min(1, c_est / c_now)
+    /// Δt_wave = TIME_STEP_SAFETY · √(2 (1 + α))/ω_max · min(1, c_est / c_now)
     /// ```
     ///
     /// `ω²_max` is the largest squared frequency of the update with this simulation's masses
@@ -574,8 +585,9 @@ impl Simulation {
     /// operators, tangent stiffness and masses, by Lanczos), estimated when the simulation is
     /// made and again every [`Options::stability_interval`] steps; between estimates the step
     /// shrinks if the largest tangent P-wave speed `c = √(C11/ρ)` over the particles rises above
-    /// its value at the estimate. The particle-speed term keeps particles from crossing more than
-    /// a cell per step.
+    /// its value at the estimate. `α` is the transfer's [`Transfer::flip_weight`] (FLIP is stable
+    /// up to `2/ω_max`, PIC-type updates up to `√2/ω_max`). The particle-speed term keeps particles
+    /// from crossing more than a cell per step.
     pub fn stable_time_step(&self) -> f64 {
         let Some(s) = self.stability else {
             return f64::INFINITY;
@@ -676,7 +688,7 @@ impl Simulation {
         let wave_speed = self.max_wave_speed();
 
         self.stability = Some(Stability {
-            wave_step: stiffness::mpm_critical_time_step(&estimate),
+            wave_step: stiffness::mpm_critical_time_step(&estimate, self.options.transfer.flip_weight()),
             wave_speed,
             at_step: self.steps,
             estimate,

@@ -187,7 +187,7 @@ pub fn critical_time_step(
     Ok(if w2 > 0.0 { 2.0 / w2.sqrt() } else { f64::INFINITY })
 }
 
-/// Safety factor of [`mpm_critical_time_step`] on `2/ω_max`: the Lanczos estimate of `ω²_max`
+/// Safety factor of [`mpm_critical_time_step`] on the exact limit: the Lanczos estimate of `ω²_max`
 /// converges from below, and this covers what is left of its error when it stops (its
 /// tolerance is [`FREQUENCY_TOLERANCE`]), so that the step stays on the safe side of the
 /// exact limit while within a few per cent of it (tests/time_step.rs).
@@ -221,7 +221,8 @@ pub struct FrequencyEstimate {
 ///   ⇒  ω²_max = λ_max(M_a⁻¹ K M_v⁻¹ M),   K = G diag(V C) Gᵀ,   M = N diag(m) Nᵀ
 /// ```
 ///
-/// The particle update is a leapfrog pair, stable for `Δt ≤ 2/ω_max`. Here `M` is always the
+/// With FLIP the particle update is a leapfrog pair, stable for `Δt ≤ 2/ω_max` (PIC-type
+/// transfers: see [`mpm_critical_time_step`]). Here `M` is always the
 /// particles' own consistent mass, whatever masses the solves use, so the lumped mass gives
 /// `λ_max(M_L⁻¹ K M_L⁻¹ M)`, which stays bounded where a node's support empties. With
 /// `M_a = M_v = M_s` the operator `M_s⁻¹ M M_s⁻¹ K` is self-adjoint in the `K` inner product and
@@ -298,11 +299,22 @@ pub fn mpm_max_frequency_squared(
     })
 }
 
-/// The stable step of the explicit MPM update, `TIME_STEP_SAFETY · 2/ω_max` with `ω²_max` from
-/// [`mpm_max_frequency_squared`] (`f64::INFINITY` without stiffness).
-pub fn mpm_critical_time_step(estimate: &FrequencyEstimate) -> f64 {
+/// The stable step of the explicit MPM update:
+///
+/// ```text
+/// Δt = TIME_STEP_SAFETY · √(2 (1 + α)) / ω_max
+/// ```
+///
+/// with `ω²_max` from [`mpm_max_frequency_squared`] and `α` the weight with which the particle
+/// velocity keeps its own value (FLIP 1, a blend its FLIP weight, PIC, APIC, XPIC and FMPM 0).
+/// A PIC-type update replaces `v_p` by `Φ v_p − Δt P σ` with a filter `Φ = Nᵀ M_v⁻¹ N diag(m)`
+/// whose eigenvalues `φ` lie in `[α, 1]`; on a mode with `Δt² ω² = x` the update's characteristic
+/// polynomial `λ² − (1 + φ − x) λ + φ` has its roots in the unit disk exactly when
+/// `x ≤ 2 (1 + φ)` (Jury), so FLIP (`φ = 1`) is stable up to `2/ω` and a pure PIC filter, whose
+/// smallest `φ` sit on the same high modes, only up to `√2/ω`. `f64::INFINITY` without stiffness.
+pub fn mpm_critical_time_step(estimate: &FrequencyEstimate, flip_weight: f64) -> f64 {
     if estimate.omega_squared > 0.0 {
-        TIME_STEP_SAFETY * 2.0 / estimate.omega_squared.sqrt()
+        TIME_STEP_SAFETY * (2.0 * (1.0 + flip_weight.clamp(0.0, 1.0))).sqrt() / estimate.omega_squared.sqrt()
     } else {
         f64::INFINITY
     }
