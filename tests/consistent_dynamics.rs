@@ -377,3 +377,59 @@ fn xpic_1_and_fmpm_1_give_pic_velocities_and_fmpm_1_is_pic_with_the_trapezoidal_
     assert!(diff(&pic.vx, &xpic.vx) < 1e-15 && diff(&pic.vy, &xpic.vy) < 1e-15);
     assert!(diff(&pic.x, &xpic.x) > 0.0, "XPIC(1) moves particles by its own rule");
 }
+
+/// Nairn's two-disk impact (examples/fmpm_disks.rs) on `cells` cells: total energy lost by
+/// t = 6, relative to the initial.
+fn nairn_disks_energy_loss(cells: usize, transfer: &str) -> f64 {
+    let h = 1.0 / cells as f64;
+    let body = |x: f64, v: f64| {
+        format!(
+            "[[bodies]]\nname = \"disk at {x}\"\nmaterial = {{ model = \"neo_hookean\", youngs_modulus = 1000.0, \
+             poisson_ratio = 0.33 }}\ndensity = 1000.0\nparticles_per_cell = 2\nvelocity = [{v}, 0.0]\n\
+             geometry = {{ disk = {{ center = [{x}, 0.5], radius = 0.2 }} }}\n"
+        )
+    };
+    let text = format!(
+        "[grid]\ncell_size = [{h}, {h}]\ncells = [{cells}, {cells}]\n[schemes]\nshape = {{ gimp = {{ half_width = \
+         0.25 }} }}\nupdate = \"usl\"\ntransfer = {transfer}\n[time]\nend = 6.0\ncfl = 0.2\n{}{}",
+        body(0.29, 0.0061),
+        body(0.71, -0.0061)
+    );
+    let mut sim = Scene::from_toml_str(&text).unwrap().build().unwrap();
+    let mut first = None;
+    let mut last = 0.0;
+    sim.run_until(6.0, |_, r| {
+        first.get_or_insert(r.total_energy);
+        last = r.total_energy;
+        Ok(())
+    })
+    .unwrap();
+    let e0 = first.unwrap();
+    (e0 - last) / e0
+}
+
+#[test]
+fn fmpm_energy_loss_on_the_two_disks_falls_with_k_and_does_not_grow_under_refinement() {
+    let ks = [4, 8, 16];
+    let losses: Vec<Vec<f64>> = [20, 40]
+        .iter()
+        .map(|&cells| {
+            ks.iter()
+                .map(|k| nairn_disks_energy_loss(cells, &format!("{{ fmpm = {{ k = {k} }} }}")))
+                .collect()
+        })
+        .collect();
+    for (cells, row) in [20, 40].iter().zip(&losses) {
+        assert!(row.iter().all(|&l| l > 0.0), "{cells} cells: FMPM dissipates, {row:?}");
+        assert!(
+            row.windows(2).all(|w| w[1] < w[0]),
+            "{cells} cells: loss falls with k {ks:?}: {row:?}"
+        );
+    }
+    for (k, (coarse, fine)) in ks.iter().zip(losses[0].iter().zip(&losses[1])) {
+        assert!(
+            fine < coarse,
+            "FMPM({k}): loss {fine} on 40 cells against {coarse} on 20"
+        );
+    }
+}
