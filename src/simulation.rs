@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::boundary::{self, BoundaryCondition, Prescribed};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::mass::{Constraints, GridMass, MassOptions, MassScheme, Role, SolveOutcome, SolveReport};
+use crate::mass::{GridMass, MassOptions, MassScheme, Role, SolveOutcome, SolveReport};
 use crate::material::Material;
 use crate::operators::{Operator, Operators};
 use crate::particles::Particles;
@@ -123,12 +123,6 @@ impl Transfer {
             Transfer::Blend { flip } => flip,
             _ => 0.0,
         }
-    }
-
-    /// Whether the particle velocity is incremented by the change of the grid velocity (FLIP
-    /// and the FLIP part of a blend).
-    fn increments(&self) -> bool {
-        matches!(self, Transfer::Flip | Transfer::Blend { .. })
     }
 }
 
@@ -358,9 +352,6 @@ pub struct Simulation {
     density: Vec<f64>,
     ops: Operators,
     grid_mass: GridMass,
-    /// The velocity projection without boundary conditions, for FLIP's increment when the
-    /// velocity mass is not lumped and some degree of freedom is prescribed.
-    free_mass: GridMass,
     time: f64,
     steps: usize,
     failed: Option<String>,
@@ -515,7 +506,6 @@ impl Simulation {
             density,
             ops,
             grid_mass: GridMass::default(),
-            free_mass: GridMass::default(),
             time: 0.0,
             steps: 0,
             failed: None,
@@ -952,14 +942,6 @@ impl Simulation {
                 &self.prescribed.constraints,
             )?;
         }
-        if self.needs_free_projection() {
-            let velocity_only = MassOptions {
-                acceleration: MassScheme::Lumped,
-                ..self.options.mass
-            };
-            self.free_mass
-                .update(&self.ops, &self.particles.mass, &velocity_only, &Constraints::none())?;
-        }
         Ok(())
     }
 
@@ -968,10 +950,9 @@ impl Simulation {
         m.velocity != MassScheme::Lumped || m.acceleration != MassScheme::Lumped
     }
 
-    /// (6) `v = Π M_v⁻¹ q` into `work.v`, and FLIP's reference `ṽ = M_v⁻¹ q` without the
-    /// boundary conditions into `work.v_free` (see [`Simulation::grid_to_particle`]).
+    /// (6) `v = Π M_v⁻¹ q` into `work.v`, and FLIP's reference `ṽ` into `work.v_free`: `v` with
+    /// the lumped `q / m_L` on the prescribed components (see [`Simulation::grid_to_particle`]).
     fn project_velocity(&mut self) -> Result<SolveReport> {
-        let free_projection = self.needs_free_projection();
         let w = &mut self.work;
         let report = if self.options.mass.velocity == MassScheme::Lumped {
             divide_by_lumped(&w.inv_m, &w.q, &mut w.v)
@@ -982,26 +963,18 @@ impl Simulation {
             w.v = v;
             report
         };
-        if free_projection {
-            // The velocity mass couples the prescribed nodes to their neighbours: solve again
-            // without the constraints.
-            w.v_free = self.free_mass.solve(Role::Velocity, &w.q, None, &self.ops)?.0;
-        } else {
-            w.v_free.x.clone_from(&w.v.x);
-            w.v_free.y.clone_from(&w.v.y);
+        // FLIP's reference: the projection, with the lumped velocity q / m_L on the prescribed
+        // components (what they would have without their condition).
+        w.v_free.x.clone_from(&w.v.x);
+        w.v_free.y.clone_from(&w.v.y);
+        for &i in &self.prescribed.constraints.fixed_x {
+            w.v_free.x[i] = w.q.x[i] * w.inv_m[i];
+        }
+        for &i in &self.prescribed.constraints.fixed_y {
+            w.v_free.y[i] = w.q.y[i] * w.inv_m[i];
         }
         self.prescribed.apply_velocity(&mut w.v.x, &mut w.v.y);
         Ok(report)
-    }
-
-    /// Whether FLIP's reference needs a velocity solve of its own: the transfer increments, the
-    /// velocity mass is not lumped (a lumped projection is unconstrained before `Π`), and some
-    /// degree of freedom is prescribed.
-    fn needs_free_projection(&self) -> bool {
-        let c = &self.prescribed.constraints;
-        self.options.transfer.increments()
-            && self.options.mass.velocity != MassScheme::Lumped
-            && !(c.fixed_x.is_empty() && c.fixed_y.is_empty())
     }
 
     /// (7) `a = Π₀ M_a⁻¹ f` into `work.a`.
@@ -1143,9 +1116,9 @@ impl Simulation {
     /// increments (applied by [`Simulation::move_particles`]) and, when `with_gradient`,
     /// `L = [Gxᵀ u, Gyᵀ u]` with `u` the velocity the stress update reads (`w`, or FMPM's `v*`).
     ///
-    /// FLIP's increment is `Nᵀ (w − ṽ)` with `ṽ = M_v⁻¹ q` the projection *without* boundary
-    /// conditions, for every mass scheme: the prescribed velocities then act on the particles as
-    /// the reaction forces that impose them would (docs/formulation.md).
+    /// FLIP's increment is `Nᵀ (w − ṽ)`, `ṽ` the projection `v` with the lumped `q / m_L` on the
+    /// prescribed components, for every mass scheme: a condition then changes the velocity of the
+    /// particles near it as a force imposing it on a lumped node would (docs/formulation.md).
     fn grid_to_particle(&mut self, dt: f64, with_gradient: bool) {
         let (ops, p, w) = (&self.ops, &mut self.particles, &mut self.work);
         let np = p.len();

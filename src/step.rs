@@ -12,26 +12,25 @@
 //! | (5) | `f_int = −(Gx (V∘σxx) + Gy (V∘σxy), Gx (V∘σxy) + Gy (V∘σyy))` | [`internal_force`] |
 //! | (6) | `a = M⁻¹ (f_ext + f_int)` | [`GridMass::solve`] |
 //! | (7) | `v̄ = M⁻¹ q` | [`GridMass::solve`] |
-//! | (7b) | `ṽ = M⁻¹ q` without the constraints (FLIP's reference) | [`GridMass::solve`] |
+//! | (7b) | `ṽ`: `v̄` with `q / m_L` on the constrained components (FLIP's reference) | `flip_reference` |
 //! | (8) | `v̄' = v̄ + Δt a` | [`VectorField::add_scaled`] |
 //! | (8b) | massless nodes in a particle's support take the mean particle velocity | [`extend_to_massless_nodes`] |
 //! | (9) | `x ← x + Δt Nᵀ v̄'` (or the trapezoidal rule) | [`update_positions`] |
-//! | (10) | `v ← v + Nᵀ (v̄' − ṽ)`, `ṽ = M⁻¹ q` without constraints (`= v + Δt Nᵀ a` when none) | [`flip_update`] |
+//! | (10) | `v ← v + Nᵀ (v̄' − ṽ)` (`= v + Δt Nᵀ a` without constraints) | [`flip_update`] |
 //! | (11) | `L = (Gxᵀ v̄', Gyᵀ v̄')`, `ε̇ = sym L` | [`velocity_gradient`], [`strain_rate`] |
 //! | (12) | `σ ← σ + C : (ε̇ Δt)` | [`LinearElastic::update_stress`] |
 //! | (13) | `V ← V (1 + Δt tr ε̇)` | [`update_volumes`] |
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::mass::{Constraints, GridMass, MassOptions, MassScheme, Role, SolveReport};
+use crate::mass::{Constraints, GridMass, MassOptions, Role, SolveReport};
 use crate::material::LinearElastic;
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::transfer::{
-    divide_by_lumped, extend_to_massless_nodes, external_force, flip_update, internal_force, momentum, strain_rate,
-    update_positions, update_positions_trapezoidal, update_volumes, velocity_gradient, StrainRate, VectorField,
-    VelocityGradient,
+    extend_to_massless_nodes, external_force, flip_update, internal_force, momentum, strain_rate, update_positions,
+    update_positions_trapezoidal, update_volumes, velocity_gradient, StrainRate, VectorField, VelocityGradient,
 };
 
 /// How particle positions move in step (9).
@@ -125,7 +124,7 @@ pub fn explicit_step(
     let f_int = internal_force(&ops, &p.volume, &p.sxx, &p.syy, &p.sxy); //                               (5)
     let (a, a_report) = mass.solve(Role::Acceleration, &f_ext.add_scaled(1.0, &f_int), None, &ops)?; //  (6)
     let (v, v_report) = mass.solve(Role::Velocity, &q, None, &ops)?; //                                  (7)
-    let v_free = unconstrained_projection(&ops, p, &mass, &q, &v, options)?; //                          (7b)
+    let v_free = flip_reference(&mass, &q, &v, &options.constraints); //                                (7b)
     let mut v_new = v.add_scaled(dt, &a); //                                                             (8)
     extend_to_massless_nodes(&ops, &mass.active, &mut v_new); //                                        (8b)
     move_particles(&ops, p, &v_new, dt, options.position_update); //                                     (9)
@@ -150,28 +149,18 @@ pub fn explicit_step(
     })
 }
 
-/// (7b) FLIP's reference `ṽ = M⁻¹ q` without the constraints: `v` itself when nothing is
-/// constrained, else a solve of its own (for the lumped mass, `q / m_L` on the active nodes).
-fn unconstrained_projection(
-    ops: &Operators,
-    p: &Particles,
-    mass: &GridMass,
-    q: &VectorField,
-    v: &VectorField,
-    options: &StepOptions,
-) -> Result<VectorField> {
-    if options.constraints.is_empty() {
-        return Ok(v.clone());
+/// (7b) FLIP's reference: the projection `v`, with the lumped velocity `q / m_L` on the
+/// constrained components (what they would have without their condition).
+fn flip_reference(mass: &GridMass, q: &VectorField, v: &VectorField, constraints: &Constraints) -> VectorField {
+    let mut reference = v.clone();
+    let lumped = |i: usize, qi: f64| if mass.lumped[i] > 0.0 { qi / mass.lumped[i] } else { 0.0 };
+    for &i in &constraints.fixed_x {
+        reference.x[i] = lumped(i, q.x[i]);
     }
-    if options.mass.velocity == MassScheme::Lumped {
-        return Ok(divide_by_lumped(q, &mass.lumped, &mass.active));
+    for &i in &constraints.fixed_y {
+        reference.y[i] = lumped(i, q.y[i]);
     }
-    let velocity_only = MassOptions {
-        acceleration: MassScheme::Lumped,
-        ..options.mass
-    };
-    let free = GridMass::new(ops, &p.mass, &velocity_only, &Constraints::none())?;
-    Ok(free.solve(Role::Velocity, q, None, ops)?.0)
+    reference
 }
 
 /// Step (9) with the chosen rule.

@@ -263,12 +263,14 @@ pub fn update_velocities(ops: &Operators, vx: &mut [f64], vy: &mut [f64], a: &Ve
 /// library (docs/formulation.md):
 ///
 /// ```text
-/// v_p ← v_p + Nᵀ (v̄′ − ṽ),   ṽ = M⁻¹ q  without boundary conditions
+/// v_p ← v_p + Nᵀ (v̄′ − ṽ),   ṽ_I,c = v̄_I,c  (free),   q_I,c / m_L,I  (prescribed)
 /// ```
 ///
-/// Without prescribed degrees of freedom `v̄′ − ṽ = Δt a` and this is the seed's
-/// `v_p ← v_p + Δt Nᵀ a` ([`update_velocities`]); with them, the prescribed velocities act on the
-/// particles as the reaction forces that impose them would.
+/// `ṽ` is the projected grid velocity with, on each prescribed component, the lumped velocity
+/// the node would have without its condition. Without prescribed degrees of freedom
+/// `v̄′ − ṽ = Δt a` and this is the seed's `v_p ← v_p + Δt Nᵀ a` ([`update_velocities`]); with
+/// them, a condition changes the particles near it as a force imposing it on a lumped node
+/// would, whatever the mass scheme.
 ///
 /// # Panics
 /// On length mismatch.

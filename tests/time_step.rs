@@ -116,7 +116,7 @@ fn schemes() -> Vec<MassOptions> {
         MassOptions::both(MassScheme::Lumped),
         MassOptions::both(MassScheme::Consistent),
         MassOptions {
-            stabilization: Stabilization::PartialLumping { threshold: 0.5 },
+            stabilization: Stabilization::GhostPenalty { gamma: 0.1 },
             ..MassOptions::both(MassScheme::Consistent)
         },
         MassOptions::both(MassScheme::Blended { gamma: 0.5 }),

@@ -48,12 +48,13 @@ pub enum Stabilization {
     /// The plain consistent mass `M = N diag(m) Nᵀ`: unstable in a time loop once a body's edge
     /// crosses a grid line.
     None,
-    /// Ghost penalty on the faces of the cells at a body's boundary (the default).
+    /// Ghost penalty on the faces of the cells at a body's boundary.
     GhostPenalty {
         /// Penalty weight γ (> 0), relative to a full node's mass.
         gamma: f64,
     },
-    /// Partial lumping of the nodes with little mass relative to their neighbours.
+    /// Partial lumping of the nodes with little mass relative to their neighbours (the
+    /// default, θ = ½).
     PartialLumping {
         /// Relative nodal mass θ in (0, 1] below which a node's couplings are lumped in
         /// proportion.
@@ -62,9 +63,12 @@ pub enum Stabilization {
 }
 
 impl Default for Stabilization {
+    /// Partial lumping with θ = ½: measured cheapest of the remedies that keep every kernel
+    /// stable, and the consistent mass itself wherever nodes are at least as well supported as
+    /// on a straight grid-aligned edge (docs/mass.md).
     fn default() -> Self {
-        Stabilization::GhostPenalty {
-            gamma: DEFAULT_GHOST_PENALTY,
+        Stabilization::PartialLumping {
+            threshold: DEFAULT_LUMPING_THRESHOLD,
         }
     }
 }
