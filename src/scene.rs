@@ -12,10 +12,11 @@
 //! [schemes]                      # every key optional; defaults shown
 //! shape = "linear"               # "quadratic_bspline", "cubic_bspline", { gimp = { half_width = 0.25 } }
 //! update = "usl"                 # "usf", "musl"
-//! transfer = "flip"              # "pic", "apic", { blend = { flip = 0.95 } }
+//! transfer = "flip"              # "pic", "apic", { blend = { flip = 0.95 } }, { fmpm = { k = 8 } }, { xpic = { k = 4 } }
 //! position_update = "grid_velocity"   # or "trapezoidal"
 //! sort_interval = 50             # re-sort particles by cell every 50 steps (0: never)
 //! mass = { velocity = "lumped", acceleration = "lumped", singularity = "error" }
+//!                                # stabilization = { partial_lumping = { threshold = 0.5 } } (consistent mass)
 //!
 //! [time]
 //! end = 3.0

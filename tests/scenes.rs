@@ -458,7 +458,7 @@ fn mpm_matrices_writes_matrix_market_files() {
 
 #[test]
 fn every_documented_scheme_spelling_parses_to_its_value() {
-    use sparse_mpm::mass::{MassScheme, SingularityPolicy};
+    use sparse_mpm::mass::{MassScheme, SingularityPolicy, Stabilization};
     use sparse_mpm::simulation::{Transfer, UpdateScheme};
     use sparse_mpm::step::PositionUpdate;
     use sparse_mpm::ShapeFunction;
@@ -509,6 +509,36 @@ mass = { velocity = { truncated_series = { k = 3 } }, acceleration = { iterative
         );
         assert_eq!(Scene::from_toml_str(&text).unwrap().schemes.mass.singularity, policy);
     }
+    for (spelling, stabilization) in [
+        ("\"none\"", Stabilization::None),
+        (
+            "{ partial_lumping = { threshold = 0.25 } }",
+            Stabilization::PartialLumping { threshold: 0.25 },
+        ),
+        (
+            "{ ghost_penalty = { gamma = 0.1 } }",
+            Stabilization::GhostPenalty { gamma: 0.1 },
+        ),
+    ] {
+        let text = BASE.replace(
+            "[time]",
+            &format!("[schemes]\nmass = {{ stabilization = {spelling} }}\n\n[time]"),
+        );
+        let parsed = Scene::from_toml_str(&text).unwrap();
+        assert_eq!(parsed.schemes.mass.stabilization, stabilization);
+        assert_eq!(Scene::from_toml_str(&parsed.to_toml_string().unwrap()).unwrap(), parsed);
+    }
+    for (spelling, transfer) in [
+        ("{ xpic = { k = 4 } }", Transfer::Xpic { k: 4 }),
+        ("{ fmpm = { k = 8 } }", Transfer::Fmpm { k: 8 }),
+    ] {
+        let text = BASE.replace("[time]", &format!("[schemes]\ntransfer = {spelling}\n\n[time]"));
+        let parsed = Scene::from_toml_str(&text).unwrap();
+        assert_eq!(parsed.schemes.transfer, transfer);
+        assert_eq!(Scene::from_toml_str(&parsed.to_toml_string().unwrap()).unwrap(), parsed);
+    }
+    let text = BASE.replace("[time]", "[time]\nstability_interval = 7");
+    assert_eq!(Scene::from_toml_str(&text).unwrap().options().stability_interval, 7);
     // And it round-trips.
     assert_eq!(Scene::from_toml_str(&scene.to_toml_string().unwrap()).unwrap(), scene);
 }
