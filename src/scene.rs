@@ -22,7 +22,7 @@
 //! end = 3.0
 //! cfl = 0.5                      # or dt = 1e-3 (checked against the stable estimate)
 //! allow_unstable = false
-//! stability_interval = 50        # steps between estimates of the stable step
+//! stability_interval = 100       # steps between estimates of the stable step
 //!
 //! [loads]
 //! gravity = [0.0, 0.0]

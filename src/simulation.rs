@@ -52,7 +52,7 @@ use crate::stiffness::{self, FrequencyEstimate};
 use crate::transfer::{extend_to_inactive_nodes, series_velocity_into, ExtensionScratch, SeriesScratch, VectorField};
 
 /// Default [`Options::stability_interval`]: steps between estimates of the stable time step.
-pub const DEFAULT_STABILITY_INTERVAL: usize = 50;
+pub const DEFAULT_STABILITY_INTERVAL: usize = 100;
 
 /// When the stress is updated relative to the grid solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -21,15 +21,7 @@ pub fn lanczos_extremes(
     mut apply_t: impl FnMut(&[f64]) -> Vec<f64>,
     mut apply_b: impl FnMut(&[f64]) -> Vec<f64>,
 ) -> Option<(f64, f64)> {
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-    let mut v = start.to_vec();
-    let mut bv = apply_b(&v);
-    let norm = dot(&v, &bv).max(0.0).sqrt();
-    if norm == 0.0 || !norm.is_finite() {
-        return None;
-    }
-    v.iter_mut().for_each(|x| *x /= norm);
-    bv.iter_mut().for_each(|x| *x /= norm);
+    let (v, bv) = normalized(start, &mut apply_b)?;
     let (mut basis, mut b_basis) = (vec![v], vec![bv]);
     let (mut alpha, mut beta): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
     for j in 0..steps {
@@ -53,20 +45,26 @@ pub fn lanczos_extremes(
         basis.push(w.iter().map(|x| x / b).collect());
         b_basis.push(bw.iter().map(|x| x / b).collect());
     }
-    let m = alpha.len();
-    let t = nalgebra::DMatrix::from_fn(m, m, |i, j| {
-        if i == j {
-            alpha[i]
-        } else if i + 1 == j {
-            beta[i]
-        } else if j + 1 == i {
-            beta[j]
-        } else {
-            0.0
-        }
-    });
-    let eig = nalgebra::SymmetricEigen::new(t).eigenvalues;
+    let eig = tridiagonal_eigenvalues(&alpha, &beta);
     Some((eig.min(), eig.max()))
+}
+
+/// `x ⋅ y`.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `start` and `B start` scaled to unit `B`-norm, or `None` when that norm is zero or not finite.
+fn normalized(start: &[f64], apply_b: &mut impl FnMut(&[f64]) -> Vec<f64>) -> Option<(Vec<f64>, Vec<f64>)> {
+    let mut v = start.to_vec();
+    let mut bv = apply_b(&v);
+    let norm = dot(&v, &bv).max(0.0).sqrt();
+    if norm == 0.0 || !norm.is_finite() {
+        return None;
+    }
+    v.iter_mut().for_each(|x| *x /= norm);
+    bv.iter_mut().for_each(|x| *x /= norm);
+    Some((v, bv))
 }
 
 /// A deterministic start vector with entries in (0.5, 1.5) on the given positions, 0 elsewhere
@@ -106,15 +104,7 @@ pub fn lanczos_max(
     mut apply_t: impl FnMut(&[f64]) -> Vec<f64>,
     mut apply_b: impl FnMut(&[f64]) -> Vec<f64>,
 ) -> Option<(f64, usize)> {
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-    let mut v = start.to_vec();
-    let mut bv = apply_b(&v);
-    let norm = dot(&v, &bv).max(0.0).sqrt();
-    if norm == 0.0 || !norm.is_finite() {
-        return None;
-    }
-    v.iter_mut().for_each(|x| *x /= norm);
-    bv.iter_mut().for_each(|x| *x /= norm);
+    let (mut v, mut bv) = normalized(start, &mut apply_b)?;
     let (mut v_prev, mut bv_prev) = (vec![0.0; v.len()], vec![0.0; v.len()]);
     let (mut alpha, mut beta): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
     let mut history: Vec<f64> = Vec::new();
@@ -131,7 +121,7 @@ pub fn lanczos_max(
         for k in 0..w.len() {
             w[k] -= c * v[k] + c_prev * v_prev[k];
         }
-        let top = tridiagonal_max(&alpha, &beta);
+        let top = tridiagonal_eigenvalues(&alpha, &beta).max();
         history.push(top);
         let settled = history.len() > 5 && {
             let old = history[history.len() - 6];
@@ -150,9 +140,9 @@ pub fn lanczos_max(
     unreachable!("the loop returns at its last step")
 }
 
-/// The largest eigenvalue of the symmetric tridiagonal matrix with diagonal `alpha` and
-/// off-diagonal `beta` (`beta.len() ≥ alpha.len() − 1`; extra entries are ignored).
-fn tridiagonal_max(alpha: &[f64], beta: &[f64]) -> f64 {
+/// The eigenvalues of the symmetric tridiagonal matrix with diagonal `alpha` and off-diagonal
+/// `beta` (`beta.len() ≥ alpha.len() − 1`; extra entries are ignored).
+fn tridiagonal_eigenvalues(alpha: &[f64], beta: &[f64]) -> nalgebra::DVector<f64> {
     let m = alpha.len();
     let t = nalgebra::DMatrix::from_fn(m, m, |i, j| {
         if i == j {
@@ -165,5 +155,5 @@ fn tridiagonal_max(alpha: &[f64], beta: &[f64]) -> f64 {
             0.0
         }
     });
-    nalgebra::SymmetricEigen::new(t).eigenvalues.max()
+    nalgebra::SymmetricEigen::new(t).eigenvalues
 }
