@@ -1,5 +1,6 @@
-//! After the first step, a step with lumped mass allocates nothing. This file holds a single
-//! test so that the counting allocator sees no other test's allocations.
+//! After the first step, a step with lumped mass allocates nothing (the estimate of the stable
+//! step every `Options::stability_interval` steps does; the ten counted steps hold none). This
+//! file holds a single test so that the counting allocator sees no other test's allocations.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
