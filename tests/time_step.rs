@@ -133,6 +133,12 @@ fn check_estimates(shape: ShapeFunction, body: fn(&Grid) -> Particles) {
         let sim = simulation(&grid, shape, &p, mass, TimeStep::Cfl { number: 1.0 }).unwrap();
         let estimate = sim.stable_time_step();
         let ratio = estimate / exact;
+        println!(
+            "{:<18} {:<14} {:<14} exact {exact:.4e}  estimate/exact {ratio:.4}",
+            shape.name(),
+            mass.acceleration.label(),
+            mass.stabilization.label()
+        );
         assert!(
             (1.0 - WITHIN..=1.0).contains(&ratio),
             "{} with {} / {}: estimate {estimate:.5e}, exact {exact:.5e} (ratio {ratio:.4})",
