@@ -1,0 +1,205 @@
+//! The fringe stabilisations of the consistent mass: symmetric, positive semi-definite changes
+//! that keep the row sums, vanish where they must, and act where a body's edge leaves nodes with
+//! little support.
+
+use nalgebra::{DMatrix, SymmetricEigen};
+use sparse_mpm::mass::stabilization::{ghost_penalty, partially_lumped};
+use sparse_mpm::mass::{active_nodes, consistent_mass, lumped_mass, Stabilization};
+use sparse_mpm::{Grid, Operators, Particles, ShapeFunction};
+
+/// Relative round-off allowance for sums over a few hundred entries.
+const ROUND_OFF: f64 = 1e-12;
+
+const SHAPES: [ShapeFunction; 4] = [
+    ShapeFunction::Linear,
+    ShapeFunction::Gimp { half_width: 0.25 },
+    ShapeFunction::QuadraticBSpline,
+    ShapeFunction::CubicBSpline,
+];
+
+/// A disk of 2 × 2 particles per cell whose edge particles sit just past grid lines.
+fn disk(grid: &Grid) -> Particles {
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for j in 0..32 {
+        for i in 0..32 {
+            let (px, py) = ((i as f64 + 0.5) / 2.0, (j as f64 + 0.5) / 2.0);
+            if (px - 8.0f64).hypot(py - 8.0) < 4.5 {
+                x.push(px + 0.27);
+                y.push(py + 0.11);
+            }
+        }
+    }
+    let n = x.len();
+    Particles::new(x, y, vec![0.25; n], vec![0.25; n]).unwrap()
+}
+
+fn dense(m: &nalgebra_sparse::CscMatrix<f64>) -> DMatrix<f64> {
+    let mut d = DMatrix::zeros(m.nrows(), m.ncols());
+    for (i, j, v) in m.triplet_iter() {
+        d[(i, j)] += *v;
+    }
+    d
+}
+
+fn setup(shape: ShapeFunction) -> (Grid, Operators, Vec<f64>, Vec<bool>) {
+    let grid = Grid::new([0.0, 0.0], [1.0, 1.0], [16, 16]).unwrap();
+    let p = disk(&grid);
+    let ops = Operators::assemble(&grid, shape, &p).unwrap();
+    let lumped = lumped_mass(&ops, &p.mass);
+    let mut active = vec![false; lumped.len()];
+    active_nodes(&lumped, 1e-12).into_iter().for_each(|i| active[i] = true);
+    (grid, ops, lumped, active)
+}
+
+#[test]
+fn the_ghost_penalty_is_symmetric_positive_semidefinite_and_zero_on_polynomials_of_the_kernel_degree() {
+    for shape in SHAPES {
+        let (grid, ops, lumped, active) = setup(shape);
+        let p = dense(&ghost_penalty(&ops, &lumped, &active, 1.0));
+        let scale = p.abs().max();
+        assert!(scale > 0.0, "{}: the disk's boundary faces are penalised", shape.name());
+        assert!(
+            (&p - p.transpose()).abs().max() <= ROUND_OFF * scale,
+            "{}: symmetric",
+            shape.name()
+        );
+        let eig = SymmetricEigen::new(p.clone()).eigenvalues;
+        assert!(
+            eig.min() >= -ROUND_OFF * scale,
+            "{}: PSD, λ_min = {}",
+            shape.name(),
+            eig.min()
+        );
+        // Nodal values that are polynomials of degree ≤ p in each index: their (p+1)-th
+        // differences, the jumps of the p-th derivative, vanish.
+        let degree = match shape {
+            ShapeFunction::QuadraticBSpline => 2,
+            ShapeFunction::CubicBSpline => 3,
+            _ => 1,
+        };
+        let n = grid.num_nodes();
+        for (a, b) in [
+            (0, 0),
+            (1, 0),
+            (0, 1),
+            (1, 1),
+            (degree, 0),
+            (0, degree),
+            (degree, degree),
+        ] {
+            let u = nalgebra::DVector::from_fn(n, |id, _| {
+                let (i, j) = grid.node_ij(id);
+                (i as f64 / 7.0).powi(a) * (j as f64 / 5.0).powi(b)
+            });
+            let pu = &p * &u;
+            assert!(
+                pu.amax() <= 1e-10 * scale * u.amax(),
+                "{}: P (i^{a} j^{b}) = {:e}",
+                shape.name(),
+                pu.amax()
+            );
+        }
+        // A kink is penalised.
+        let kink = nalgebra::DVector::from_fn(n, |id, _| (grid.node_ij(id).0 as f64 - 8.0).abs());
+        assert!((kink.transpose() * &p * &kink)[0] > 0.0, "{}", shape.name());
+    }
+}
+
+#[test]
+fn partial_lumping_keeps_row_sums_symmetry_and_the_interior_and_lumps_the_fringe() {
+    for shape in SHAPES {
+        let (_, ops, lumped, _) = setup(shape);
+        let p = disk(ops.grid().unwrap());
+        let m = consistent_mass(&ops, &p.mass);
+        let theta = 0.5;
+        let s = partially_lumped(&m, &lumped, theta);
+        let (md, sd) = (dense(&m), dense(&s));
+        let scale = md.abs().max();
+        assert!((&sd - sd.transpose()).abs().max() <= ROUND_OFF * scale);
+        for i in 0..md.nrows() {
+            assert!(
+                (sd.row(i).sum() - lumped[i]).abs() <= ROUND_OFF * scale,
+                "{}: row sum",
+                shape.name()
+            );
+        }
+        // M' − M is a weighted graph Laplacian: positive semi-definite.
+        let eig = SymmetricEigen::new(&sd - &md).eigenvalues;
+        assert!(eig.min() >= -ROUND_OFF * scale, "{}", shape.name());
+        // Couplings between nodes at least as heavy as half their heaviest neighbour are kept;
+        // some fringe coupling is lumped.
+        let phi: Vec<f64> = (0..md.nrows())
+            .map(|i| {
+                let heaviest = (0..md.ncols())
+                    .filter(|&j| md[(i, j)] != 0.0)
+                    .map(|j| lumped[j])
+                    .fold(lumped[i], f64::max);
+                if heaviest > 0.0 {
+                    lumped[i] / heaviest
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let mut lumped_couplings = 0;
+        for i in 0..md.nrows() {
+            for j in 0..md.ncols() {
+                if i != j && md[(i, j)] != 0.0 {
+                    if phi[i].min(phi[j]) >= theta {
+                        assert_eq!(sd[(i, j)], md[(i, j)], "{}: well-supported coupling kept", shape.name());
+                    } else {
+                        lumped_couplings += 1;
+                        assert!(sd[(i, j)].abs() < md[(i, j)].abs(), "{}", shape.name());
+                    }
+                }
+            }
+        }
+        assert!(
+            lumped_couplings > 0,
+            "{}: the fringe has couplings to lump",
+            shape.name()
+        );
+    }
+}
+
+#[test]
+fn stabilisations_keep_a_uniform_velocity_uniform_and_validate_their_parameters() {
+    for stabilization in [
+        Stabilization::GhostPenalty { gamma: 0.1 },
+        Stabilization::PartialLumping { threshold: 0.5 },
+    ] {
+        for shape in SHAPES {
+            let (_, ops, lumped, active) = setup(shape);
+            let p = disk(ops.grid().unwrap());
+            let m = consistent_mass(&ops, &p.mass);
+            let s = dense(&stabilization.apply(&ops, &m, &lumped, &active).unwrap());
+            // M_s 1 = m_L: the momentum of a uniform velocity projects back to it.
+            let ones = nalgebra::DVector::from_element(lumped.len(), 1.0);
+            let row_sums = &s * ones;
+            for i in 0..lumped.len() {
+                assert!((row_sums[i] - lumped[i]).abs() <= ROUND_OFF * lumped.iter().cloned().fold(0.0, f64::max));
+            }
+        }
+    }
+    let (_, ops, lumped, active) = setup(ShapeFunction::Linear);
+    let p = disk(ops.grid().unwrap());
+    assert!(Stabilization::None
+        .apply(&ops, &consistent_mass(&ops, &p.mass), &lumped, &active)
+        .is_none());
+    for bad in [
+        Stabilization::GhostPenalty { gamma: -1.0 },
+        Stabilization::GhostPenalty { gamma: f64::NAN },
+        Stabilization::PartialLumping { threshold: 0.0 },
+        Stabilization::PartialLumping { threshold: 1.5 },
+    ] {
+        let options = sparse_mpm::mass::MassOptions {
+            stabilization: bad,
+            ..sparse_mpm::mass::MassOptions::both(sparse_mpm::mass::MassScheme::Consistent)
+        };
+        let err = sparse_mpm::mass::GridMass::new(&ops, &p.mass, &options, &Default::default()).unwrap_err();
+        assert!(
+            matches!(err, sparse_mpm::MpmError::InvalidParameter { .. }),
+            "{bad:?}: {err}"
+        );
+    }
+}
