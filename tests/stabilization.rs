@@ -17,8 +17,8 @@ const SHAPES: [ShapeFunction; 4] = [
     ShapeFunction::CubicBSpline,
 ];
 
-/// A disk of 2 × 2 particles per cell whose edge particles sit just past grid lines.
-fn disk(grid: &Grid) -> Particles {
+/// A disk of 2 × 2 particles per unit cell whose edge particles sit just past grid lines.
+fn disk() -> Particles {
     let (mut x, mut y) = (Vec::new(), Vec::new());
     for j in 0..32 {
         for i in 0..32 {
@@ -43,7 +43,7 @@ fn dense(m: &nalgebra_sparse::CscMatrix<f64>) -> DMatrix<f64> {
 
 fn setup(shape: ShapeFunction) -> (Grid, Operators, Vec<f64>, Vec<bool>) {
     let grid = Grid::new([0.0, 0.0], [1.0, 1.0], [16, 16]).unwrap();
-    let p = disk(&grid);
+    let p = disk();
     let ops = Operators::assemble(&grid, shape, &p).unwrap();
     let lumped = lumped_mass(&ops, &p.mass);
     let mut active = vec![false; lumped.len()];
@@ -109,7 +109,7 @@ fn the_ghost_penalty_is_symmetric_positive_semidefinite_and_zero_on_polynomials_
 fn partial_lumping_keeps_row_sums_symmetry_and_the_interior_and_lumps_the_fringe() {
     for shape in SHAPES {
         let (_, ops, lumped, _) = setup(shape);
-        let p = disk(ops.grid().unwrap());
+        let p = disk();
         let m = consistent_mass(&ops, &p.mass);
         let theta = 0.5;
         let s = partially_lumped(&m, &lumped, theta);
@@ -170,7 +170,7 @@ fn stabilisations_keep_a_uniform_velocity_uniform_and_validate_their_parameters(
     ] {
         for shape in SHAPES {
             let (_, ops, lumped, active) = setup(shape);
-            let p = disk(ops.grid().unwrap());
+            let p = disk();
             let m = consistent_mass(&ops, &p.mass);
             let s = dense(&stabilization.apply(&ops, &m, &lumped, &active).unwrap());
             // M_s 1 = m_L: the momentum of a uniform velocity projects back to it.
@@ -182,7 +182,7 @@ fn stabilisations_keep_a_uniform_velocity_uniform_and_validate_their_parameters(
         }
     }
     let (_, ops, lumped, active) = setup(ShapeFunction::Linear);
-    let p = disk(ops.grid().unwrap());
+    let p = disk();
     assert!(Stabilization::None
         .apply(&ops, &consistent_mass(&ops, &p.mass), &lumped, &active)
         .is_none());
