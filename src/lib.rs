@@ -45,7 +45,7 @@
 //! (8)  v̄′ = v̄ + Δt a                                               transfer::VectorField::add_scaled
 //! (8b) massless support nodes take the particles' mean velocity    transfer::extend_to_massless_nodes
 //! (9)  x ← x + Δt Nᵀ v̄′                                            transfer::update_positions
-//! (10) v ← v + Nᵀ (v̄′ − ṽ)  (= v + Δt Nᵀ a without constraints)    transfer::flip_update
+//! (10) v ← v + Δt Nᵀ a                                             transfer::update_velocities
 //! (11) L = [Gxᵀ v̄′, Gyᵀ v̄′],  ε̇ = sym L                            transfer::velocity_gradient, strain_rate
 //! (12) σ ← σ + C : (ε̇ Δt)                                          material::LinearElastic::update_stress
 //! (13) V ← V (1 + Δt tr ε̇)                                         transfer::update_volumes
@@ -125,6 +125,7 @@ pub mod spectral;
 pub mod step;
 pub mod stiffness;
 pub mod transfer;
+pub mod verification;
 
 pub use error::{MpmError, Result};
 pub use grid::{Grid, NodeOrder};

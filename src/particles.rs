@@ -9,6 +9,7 @@
 //! permanent id that survives re-sorting.
 
 use crate::error::{MpmError, Result};
+use crate::grid::Grid;
 
 /// The state of all particles. Fields are public so a program can read and set them directly;
 /// [`Particles::validate`] checks a state built by hand.
@@ -322,4 +323,31 @@ fn check_len(field: &'static str, expected: usize, found: usize) -> Result<()> {
     } else {
         Err(MpmError::LengthMismatch { field, expected, found })
     }
+}
+
+/// The centres of a regular sub-lattice of `per_cell × per_cell` points in every cell of `grid`
+/// that lie inside a region, and the volume each stands for:
+///
+/// ```text
+/// x = x₀ + (i + ½) hx / n,   y = y₀ + (j + ½) hy / n,   V = hx hy / n²      (n = per_cell)
+/// ```
+///
+/// Points come row by row (y outer), x ascending.
+pub fn lattice(grid: &Grid, per_cell: usize, inside: impl Fn(f64, f64) -> bool) -> (Vec<f64>, Vec<f64>, f64) {
+    let n = per_cell.max(1);
+    let [hx, hy] = grid.cell_size();
+    let [ox, oy] = grid.origin();
+    let [cx, cy] = grid.cells();
+    let (dx, dy) = (hx / n as f64, hy / n as f64);
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for j in 0..cy * n {
+        for i in 0..cx * n {
+            let (px, py) = (ox + (i as f64 + 0.5) * dx, oy + (j as f64 + 0.5) * dy);
+            if inside(px, py) {
+                x.push(px);
+                y.push(py);
+            }
+        }
+    }
+    (x, y, dx * dy)
 }

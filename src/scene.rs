@@ -495,28 +495,18 @@ impl Scene {
                         ),
                     ));
                 }
-                let n = body.particles_per_cell;
-                let [hx, hy] = grid.cell_size();
-                let [ox, oy] = grid.origin();
-                let [cx, cy] = grid.cells();
-                let (dx, dy) = (hx / n as f64, hy / n as f64);
                 let inside = |px: f64, py: f64| match geometry {
                     Geometry::Rectangle { min, max } => px > min[0] && px < max[0] && py > min[1] && py < max[1],
                     Geometry::Disk { center, radius } => (px - center[0]).hypot(py - center[1]) < *radius,
                     Geometry::File(_) => unreachable!("handled above"),
                 };
-                let mut c = ParticleColumns::default();
-                for j in 0..cy * n {
-                    for i in 0..cx * n {
-                        let (px, py) = (ox + (i as f64 + 0.5) * dx, oy + (j as f64 + 0.5) * dy);
-                        if inside(px, py) {
-                            c.x.push(px);
-                            c.y.push(py);
-                            c.volume.push(dx * dy);
-                        }
-                    }
+                let (x, y, volume) = crate::particles::lattice(grid, body.particles_per_cell, inside);
+                ParticleColumns {
+                    volume: vec![volume; x.len()],
+                    x,
+                    y,
+                    ..ParticleColumns::default()
                 }
-                c
             }
         };
         let count = columns.x.len();

@@ -316,7 +316,6 @@ struct Work {
     q: VectorField,
     f: VectorField,
     v: VectorField,
-    v_free: VectorField,
     v_series: VectorField,
     series: SeriesScratch,
     a: VectorField,
@@ -488,7 +487,6 @@ impl Simulation {
             &mut work.q,
             &mut work.f,
             &mut work.v,
-            &mut work.v_free,
             &mut work.v_series,
             &mut work.a,
             &mut work.w,
@@ -558,6 +556,16 @@ impl Simulation {
     pub fn grid_velocity(&self) -> &VectorField {
         &self.work.w
     }
+    /// Sets every particle's body force per unit mass (besides gravity) to `b(id, x_p)`, with
+    /// `id` the particle's permanent id and `x_p` its current position. For a time-dependent load,
+    /// such as a manufactured solution's, call it before each step with the time in `b`.
+    pub fn set_body_force(&mut self, mut b: impl FnMut(usize, [f64; 2]) -> [f64; 2]) {
+        let p = &mut self.particles;
+        for k in 0..p.len() {
+            [p.bx[k], p.by[k]] = b(p.id[k], [p.x[k], p.y[k]]);
+        }
+    }
+
     /// Reference density of each body (largest `m_p / V₀_p` of its particles).
     pub fn body_densities(&self) -> &[f64] {
         &self.density
@@ -950,8 +958,7 @@ impl Simulation {
         m.velocity != MassScheme::Lumped || m.acceleration != MassScheme::Lumped
     }
 
-    /// (6) `v = Π M_v⁻¹ q` into `work.v`, and FLIP's reference `ṽ` into `work.v_free`: `v` with
-    /// the lumped `q / m_L` on the prescribed components (see [`Simulation::grid_to_particle`]).
+    /// (6) `v = Π M_v⁻¹ q` into `work.v`.
     fn project_velocity(&mut self) -> Result<SolveReport> {
         let w = &mut self.work;
         let report = if self.options.mass.velocity == MassScheme::Lumped {
@@ -963,16 +970,6 @@ impl Simulation {
             w.v = v;
             report
         };
-        // FLIP's reference: the projection, with the lumped velocity q / m_L on the prescribed
-        // components (what they would have without their condition).
-        w.v_free.x.clone_from(&w.v.x);
-        w.v_free.y.clone_from(&w.v.y);
-        for &i in &self.prescribed.constraints.fixed_x {
-            w.v_free.x[i] = w.q.x[i] * w.inv_m[i];
-        }
-        for &i in &self.prescribed.constraints.fixed_y {
-            w.v_free.y[i] = w.q.y[i] * w.inv_m[i];
-        }
         self.prescribed.apply_velocity(&mut w.v.x, &mut w.v.y);
         Ok(report)
     }
@@ -1116,9 +1113,9 @@ impl Simulation {
     /// increments (applied by [`Simulation::move_particles`]) and, when `with_gradient`,
     /// `L = [Gxᵀ u, Gyᵀ u]` with `u` the velocity the stress update reads (`w`, or FMPM's `v*`).
     ///
-    /// FLIP's increment is `Nᵀ (w − ṽ)`, `ṽ` the projection `v` with the lumped `q / m_L` on the
-    /// prescribed components, for every mass scheme: a condition then changes the velocity of the
-    /// particles near it as a force imposing it on a lumped node would (docs/formulation.md).
+    /// FLIP's increment is `Nᵀ (w − v)`, the change of the grid velocity with the boundary
+    /// conditions applied to both (`Δt Nᵀ a` when they are constant), for every mass scheme
+    /// (docs/formulation.md).
     fn grid_to_particle(&mut self, dt: f64, with_gradient: bool) {
         let (ops, p, w) = (&self.ops, &mut self.particles, &mut self.work);
         let np = p.len();
@@ -1140,15 +1137,11 @@ impl Simulation {
         // Linear kernels keep C_p = Σ_I w_I ∇N_Iᵀ itself (see `apic_affine`).
         let linear_apic = transfer == Transfer::Apic && self.options.shape == ShapeFunction::Linear;
         let need_l = with_gradient || linear_apic;
-        // The field the new velocity interpolates, the reference of increments (FLIP's ṽ, XPIC's
-        // v) and the field of the stress update's gradient.
+        // The field the new velocity interpolates, the reference of increments (the projected v)
+        // and the field of the stress update's gradient.
         let series = transfer.series_terms().is_some();
         let target = if series { &w.v_series } else { &w.w };
-        let reference = if matches!(transfer, Transfer::Xpic { .. }) {
-            &w.v
-        } else {
-            &w.v_free
-        };
+        let reference = &w.v;
         let gradient = if matches!(transfer, Transfer::Fmpm { .. }) {
             &w.v_series
         } else {

@@ -12,11 +12,10 @@
 //! | (5) | `f_int = −(Gx (V∘σxx) + Gy (V∘σxy), Gx (V∘σxy) + Gy (V∘σyy))` | [`internal_force`] |
 //! | (6) | `a = M⁻¹ (f_ext + f_int)` | [`GridMass::solve`] |
 //! | (7) | `v̄ = M⁻¹ q` | [`GridMass::solve`] |
-//! | (7b) | `ṽ`: `v̄` with `q / m_L` on the constrained components (FLIP's reference) | `flip_reference` |
 //! | (8) | `v̄' = v̄ + Δt a` | [`VectorField::add_scaled`] |
 //! | (8b) | massless nodes in a particle's support take the mean particle velocity | [`extend_to_massless_nodes`] |
 //! | (9) | `x ← x + Δt Nᵀ v̄'` (or the trapezoidal rule) | [`update_positions`] |
-//! | (10) | `v ← v + Nᵀ (v̄' − ṽ)` (`= v + Δt Nᵀ a` without constraints) | [`flip_update`] |
+//! | (10) | `v ← v + Δt Nᵀ a` (the change of the grid velocity, `a` zero on constrained components) | [`update_velocities`] |
 //! | (11) | `L = (Gxᵀ v̄', Gyᵀ v̄')`, `ε̇ = sym L` | [`velocity_gradient`], [`strain_rate`] |
 //! | (12) | `σ ← σ + C : (ε̇ Δt)` | [`LinearElastic::update_stress`] |
 //! | (13) | `V ← V (1 + Δt tr ε̇)` | [`update_volumes`] |
@@ -29,8 +28,9 @@ use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::transfer::{
-    extend_to_massless_nodes, external_force, flip_update, internal_force, momentum, strain_rate, update_positions,
-    update_positions_trapezoidal, update_volumes, velocity_gradient, StrainRate, VectorField, VelocityGradient,
+    extend_to_massless_nodes, external_force, internal_force, momentum, strain_rate, update_positions,
+    update_positions_trapezoidal, update_velocities, update_volumes, velocity_gradient, StrainRate, VectorField,
+    VelocityGradient,
 };
 
 /// How particle positions move in step (9).
@@ -124,11 +124,10 @@ pub fn explicit_step(
     let f_int = internal_force(&ops, &p.volume, &p.sxx, &p.syy, &p.sxy); //                               (5)
     let (a, a_report) = mass.solve(Role::Acceleration, &f_ext.add_scaled(1.0, &f_int), None, &ops)?; //  (6)
     let (v, v_report) = mass.solve(Role::Velocity, &q, None, &ops)?; //                                  (7)
-    let v_free = flip_reference(&mass, &q, &v, &options.constraints); //                                (7b)
     let mut v_new = v.add_scaled(dt, &a); //                                                             (8)
     extend_to_massless_nodes(&ops, &mass.active, &mut v_new); //                                        (8b)
     move_particles(&ops, p, &v_new, dt, options.position_update); //                                     (9)
-    flip_update(&ops, &mut p.vx, &mut p.vy, &v_new, &v_free); //                                        (10)
+    update_velocities(&ops, &mut p.vx, &mut p.vy, &a, dt); //                                           (10)
     let l = velocity_gradient(&ops, &v_new); //                                                         (11)
     let rate = strain_rate(&l); //                                                                      (11)
     material.update_stress(&mut p.sxx, &mut p.syy, &mut p.sxy, &rate, dt); //                           (12)
@@ -147,20 +146,6 @@ pub fn explicit_step(
         velocity_gradient: l,
         strain_rate: rate,
     })
-}
-
-/// (7b) FLIP's reference: the projection `v`, with the lumped velocity `q / m_L` on the
-/// constrained components (what they would have without their condition).
-fn flip_reference(mass: &GridMass, q: &VectorField, v: &VectorField, constraints: &Constraints) -> VectorField {
-    let mut reference = v.clone();
-    let lumped = |i: usize, qi: f64| if mass.lumped[i] > 0.0 { qi / mass.lumped[i] } else { 0.0 };
-    for &i in &constraints.fixed_x {
-        reference.x[i] = lumped(i, q.x[i]);
-    }
-    for &i in &constraints.fixed_y {
-        reference.y[i] = lumped(i, q.y[i]);
-    }
-    reference
 }
 
 /// Step (9) with the chosen rule.

@@ -245,11 +245,14 @@ pub fn update_positions_trapezoidal(
     axpy(y, 0.5 * dt, &v.y);
 }
 
-/// FLIP particle velocity update (seed 4(D)):
+/// FLIP particle velocity update (seed 4(D)), the library's one FLIP rule (docs/formulation.md):
 ///
 /// ```text
-/// v_p ← v_p + Δt Nᵀ a
+/// v_p ← v_p + Δt Nᵀ a      (= v_p + Nᵀ (v̄′ − v̄), the change of the grid velocity)
 /// ```
+///
+/// `a` is zero on prescribed components, so a boundary condition reaches the particles through
+/// the motion of the free nodes only, whatever the mass scheme.
 ///
 /// # Panics
 /// On length mismatch.
@@ -257,27 +260,6 @@ pub fn update_velocities(ops: &Operators, vx: &mut [f64], vy: &mut [f64], a: &Ve
     let da = interpolate(ops, a);
     axpy(vx, dt, &da.x);
     axpy(vy, dt, &da.y);
-}
-
-/// FLIP particle velocity update by the change of the grid velocity, the one FLIP rule of the
-/// library (docs/formulation.md):
-///
-/// ```text
-/// v_p ← v_p + Nᵀ (v̄′ − ṽ),   ṽ_I,c = v̄_I,c  (free),   q_I,c / m_L,I  (prescribed)
-/// ```
-///
-/// `ṽ` is the projected grid velocity with, on each prescribed component, the lumped velocity
-/// the node would have without its condition. Without prescribed degrees of freedom
-/// `v̄′ − ṽ = Δt a` and this is the seed's `v_p ← v_p + Δt Nᵀ a` ([`update_velocities`]); with
-/// them, a condition changes the particles near it as a force imposing it on a lumped node
-/// would, whatever the mass scheme.
-///
-/// # Panics
-/// On length mismatch.
-pub fn flip_update(ops: &Operators, vx: &mut [f64], vy: &mut [f64], updated: &VectorField, reference: &VectorField) {
-    let dv = interpolate(ops, &updated.add_scaled(-1.0, reference));
-    axpy(vx, 1.0, &dv.x);
-    axpy(vy, 1.0, &dv.y);
 }
 
 /// Volume update from the volumetric strain rate:

@@ -1,0 +1,216 @@
+//! The axially vibrating bar (notes B1, B2): a strip one cell high, rollers on every node, one end
+//! or both fixed, released in its first mode.
+//!
+//! ```text
+//! v(x, 0) = v₀ sin(β x),   v(x, t) = v₀ sin(β x) cos(ω t),   ω = β c,   c = √(E/ρ)
+//! fixed–free:  β = π/(2L), T = 4L/c;     fixed–fixed:  β = π/L, T = 2L/c
+//! v_cm(t) = v₀ (1 − cos βL)/(βL) · cos(ω t)
+//! ```
+//!
+//! Metrics of [`Bar::run`]: `rms_error` (RMS over the steps of `v_cm − v_cm,exact`, relative to
+//! the amplitude of `v_cm`), `period_error` (`T_measured/T − 1`, from the zero crossings of
+//! `v_cm`), `energy_drift` (`max_t |E − E₀|/E₀`), `energy_change` (`E_end/E₀ − 1`),
+//! `stable_time_step` (at the start). Histories: `v_cm`, `v_cm_exact`, `kinetic_energy`,
+//! `strain_energy`, `total_energy`.
+
+use std::f64::consts::PI;
+use std::time::Instant;
+
+use super::{energy_drift, period_from_zero_crossings, Choices, History, Outcome};
+use crate::boundary::{BoundaryCondition, Condition};
+use crate::error::Result;
+use crate::grid::Grid;
+use crate::material::{LinearElastic, Material, PlaneCondition};
+use crate::particles::{lattice, Particles};
+use crate::simulation::{Body, Options, Simulation, TimeStep};
+
+/// Which ends are fixed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ends {
+    /// `x = 0` fixed, `x = L` free (B1).
+    FixedFree,
+    /// Both ends fixed (B2).
+    FixedFixed,
+}
+
+/// The bar's parameters (defaults: E = 100, ρ = 1, L = 25, v₀ = 0.1, two periods).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bar {
+    /// Boundary conditions at the ends.
+    pub ends: Ends,
+    /// Young's modulus `E` (ν = 0, plane stress: a 1D bar).
+    pub youngs_modulus: f64,
+    /// Density `ρ`.
+    pub density: f64,
+    /// Length `L`.
+    pub length: f64,
+    /// Velocity amplitude `v₀`.
+    pub amplitude: f64,
+    /// Simulated time in periods.
+    pub periods: f64,
+}
+
+impl Bar {
+    /// The published parameter set with the given ends.
+    pub fn new(ends: Ends) -> Bar {
+        Bar {
+            ends,
+            youngs_modulus: 100.0,
+            density: 1.0,
+            length: 25.0,
+            amplitude: 0.1,
+            periods: 2.0,
+        }
+    }
+
+    /// The problem's name: `bar_fixed_free` or `bar_fixed_fixed`.
+    pub fn name(&self) -> &'static str {
+        match self.ends {
+            Ends::FixedFree => "bar_fixed_free",
+            Ends::FixedFixed => "bar_fixed_fixed",
+        }
+    }
+
+    /// Wavenumber `β` of the first mode.
+    pub fn wavenumber(&self) -> f64 {
+        match self.ends {
+            Ends::FixedFree => PI / (2.0 * self.length),
+            Ends::FixedFixed => PI / self.length,
+        }
+    }
+
+    /// Wave speed `c = √(E/ρ)`.
+    pub fn wave_speed(&self) -> f64 {
+        (self.youngs_modulus / self.density).sqrt()
+    }
+
+    /// Period `T = 2π/(β c)`.
+    pub fn period(&self) -> f64 {
+        2.0 * PI / (self.wavenumber() * self.wave_speed())
+    }
+
+    /// The exact centre-of-mass velocity `v₀ (1 − cos βL)/(βL) cos(ω t)`.
+    pub fn v_cm_exact(&self, t: f64) -> f64 {
+        let (b, l) = (self.wavenumber(), self.length);
+        self.amplitude * (1.0 - (b * l).cos()) / (b * l) * (b * self.wave_speed() * t).cos()
+    }
+
+    /// The simulation on `cells` cells along the bar: the grid padded by the kernel's
+    /// recommended cells on every side (and one more beyond a free end), the ends held on every
+    /// node line at or beyond them, rollers everywhere.
+    ///
+    /// # Errors
+    /// Those of [`Simulation::new`].
+    pub fn simulation(&self, cells: usize, choices: &Choices) -> Result<Simulation> {
+        let h = self.length / cells as f64;
+        let pad = choices.shape.recommended_padding();
+        let extra = usize::from(self.ends == Ends::FixedFree);
+        let grid = Grid::new(
+            [-(pad as f64) * h, -(pad as f64) * h],
+            [h, h],
+            [cells + 2 * pad + extra, 1 + 2 * pad],
+        )?;
+        let (x, y, volume) = lattice(&grid, choices.particles_per_cell, |px, py| {
+            px > 0.0 && px < self.length && py > 0.0 && py < h
+        });
+        let n = x.len();
+        let vx: Vec<f64> = x
+            .iter()
+            .map(|&px| self.amplitude * (self.wavenumber() * px).sin())
+            .collect();
+        let particles =
+            Particles::new(x, y, vec![self.density * volume; n], vec![volume; n])?.with_velocity(vx, vec![0.0; n])?;
+        let [nx, ny] = grid.nodes_per_axis();
+        let held: Vec<usize> = (0..ny)
+            .flat_map(|j| (0..nx).map(move |i| (i, j)))
+            .filter(|&(i, _)| i <= pad || (self.ends == Ends::FixedFixed && i >= pad + cells))
+            .map(|(i, j)| grid.node_index(i, j))
+            .collect();
+        let options = Options {
+            shape: choices.shape,
+            update: choices.update,
+            transfer: choices.transfer,
+            mass: choices.mass,
+            time_step: TimeStep::Cfl { number: choices.cfl },
+            boundaries: vec![
+                BoundaryCondition::nodes((0..grid.num_nodes()).collect(), Condition::Velocity)
+                    .with_velocity(None, Some(0.0)),
+                BoundaryCondition::nodes(held, Condition::Fixed),
+            ],
+            ..Options::default()
+        };
+        let material = Material::LinearElastic(LinearElastic::new(self.youngs_modulus, 0.0, PlaneCondition::Stress)?);
+        let bodies = vec![Body {
+            name: "bar".into(),
+            material,
+        }];
+        Simulation::new(grid, particles, bodies, options)
+    }
+
+    /// Runs the bar for [`Bar::periods`] periods and compares it with the exact solution (the
+    /// metrics and histories of the [module docs](self)).
+    ///
+    /// # Errors
+    /// Those of [`Bar::simulation`] and [`Simulation::step`].
+    pub fn run(&self, cells: usize, choices: &Choices) -> Result<Outcome> {
+        let mut sim = self.simulation(cells, choices)?;
+        let stable = sim.stable_time_step();
+        let mass = sim.particles().total_mass();
+        let kinetic = sim.particles().kinetic_energy();
+        let mut h = ["v_cm", "v_cm_exact", "kinetic_energy", "strain_energy", "total_energy"].map(History::new);
+        let v0 = sim.particles().momentum()[0] / mass;
+        for (k, v) in [v0, self.v_cm_exact(0.0), kinetic, 0.0, kinetic]
+            .into_iter()
+            .enumerate()
+        {
+            h[k].push(0.0, v);
+        }
+        let clock = Instant::now();
+        sim.run_until(self.periods * self.period(), |_, r| {
+            let values = [
+                r.momentum[0] / mass,
+                self.v_cm_exact(r.time),
+                r.kinetic_energy,
+                r.strain_energy,
+                r.total_energy,
+            ];
+            for (k, v) in values.into_iter().enumerate() {
+                h[k].push(r.time, v);
+            }
+            Ok(())
+        })?;
+        let seconds = clock.elapsed().as_secs_f64();
+        let amplitude = self.v_cm_exact(0.0).abs();
+        let [v_cm, exact, _, _, total] = &h;
+        let rms = (v_cm
+            .value
+            .iter()
+            .zip(&exact.value)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            / v_cm.value.len() as f64)
+            .sqrt()
+            / amplitude;
+        let period = period_from_zero_crossings(v_cm).map_or(f64::NAN, |t| t / self.period() - 1.0);
+        let e0 = total.value[0];
+        let metrics = vec![
+            ("rms_error".to_string(), rms),
+            ("period_error".to_string(), period),
+            ("energy_drift".to_string(), energy_drift(total)),
+            (
+                "energy_change".to_string(),
+                total.value[total.value.len() - 1] / e0 - 1.0,
+            ),
+            ("stable_time_step".to_string(), stable),
+        ];
+        Ok(Outcome {
+            problem: self.name().to_string(),
+            cells,
+            cell_size: self.length / cells as f64,
+            metrics,
+            histories: h.into_iter().collect(),
+            steps: sim.steps(),
+            seconds,
+        })
+    }
+}
