@@ -379,7 +379,10 @@ fn prescribed_edge_velocity_moves_the_touching_particles() {
     // velocity follows as the shear the edge causes accelerates the free nodes above.
     let p = sim.particles();
     let lowest = (0..p.len()).min_by(|&a, &b| p.y[a].total_cmp(&p.y[b])).unwrap();
-    assert!(p.x[lowest] > particles.x[p.id[lowest]], "the bottom row is carried along");
+    assert!(
+        p.x[lowest] > particles.x[p.id[lowest]],
+        "the bottom row is carried along"
+    );
     for _ in 0..20 {
         sim.step().unwrap();
     }

@@ -8,6 +8,7 @@
 //! |---|---|---|
 //! | axially vibrating bar, fixed–free and fixed–fixed (B1, B2) | exact centre-of-mass velocity and period | [`bar`] |
 //! | single material point (B3) | exact `x(t)`, `v(t)` | [`single_point`] |
+//! | axis-aligned manufactured solution (B5), generalised vortex (B6) | exact displacement | [`manufactured`] |
 //! | two elastic disks in impact (B8) | energy conservation | [`disks`] |
 //! | cantilever under gravity (B9) | Richardson-extrapolated tip deflection | [`cantilever`] |
 
@@ -20,6 +21,7 @@ use crate::simulation::{Transfer, UpdateScheme};
 pub mod bar;
 pub mod cantilever;
 pub mod disks;
+pub mod manufactured;
 pub mod single_point;
 
 /// The algorithmic choices of a verification run: the axes a study varies.
