@@ -1,0 +1,170 @@
+//! Verification problems with known answers, at sizes that run in seconds: convergence orders
+//! fitted from three or more resolutions, the sign and order of the frequency error under
+//! lumped and consistent mass, the energy behaviour of PIC and FLIP, the single material point.
+
+use sparse_mpm::mass::{MassOptions, MassScheme};
+use sparse_mpm::simulation::{Transfer, UpdateScheme};
+use sparse_mpm::verification::bar::{Bar, Ends};
+use sparse_mpm::verification::manufactured::{self, AxisAlignedMms, GeneralisedVortex};
+use sparse_mpm::verification::{cantilever, fitted_order, single_point, Choices};
+use sparse_mpm::ShapeFunction;
+
+/// The bar at a small amplitude, so that particles stay within a fraction of a cell of their
+/// start and the grid-crossing error of bilinear functions does not mix in.
+fn small_bar(ends: Ends) -> Bar {
+    Bar {
+        amplitude: 1e-3,
+        ..Bar::new(ends)
+    }
+}
+
+fn choices(mass: MassScheme, transfer: Transfer) -> Choices {
+    Choices {
+        mass: MassOptions::both(mass),
+        transfer,
+        cfl: 0.2,
+        ..Choices::default()
+    }
+}
+
+#[test]
+fn the_bar_period_error_is_positive_for_lumped_and_negative_for_consistent_mass_and_second_order() {
+    for ends in [Ends::FixedFree, Ends::FixedFixed] {
+        let bar = small_bar(ends);
+        for (mass, sign) in [(MassScheme::Lumped, 1.0), (MassScheme::Consistent, -1.0)] {
+            let errors: Vec<(f64, f64)> = [8, 16, 32]
+                .iter()
+                .map(|&cells| {
+                    let o = bar.run(cells, &choices(mass, Transfer::Flip)).unwrap();
+                    (o.cell_size, o.metric("period_error").unwrap())
+                })
+                .collect();
+            assert!(
+                errors.iter().all(|&(_, e)| e * sign > 0.0),
+                "{} {}: period errors {errors:?}",
+                bar.name(),
+                mass.label()
+            );
+            let magnitudes: Vec<(f64, f64)> = errors.iter().map(|&(h, e)| (h, e.abs())).collect();
+            let order = fitted_order(&magnitudes).unwrap();
+            assert!(
+                (1.6..2.4).contains(&order),
+                "{} {}: order {order} from {errors:?}",
+                bar.name(),
+                mass.label()
+            );
+        }
+    }
+}
+
+#[test]
+fn pic_with_lumped_mass_damps_the_bar_strongly_and_flip_far_less() {
+    let bar = small_bar(Ends::FixedFixed);
+    let change = |mass, transfer| {
+        bar.run(16, &choices(mass, transfer))
+            .unwrap()
+            .metric("energy_change")
+            .unwrap()
+    };
+    let pic = change(MassScheme::Lumped, Transfer::Pic);
+    let flip = change(MassScheme::Lumped, Transfer::Flip);
+    let pic_consistent = change(MassScheme::Consistent, Transfer::Pic);
+    assert!(pic < -0.3, "PIC with lumped mass loses {pic}");
+    assert!(flip.abs() < 0.03, "FLIP changes the energy by {flip}");
+    // PIC with the consistent mass is an L2 projection: it keeps what the grid represents.
+    assert!(
+        pic_consistent.abs() < 0.03,
+        "PIC with consistent mass: {pic_consistent}"
+    );
+}
+
+#[test]
+fn the_single_material_point_follows_its_exact_solution() {
+    for update in [UpdateScheme::Usf, UpdateScheme::Musl] {
+        let o = single_point::run(
+            0.01,
+            &Choices {
+                update,
+                ..Choices::default()
+            },
+        )
+        .unwrap();
+        let (v, x) = (o.metric("velocity_error").unwrap(), o.metric("position_error").unwrap());
+        assert!(v < 5e-3, "{update:?}: velocity error {v}");
+        assert!(x < 3e-2, "{update:?}: position error {x}");
+    }
+    // Bardenhagen (2002): one order of the updates conserves the energy of this problem, the
+    // other dissipates it.
+    let drift = |update| {
+        single_point::run(
+            0.01,
+            &Choices {
+                update,
+                ..Choices::default()
+            },
+        )
+        .unwrap()
+        .metric("energy_drift")
+        .unwrap()
+    };
+    assert!(drift(UpdateScheme::Usl) > 10.0 * drift(UpdateScheme::Usf));
+}
+
+#[test]
+fn the_vortex_converges_with_gimp_and_b_splines() {
+    let vortex = GeneralisedVortex {
+        amplitude: 0.05,
+        ..GeneralisedVortex::default()
+    };
+    for (shape, least) in [
+        (ShapeFunction::Gimp { half_width: 0.25 }, 1.2),
+        (ShapeFunction::QuadraticBSpline, 1.2),
+    ] {
+        let c = Choices {
+            shape,
+            cfl: 0.2,
+            ..Choices::default()
+        };
+        let errors: Vec<(f64, f64)> = [16, 32, 64]
+            .iter()
+            .map(|&cells| {
+                let o = manufactured::run(&vortex, cells, &c).unwrap();
+                (o.cell_size, o.metric("displacement_error_l2").unwrap())
+            })
+            .collect();
+        let order = fitted_order(&errors).unwrap();
+        assert!(order > least, "{}: order {order} from {errors:?}", shape.name());
+    }
+}
+
+#[test]
+fn the_axis_aligned_manufactured_solution_converges_with_b_splines() {
+    let c = Choices {
+        shape: ShapeFunction::QuadraticBSpline,
+        cfl: 0.2,
+        ..Choices::default()
+    };
+    let errors: Vec<(f64, f64)> = [8, 16, 32]
+        .iter()
+        .map(|&cells| {
+            let o = manufactured::run(&AxisAlignedMms::default(), cells, &c).unwrap();
+            (o.cell_size, o.metric("displacement_error_l2").unwrap())
+        })
+        .collect();
+    let order = fitted_order(&errors).unwrap();
+    // The roller walls hold every node line at and beyond them, not a mirror image of the
+    // field: first order near the walls (docs/verification.md).
+    assert!(order > 0.9, "order {order} from {errors:?}");
+}
+
+#[test]
+fn richardson_extrapolation_recovers_a_known_limit_and_order() {
+    // f(h) = 2 + 3 h²: values on h = 1, 1/2, 1/4.
+    let f = [5.0, 2.75, 2.1875];
+    let (limit, order) = cantilever::extrapolate(f, 2.0).unwrap();
+    assert!((limit - 2.0).abs() < 1e-12 && (order - 2.0).abs() < 1e-12);
+    assert!(
+        cantilever::extrapolate([1.0, 2.0, 1.5], 2.0).is_none(),
+        "non-monotone differences"
+    );
+}
