@@ -124,6 +124,7 @@ pub mod simulation;
 pub mod spectral;
 pub mod step;
 pub mod stiffness;
+pub mod study;
 pub mod transfer;
 pub mod verification;
 

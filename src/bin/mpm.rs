@@ -5,6 +5,7 @@
 //! mpm matrices SCENE.toml [--out DIR]
 //! mpm check SCENE.toml
 //! mpm homework [--json]
+//! mpm study [--out DIR] [--spec STUDY.toml] [--parts a,b] [--quick]
 //! ```
 
 use std::io::{IsTerminal, Write};
@@ -35,6 +36,13 @@ USAGE:
         Read and validate a scene; print its size and stable time step.
     mpm homework [--json]
         Print the answers of the worked problem (the seed assignment).
+    mpm study [--out DIR] [--spec STUDY.toml] [--parts a,b] [--quick]
+        Run the verification problems over a matrix of choices (mass schemes,
+        transfers, shape functions, resolutions) and write DIR/report.md with its
+        PNG plots and DIR/runs.csv (every run). DIR defaults to out/study.
+        Parts: frequency, bar_energy, convergence, energy, time_step, cantilever,
+        single_point (default: all). --quick: smaller grids, a few seconds.
+        A STUDY.toml sets any of the study's keys (docs/verification.md).
     mpm help
         This text.
 ";
@@ -46,6 +54,9 @@ struct Args {
     steps: Option<usize>,
     quiet: bool,
     json: bool,
+    spec: Option<PathBuf>,
+    parts: Option<String>,
+    quick: bool,
 }
 
 fn parse(args: &[String]) -> Result<Args, String> {
@@ -56,6 +67,9 @@ fn parse(args: &[String]) -> Result<Args, String> {
         steps: None,
         quiet: false,
         json: false,
+        spec: None,
+        parts: None,
+        quick: false,
     };
     let mut it = args.iter();
     while let Some(arg) = it.next() {
@@ -77,6 +91,9 @@ fn parse(args: &[String]) -> Result<Args, String> {
             }
             "--quiet" | "-q" => a.quiet = true,
             "--json" => a.json = true,
+            "--spec" => a.spec = Some(PathBuf::from(value("--spec")?)),
+            "--parts" => a.parts = Some(value("--parts")?),
+            "--quick" => a.quick = true,
             s if s.starts_with('-') => return Err(format!("unknown option `{s}`")),
             s => a.positional.push(s.to_string()),
         }
@@ -244,6 +261,63 @@ fn check(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+fn study(args: &Args) -> Result<(), String> {
+    use sparse_mpm::study::{run_study, Part, StudySpec};
+    let mut spec = match &args.spec {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            StudySpec::from_toml_str(&text).map_err(|e| format!("{}: {e}", path.display()))?
+        }
+        None if args.quick => StudySpec::quick(),
+        None => StudySpec::default(),
+    };
+    if let Some(list) = &args.parts {
+        spec.parts = list
+            .split(',')
+            .map(|name| {
+                Part::ALL
+                    .into_iter()
+                    .find(|p| p.name() == name.trim())
+                    .ok_or_else(|| format!("--parts: unknown part `{name}`"))
+            })
+            .collect::<Result<_, _>>()?;
+    }
+    let out = args.out.clone().unwrap_or_else(|| Path::new("out").join("study"));
+    let terminal = !args.quiet && std::io::stderr().is_terminal();
+    let start = Instant::now();
+    let summary = run_study(&spec, &out, |p| {
+        if terminal {
+            let width = 30;
+            let filled = (width * p.done).checked_div(p.total).unwrap_or(width);
+            eprint!(
+                "\r[{}{}] {}/{} {:.0} s  {:<70}",
+                "#".repeat(filled),
+                " ".repeat(width - filled),
+                p.done,
+                p.total,
+                start.elapsed().as_secs_f64(),
+                p.current.chars().take(70).collect::<String>()
+            );
+            if p.done == p.total {
+                eprintln!();
+            }
+        }
+    })
+    .map_err(|e| e.to_string())?;
+    let failed = summary.runs.iter().filter(|r| r.outcome.is_err()).count();
+    if !args.quiet {
+        println!(
+            "{} runs ({failed} failed) in {:.0} s; report: {}, {} plots, every run: {}",
+            summary.runs.len(),
+            start.elapsed().as_secs_f64(),
+            summary.report.display(),
+            summary.plots.len(),
+            summary.csv.display()
+        );
+    }
+    Ok(())
+}
+
 fn homework(args: &Args) -> Result<(), String> {
     let answers = sparse_mpm::homework::solve().map_err(|e| e.to_string())?;
     let text = if args.json {
@@ -273,6 +347,7 @@ fn main() -> ExitCode {
         "matrices" => matrices(&args),
         "check" => check(&args),
         "homework" => homework(&args),
+        "study" => study(&args),
         "help" | "--help" | "-h" => {
             print!("{USAGE}");
             Ok(())

@@ -67,7 +67,7 @@ impl MassScheme {
         match self {
             MassScheme::Lumped => "lumped".into(),
             MassScheme::Consistent => "consistent".into(),
-            MassScheme::Blended { gamma } => format!("blended({gamma})"),
+            MassScheme::Blended { gamma } => format!("blended({})", short(*gamma)),
             MassScheme::TruncatedSeries { k } => format!("series({k})"),
             MassScheme::Iterative { tolerance, .. } => format!("cg({tolerance:e})"),
         }
@@ -232,6 +232,13 @@ pub struct SolveReport {
     /// `‖A u − r‖ / ‖r‖` over the free degrees of freedom, with `A` the matrix actually solved
     /// (for the truncated series, the consistent mass it approximates; 0 for lumped).
     pub relative_residual: f64,
+}
+
+/// `v` with at most four decimals, trailing zeros dropped (`0.5`, `0.7222`).
+fn short(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
 }
 
 /// One component's free degrees of freedom.
