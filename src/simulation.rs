@@ -217,6 +217,15 @@ pub struct StepReport {
     pub grid_kinetic_energy_consistent: f64,
     /// `Σ_p` strain energy of each particle's material after the step.
     pub strain_energy: f64,
+    /// `K_p − ½ Σ_p m_p |Nᵀv|²` at this step: the particles' kinetic energy that the projected
+    /// grid velocity `v` does not carry (measured at the particles, so it is never negative
+    /// with the consistent velocity mass).
+    pub particle_grid_gap: f64,
+    /// Kinetic energy lost in the transfers back to the particles, summed over the steps so
+    /// far: `Σ [K_p,before + (½ Σ m_p |Nᵀw|² − ½ Σ m_p |Nᵀv|²) − K_p,after]`, what the particles'
+    /// kinetic energy changed by less than the grid's (PIC loses the whole gap; FLIP with the
+    /// consistent velocity mass nothing).
+    pub transfer_loss: f64,
     /// Potential of the body forces `−Σ_p m_p (b_p + g) · x_p` after the step.
     pub potential_energy: f64,
     /// `kinetic + strain + potential`.
@@ -240,7 +249,7 @@ pub struct StepReport {
 
 impl StepReport {
     /// Column names of [`StepReport::values`], for a CSV header.
-    pub const COLUMNS: [&'static str; 23] = [
+    pub const COLUMNS: [&'static str; 25] = [
         "step",
         "time",
         "dt",
@@ -249,6 +258,8 @@ impl StepReport {
         "grid_kinetic_energy_lumped",
         "grid_kinetic_energy_consistent",
         "strain_energy",
+        "particle_grid_gap",
+        "transfer_loss",
         "potential_energy",
         "total_energy",
         "momentum_x",
@@ -268,7 +279,7 @@ impl StepReport {
 
     /// The report as numbers, in the order of [`StepReport::COLUMNS`]. Outcomes are coded
     /// 0 = solved, 1 = fell back to lumped, 2 = regularized; the fallback node is −1 when none.
-    pub fn values(&self) -> [f64; 23] {
+    pub fn values(&self) -> [f64; 25] {
         let code = |r: &SolveReport| match r.outcome {
             SolveOutcome::Solved => 0.0,
             SolveOutcome::FellBackToLumped { .. } => 1.0,
@@ -289,6 +300,8 @@ impl StepReport {
             self.grid_kinetic_energy_lumped,
             self.grid_kinetic_energy_consistent,
             self.strain_energy,
+            self.particle_grid_gap,
+            self.transfer_loss,
             self.potential_energy,
             self.total_energy,
             self.momentum[0],
@@ -338,6 +351,10 @@ struct Work {
     grid_angular_momentum: f64,
     strain_energy: f64,
     inv_m: Vec<f64>,
+    /// This step's kinetic energies: particles before, `½ Σ m_p |Nᵀv|²`, `½ Σ m_p |Nᵀw|²`.
+    kinetic_before: f64,
+    kinetic_projected: f64,
+    kinetic_updated: f64,
 }
 
 /// A running simulation: grid, particles, bodies, options and everything kept between steps.
@@ -355,6 +372,7 @@ pub struct Simulation {
     steps: usize,
     failed: Option<String>,
     stability: Option<Stability>,
+    transfer_loss: f64,
     work: Work,
 }
 
@@ -508,6 +526,7 @@ impl Simulation {
             steps: 0,
             failed: None,
             stability: None,
+            transfer_loss: 0.0,
             work,
         };
         // The stable step before the first step, so that a fixed step above it is refused now.
@@ -838,6 +857,9 @@ impl Simulation {
         self.move_particles(); //                                                           (10)
         self.time += dt;
         self.steps += 1;
+        let w = &self.work;
+        let kinetic_after = self.particles.kinetic_energy();
+        self.transfer_loss += w.kinetic_before + (w.kinetic_updated - w.kinetic_projected) - kinetic_after;
         self.report(dt, stable, velocity_solve, acceleration_solve)
     }
 
@@ -1147,6 +1169,7 @@ impl Simulation {
         } else {
             &w.w
         };
+        let (mut kinetic_before, mut kinetic_projected, mut kinetic_updated) = (0.0, 0.0, 0.0);
         for k in 0..np {
             let (mut vx, mut vy, mut tx, mut ty, mut rx, mut ry) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
             let mut l = [0.0; 4];
@@ -1188,6 +1211,10 @@ impl Simulation {
                 }
             }
             let (old_x, old_y) = (p.vx[k], p.vy[k]);
+            let half_m = 0.5 * p.mass[k];
+            kinetic_before += half_m * (old_x * old_x + old_y * old_y);
+            kinetic_projected += half_m * (rx * rx + ry * ry);
+            kinetic_updated += half_m * (vx * vx + vy * vy);
             let (dvx, dvy) = (vx - rx, vy - ry);
             let (new_x, new_y) = match transfer {
                 Transfer::Pic | Transfer::Apic => (vx, vy),
@@ -1217,6 +1244,9 @@ impl Simulation {
             w.displacement.x[k] = dt * ux;
             w.displacement.y[k] = dt * uy;
         }
+        w.kinetic_before = kinetic_before;
+        w.kinetic_projected = kinetic_projected;
+        w.kinetic_updated = kinetic_updated;
     }
 
     /// MUSL's re-projection `q' = N (m ∘ v_p) [+ APIC term]` with the operators and positions of
@@ -1334,6 +1364,8 @@ impl Simulation {
             dt,
             stable_time_step,
             kinetic_energy: ke,
+            particle_grid_gap: w.kinetic_before - w.kinetic_projected,
+            transfer_loss: self.transfer_loss,
             grid_kinetic_energy_lumped: ke_l,
             grid_kinetic_energy_consistent: ke_c,
             strain_energy: strain,

@@ -168,3 +168,25 @@ fn richardson_extrapolation_recovers_a_known_limit_and_order() {
         "non-monotone differences"
     );
 }
+
+#[test]
+fn the_transfer_loss_accounts_for_pic_and_vanishes_for_flip_with_the_consistent_mass() {
+    let bar = small_bar(Ends::FixedFixed);
+    let run = |mass, transfer| bar.run(16, &choices(mass, transfer)).unwrap();
+    // PIC: the energy lost is what the transfers lost (the grid update itself conserves
+    // energy to the time-integration error).
+    let pic = run(MassScheme::Lumped, Transfer::Pic);
+    let (lost, transfer) = (
+        -pic.metric("energy_change").unwrap(),
+        pic.metric("transfer_loss").unwrap(),
+    );
+    assert!(
+        lost > 0.3 && (transfer - lost).abs() < 0.1 * lost,
+        "lost {lost}, transfer loss {transfer}"
+    );
+    // FLIP with the consistent velocity mass: v = M⁻¹q, so the particles' kinetic energy changes
+    // exactly as the grid's.
+    let flip = run(MassScheme::Consistent, Transfer::Flip);
+    let transfer = flip.metric("transfer_loss").unwrap();
+    assert!(transfer.abs() < 1e-9, "FLIP, consistent: transfer loss {transfer}");
+}

@@ -1109,7 +1109,9 @@ fn cells_header(groups: &[(String, Vec<(&StudyRun, &Outcome)>)]) -> String {
 }
 
 fn md_table_drift(rows: &[(String, &Outcome)]) -> String {
-    let mut md = String::from("| scheme | largest \\|E − E₀\\|/E₀ | E_end/E₀ − 1 |\n|---|---|---|\n");
+    let mut md = String::from(
+        "| scheme | largest \\|E − E₀\\|/E₀ | E_end/E₀ − 1 | lost in the transfers |\n|---|---|---|---|\n",
+    );
     for (label, o) in rows {
         let m = |n: &str, sign: bool| {
             o.metric(n).map_or("–".into(), |v| {
@@ -1121,9 +1123,10 @@ fn md_table_drift(rows: &[(String, &Outcome)]) -> String {
             })
         };
         md.push_str(&format!(
-            "| {label} | {} | {} |\n",
+            "| {label} | {} | {} | {} |\n",
             m("energy_drift", false),
-            m("energy_change", true)
+            m("energy_change", true),
+            m("transfer_loss", false)
         ));
     }
     md

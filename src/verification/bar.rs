@@ -10,7 +10,8 @@
 //! Metrics of [`Bar::run`]: `rms_error` (RMS over the steps of `v_cm − v_cm,exact`, relative to
 //! the amplitude of `v_cm`), `period_error` (`T_measured/T − 1`, from the zero crossings of
 //! `v_cm`), `energy_drift` (`max_t |E − E₀|/E₀`), `energy_change` (`E_end/E₀ − 1`),
-//! `stable_time_step` (at the start). Histories: `v_cm`, `v_cm_exact`, `kinetic_energy`,
+//! `stable_time_step` (at the start), `transfer_loss` (the report's cumulative transfer loss
+//! over `E₀`). Histories: `v_cm`, `v_cm_exact`, `kinetic_energy`,
 //! `strain_energy`, `total_energy`.
 
 use std::f64::consts::PI;
@@ -165,6 +166,7 @@ impl Bar {
         {
             h[k].push(0.0, v);
         }
+        let mut transfer_loss = 0.0;
         let clock = Instant::now();
         sim.run_until(self.periods * self.period(), |_, r| {
             let values = [
@@ -177,6 +179,7 @@ impl Bar {
             for (k, v) in values.into_iter().enumerate() {
                 h[k].push(r.time, v);
             }
+            transfer_loss = r.transfer_loss;
             Ok(())
         })?;
         let seconds = clock.elapsed().as_secs_f64();
@@ -202,6 +205,7 @@ impl Bar {
                 total.value[total.value.len() - 1] / e0 - 1.0,
             ),
             ("stable_time_step".to_string(), stable),
+            ("transfer_loss".to_string(), transfer_loss / e0),
         ];
         Ok(Outcome {
             problem: self.name().to_string(),

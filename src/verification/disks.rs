@@ -5,7 +5,8 @@
 //! energy should stay constant.
 //!
 //! Metrics: `energy_drift` (`max_t |E − E₀|/E₀`), `energy_change` (`E_end/E₀ − 1`),
-//! `energy_dip` (`1 − min_t E/E₀`), `stable_time_step`. Histories: `kinetic_energy`,
+//! `energy_dip` (`1 − min_t E/E₀`), `stable_time_step`, `transfer_loss` (the report's cumulative
+//! transfer loss over `E₀`). Histories: `kinetic_energy`,
 //! `strain_energy`, `total_energy`.
 
 use std::time::Instant;
@@ -52,6 +53,7 @@ pub fn run(cells: usize, choices: &Choices) -> Result<Outcome> {
     for (k, v) in [kinetic, 0.0, kinetic].into_iter().enumerate() {
         h[k].push(0.0, v);
     }
+    let mut transfer_loss = 0.0;
     let clock = Instant::now();
     sim.run_until(scene.time.end, |_, r| {
         for (k, v) in [r.kinetic_energy, r.strain_energy, r.total_energy]
@@ -60,6 +62,7 @@ pub fn run(cells: usize, choices: &Choices) -> Result<Outcome> {
         {
             h[k].push(r.time, v);
         }
+        transfer_loss = r.transfer_loss;
         Ok(())
     })?;
     let seconds = clock.elapsed().as_secs_f64();
@@ -74,6 +77,7 @@ pub fn run(cells: usize, choices: &Choices) -> Result<Outcome> {
         ),
         ("energy_dip".to_string(), 1.0 - lowest / e0),
         ("stable_time_step".to_string(), stable),
+        ("transfer_loss".to_string(), transfer_loss / e0),
     ];
     Ok(Outcome {
         problem: "two_disks".to_string(),
