@@ -23,7 +23,7 @@ use crate::error::Result;
 use crate::grid::Grid;
 use crate::material::{LinearElastic, Material, PlaneCondition};
 use crate::particles::{lattice, Particles};
-use crate::simulation::{Body, Options, Simulation, TimeStep};
+use crate::simulation::{Body, Simulation};
 
 /// Which ends are fixed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -127,19 +127,11 @@ impl Bar {
             .filter(|&(i, _)| i <= pad || (self.ends == Ends::FixedFixed && i >= pad + cells))
             .map(|(i, j)| grid.node_index(i, j))
             .collect();
-        let options = Options {
-            shape: choices.shape,
-            update: choices.update,
-            transfer: choices.transfer,
-            mass: choices.mass,
-            time_step: TimeStep::Cfl { number: choices.cfl },
-            boundaries: vec![
-                BoundaryCondition::nodes((0..grid.num_nodes()).collect(), Condition::Velocity)
-                    .with_velocity(None, Some(0.0)),
-                BoundaryCondition::nodes(held, Condition::Fixed),
-            ],
-            ..Options::default()
-        };
+        let options = choices.options(vec![
+            BoundaryCondition::nodes((0..grid.num_nodes()).collect(), Condition::Velocity)
+                .with_velocity(None, Some(0.0)),
+            BoundaryCondition::nodes(held, Condition::Fixed),
+        ]);
         let material = Material::LinearElastic(LinearElastic::new(self.youngs_modulus, 0.0, PlaneCondition::Stress)?);
         let bodies = vec![Body {
             name: "bar".into(),

@@ -29,14 +29,7 @@ pub fn scene(cells: usize, choices: &Choices) -> Result<Scene> {
     scene.grid.cell_size = [h, h];
     scene.grid.origin = [-(pad as f64) * h; 2];
     scene.grid.cells = [cells + 2 * pad; 2];
-    scene.schemes.shape = choices.shape;
-    scene.schemes.update = choices.update;
-    scene.schemes.transfer = choices.transfer;
-    scene.schemes.mass = choices.mass;
-    scene.time.cfl = Some(choices.cfl);
-    for body in &mut scene.bodies {
-        body.particles_per_cell = choices.particles_per_cell;
-    }
+    choices.apply_to(&mut scene);
     Ok(scene)
 }
 

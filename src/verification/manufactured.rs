@@ -35,7 +35,7 @@ use crate::error::Result;
 use crate::grid::Grid;
 use crate::material::{Material, NeoHookean};
 use crate::particles::{lattice, Particles};
-use crate::simulation::{Body, Options, Simulation, TimeStep};
+use crate::simulation::{Body, Simulation};
 
 /// Lamé constants `(μ, λ)` from Young's modulus and Poisson's ratio (3D relations, as used by the
 /// library for plane strain).
@@ -523,15 +523,7 @@ pub fn run(problem: &impl Manufactured, cells: usize, choices: &Choices) -> Resu
         boundaries.push(BoundaryCondition::nodes(nodes(0), Condition::Velocity).with_velocity(Some(0.0), None));
         boundaries.push(BoundaryCondition::nodes(nodes(1), Condition::Velocity).with_velocity(None, Some(0.0)));
     }
-    let options = Options {
-        shape: choices.shape,
-        update: choices.update,
-        transfer: choices.transfer,
-        mass: choices.mass,
-        time_step: TimeStep::Cfl { number: choices.cfl },
-        boundaries,
-        ..Options::default()
-    };
+    let options = choices.options(boundaries);
     let bodies = vec![Body {
         name: problem.name().into(),
         material: Material::NeoHookean(problem.material()),

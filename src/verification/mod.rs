@@ -14,9 +14,11 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::boundary::BoundaryCondition;
 use crate::mass::{MassOptions, MassScheme};
+use crate::scene::Scene;
 use crate::shape::ShapeFunction;
-use crate::simulation::{Transfer, UpdateScheme};
+use crate::simulation::{Options, TimeStep, Transfer, UpdateScheme};
 
 pub mod bar;
 pub mod cantilever;
@@ -56,6 +58,33 @@ impl Default for Choices {
 }
 
 impl Choices {
+    /// The simulation options of these choices (a CFL step) with `boundaries`.
+    pub fn options(&self, boundaries: Vec<BoundaryCondition>) -> Options {
+        Options {
+            shape: self.shape,
+            update: self.update,
+            transfer: self.transfer,
+            mass: self.mass,
+            time_step: TimeStep::Cfl { number: self.cfl },
+            boundaries,
+            ..Options::default()
+        }
+    }
+
+    /// Sets these choices in `scene` (its schemes, Courant number and every body's particles per
+    /// cell), keeping the rest.
+    pub fn apply_to(&self, scene: &mut Scene) {
+        scene.schemes.shape = self.shape;
+        scene.schemes.update = self.update;
+        scene.schemes.transfer = self.transfer;
+        scene.schemes.mass = self.mass;
+        scene.time.cfl = Some(self.cfl);
+        scene.time.dt = None;
+        for body in &mut scene.bodies {
+            body.particles_per_cell = self.particles_per_cell;
+        }
+    }
+
     /// A short label: `"linear, MUSL, FLIP, lumped"`, with the velocity and acceleration masses
     /// separated by `/` when they differ.
     pub fn label(&self) -> String {
