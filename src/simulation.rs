@@ -22,7 +22,7 @@
 //!      USF: L = [Gxᵀ v, Gyᵀ v], update F, V, σ, redo (5)
 //! (7)  a = Π₀ M_a⁻¹ (f_ext + f_int)                       acceleration scheme; 0 on prescribed dofs
 //! (8)  w = Π (v + Δt a);  massless nodes in a particle's support take the particles' mean velocity
-//! (9)  v_pic = Nᵀ w,   Δv = Nᵀ (w − M_v⁻¹ q)      (the change includes the boundary's)
+//! (9)  v_pic = Nᵀ w,   Δv = Nᵀ (w − v)      (the change of the grid velocity; XPIC, FMPM: below)
 //!      PIC:  v_p ← v_pic          FLIP: v_p ← v_p + Δv        blend α: α (v_p + Δv) + (1 − α) v_pic
 //!      APIC: v_p ← v_pic,  B_p ← Σ_I N_I w_I (x_I − x_p)ᵀ;  in (3) C_p = B_p D_p⁻¹ at the new position
 //! (10) x_p ← x_p + Δt v_pic     (or the trapezoidal rule (Δt/2)(v_p_old + v_pic))
@@ -339,7 +339,6 @@ struct Work {
     extension: ExtensionScratch,
     prescribed: VectorField,
     // Particles.
-    v_pic: VectorField,
     displacement: VectorField,
     l: [Vec<f64>; 4],
     // Sorting.
@@ -857,10 +856,11 @@ impl Simulation {
         self.move_particles(); //                                                           (10)
         self.time += dt;
         self.steps += 1;
+        let mut report = self.report(dt, stable, velocity_solve, acceleration_solve)?;
         let w = &self.work;
-        let kinetic_after = self.particles.kinetic_energy();
-        self.transfer_loss += w.kinetic_before + (w.kinetic_updated - w.kinetic_projected) - kinetic_after;
-        self.report(dt, stable, velocity_solve, acceleration_solve)
+        self.transfer_loss += w.kinetic_before + (w.kinetic_updated - w.kinetic_projected) - report.kinetic_energy;
+        report.transfer_loss = self.transfer_loss;
+        Ok(report)
     }
 
     /// Counting sort of the particles by cell index (row-major), allocation-free.
@@ -1141,7 +1141,7 @@ impl Simulation {
     fn grid_to_particle(&mut self, dt: f64, with_gradient: bool) {
         let (ops, p, w) = (&self.ops, &mut self.particles, &mut self.work);
         let np = p.len();
-        for field in [&mut w.v_pic, &mut w.displacement] {
+        for field in [&mut w.displacement] {
             field.x.resize(np, 0.0);
             field.y.resize(np, 0.0);
         }
@@ -1203,8 +1203,6 @@ impl Simulation {
                     b[3] += n * wy * dy;
                 }
             }
-            w.v_pic.x[k] = vx;
-            w.v_pic.y[k] = vy;
             if with_gradient {
                 for c in 0..4 {
                     w.l[c][k] = l[c];
@@ -1332,7 +1330,7 @@ impl Simulation {
         let [gx, gy] = self.options.gravity;
         let strain = w.strain_energy;
         let (mut ke, mut potential, mut ang, mut mass, mut max_speed) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
-        let (mut px, mut py, mut ke_c) = (0.0, 0.0, 0.0);
+        let (mut px, mut py) = (0.0, 0.0);
         for k in 0..p.len() {
             let m = p.mass[k];
             let (vx, vy) = (p.vx[k], p.vy[k]);
@@ -1353,7 +1351,6 @@ impl Simulation {
             py += m * vy;
             ang += m * (p.x[k] * vy - p.y[k] * vx);
             potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
-            ke_c += 0.5 * m * (w.v_pic.x[k].powi(2) + w.v_pic.y[k].powi(2));
         }
         let ke_l: f64 = (0..w.m.len())
             .map(|i| 0.5 * w.m[i] * (w.w.x[i].powi(2) + w.w.y[i].powi(2)))
@@ -1367,7 +1364,7 @@ impl Simulation {
             particle_grid_gap: w.kinetic_before - w.kinetic_projected,
             transfer_loss: self.transfer_loss,
             grid_kinetic_energy_lumped: ke_l,
-            grid_kinetic_energy_consistent: ke_c,
+            grid_kinetic_energy_consistent: w.kinetic_updated,
             strain_energy: strain,
             potential_energy: potential,
             total_energy: ke + strain + potential,
