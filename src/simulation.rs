@@ -1141,10 +1141,8 @@ impl Simulation {
     fn grid_to_particle(&mut self, dt: f64, with_gradient: bool) {
         let (ops, p, w) = (&self.ops, &mut self.particles, &mut self.work);
         let np = p.len();
-        for field in [&mut w.displacement] {
-            field.x.resize(np, 0.0);
-            field.y.resize(np, 0.0);
-        }
+        w.displacement.x.resize(np, 0.0);
+        w.displacement.y.resize(np, 0.0);
         for l in w.l.iter_mut() {
             l.resize(np, 0.0);
         }
