@@ -3,9 +3,9 @@
 //!
 //! Every choice is an independent axis of [`Options`]: the shape function
 //! ([`ShapeFunction`]), the update scheme ([`UpdateScheme`]), the particle velocity transfer
-//! ([`Transfer`]), the mass treatment of each solve ([`MassOptions`]), the position rule
+//! ([`Transfer`]), the mass treatment of each solve ([`MassOptions`](crate::mass::MassOptions)), the position rule
 //! ([`PositionUpdate`]), the time step ([`TimeStep`]), gravity and the boundary conditions
-//! ([`BoundaryCondition`]). Particles belong to bodies, each with its own [`Material`]; bodies
+//! ([`BoundaryCondition`](crate::boundary::BoundaryCondition)). Particles belong to bodies, each with its own [`Material`](crate::material::Material); bodies
 //! meet through the shared grid (no contact algorithm: the grid velocity is single-valued).
 //!
 //! ## One step
@@ -37,289 +37,22 @@
 //! simulation. Consistent, blended, series and iterative schemes go through
 //! [`GridMass`], which reuses its factorization buffers but allocates its vectors.
 
-use serde::{Deserialize, Serialize};
+mod options;
+mod report;
 
-use crate::boundary::{self, BoundaryCondition, Prescribed};
+pub use options::{Body, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
+pub use report::StepReport;
+
+use crate::boundary::{self, Prescribed};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::mass::{GridMass, MassOptions, MassScheme, Role, SolveOutcome, SolveReport};
-use crate::material::Material;
+use crate::mass::{GridMass, MassScheme, Role, SolveOutcome, SolveReport};
 use crate::operators::{Operator, Operators};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::step::PositionUpdate;
 use crate::stiffness::{self, FrequencyEstimate};
 use crate::transfer::{extend_to_inactive_nodes, series_velocity_into, ExtensionScratch, SeriesScratch, VectorField};
-
-/// Default [`Options::stability_interval`]: steps between estimates of the stable time step.
-pub const DEFAULT_STABILITY_INTERVAL: usize = 100;
-
-/// When the stress is updated relative to the grid solve.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum UpdateScheme {
-    /// Update stress first, from the grid velocity of the particles' momentum.
-    Usf,
-    /// Update stress last, from the updated grid velocity. Nodes with tiny mass at a body's
-    /// edge can give large `a = f / m` and so large strain rates (the small-mass problem).
-    Usl,
-    /// Modified USL (the default): the stress is updated from a grid velocity re-projected from
-    /// the updated particle velocities (Sulsky et al. 1995), which removes the small-mass
-    /// problem of USL.
-    #[default]
-    Musl,
-}
-
-/// How the particle velocities are updated from the grid.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum Transfer {
-    /// Particle velocity = interpolated grid velocity (dissipative, stable).
-    Pic,
-    /// Particle velocity incremented by the interpolated grid velocity change.
-    #[default]
-    Flip,
-    /// `flip · FLIP + (1 − flip) · PIC`.
-    Blend {
-        /// Weight of FLIP, in [0, 1].
-        flip: f64,
-    },
-    /// Affine PIC (Jiang et al. 2015): PIC plus a per-particle affine velocity matrix `C`.
-    Apic,
-    /// Hammerquist & Nairn's XPIC(k): the particle velocity interpolates the lumped grid
-    /// velocity of the step's start extrapolated by k terms of the full-mass series, plus the
-    /// lumped acceleration; `x ← x + Δt (Nᵀ v + ½ (v_p,new − v_p,old))`. Lumped mass only.
-    /// XPIC(1) gives PIC's velocities.
-    Xpic {
-        /// Number of series terms, at least 1.
-        k: usize,
-    },
-    /// Nairn & Hammerquist's FMPM(k): the particle velocity interpolates the updated lumped
-    /// grid velocity passed through k terms of the full-mass series (once per step, just before
-    /// the particle update), the stress update uses that velocity, and
-    /// `x ← x + (Δt/2)(v_p,old + v_p,new)`. Lumped mass only. FMPM(1) is PIC with the
-    /// trapezoidal position update.
-    Fmpm {
-        /// Number of series terms, at least 1.
-        k: usize,
-    },
-}
-
-impl Transfer {
-    /// The number of series terms of XPIC(k) and FMPM(k), `None` for the other transfers.
-    pub fn series_terms(&self) -> Option<usize> {
-        match *self {
-            Transfer::Xpic { k } | Transfer::Fmpm { k } => Some(k),
-            _ => None,
-        }
-    }
-
-    /// The weight `α` with which the new particle velocity keeps the old one: 1 for FLIP, the
-    /// FLIP weight of a blend, 0 for PIC, APIC, XPIC and FMPM (which replace it by an
-    /// interpolated velocity). It sets the stable step ([`stiffness::mpm_critical_time_step`]).
-    pub fn flip_weight(&self) -> f64 {
-        match *self {
-            Transfer::Flip => 1.0,
-            Transfer::Blend { flip } => flip,
-            _ => 0.0,
-        }
-    }
-}
-
-/// How the time step is chosen.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum TimeStep {
-    /// A fixed step; it must not exceed the stable estimate unless
-    /// [`Options::allow_unstable_time_step`] is set.
-    Fixed {
-        /// Step length (> 0).
-        dt: f64,
-    },
-    /// `Δt = number · Δt_stable`, recomputed every step (see [`Simulation::stable_time_step`]).
-    Cfl {
-        /// Courant number in (0, 1].
-        number: f64,
-    },
-}
-
-/// A body: a named group of particles sharing a material.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Body {
-    /// Name used in reports and errors.
-    pub name: String,
-    /// Constitutive model.
-    pub material: Material,
-}
-
-/// Every choice of a simulation.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Options {
-    /// Shape-function family of N, Gx, Gy.
-    pub shape: ShapeFunction,
-    /// USF, USL or MUSL.
-    pub update: UpdateScheme,
-    /// PIC, FLIP, blend or APIC.
-    pub transfer: Transfer,
-    /// Mass scheme of the velocity projection and of the acceleration solve, singularity policy.
-    pub mass: MassOptions,
-    /// Position update rule.
-    pub position_update: PositionUpdate,
-    /// Fixed or CFL time step.
-    pub time_step: TimeStep,
-    /// Accept a fixed step above the stable estimate.
-    pub allow_unstable_time_step: bool,
-    /// Gravity (acceleration) added to every particle's body force.
-    pub gravity: [f64; 2],
-    /// Nodal boundary conditions.
-    pub boundaries: Vec<BoundaryCondition>,
-    /// Re-sort the particles by cell every this many steps (0: never).
-    pub sort_interval: usize,
-    /// Re-estimate the stable time step every this many steps (it is always estimated before
-    /// the first step; 0: never again). See [`Simulation::stable_time_step`].
-    pub stability_interval: usize,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            shape: ShapeFunction::Linear,
-            update: UpdateScheme::Musl,
-            transfer: Transfer::Flip,
-            mass: MassOptions::default(),
-            position_update: PositionUpdate::GridVelocity,
-            time_step: TimeStep::Cfl { number: 0.5 },
-            allow_unstable_time_step: false,
-            gravity: [0.0, 0.0],
-            boundaries: Vec::new(),
-            sort_interval: 50,
-            stability_interval: DEFAULT_STABILITY_INTERVAL,
-        }
-    }
-}
-
-/// What one step did and the state after it: data, not log lines.
-#[derive(Debug, Clone, PartialEq)]
-pub struct StepReport {
-    /// Steps completed (1 after the first step).
-    pub step: usize,
-    /// Time at the end of the step.
-    pub time: f64,
-    /// Step length used.
-    pub dt: f64,
-    /// The stable step at the start of the step ([`Simulation::stable_time_step`]).
-    pub stable_time_step: f64,
-    /// `½ Σ_p m_p |v_p|²` after the step.
-    pub kinetic_energy: f64,
-    /// `½ Σ_I m_L,I |w_I|²`: grid kinetic energy of the updated grid velocity, lumped mass.
-    pub grid_kinetic_energy_lumped: f64,
-    /// `½ wᵀ M w = ½ Σ_p m_p |(Nᵀ w)_p|²`: the same with the consistent mass.
-    pub grid_kinetic_energy_consistent: f64,
-    /// `Σ_p` strain energy of each particle's material after the step.
-    pub strain_energy: f64,
-    /// `K_p − ½ Σ_p m_p |Nᵀv|²` at this step: the particles' kinetic energy that the projected
-    /// grid velocity `v` does not carry (measured at the particles, so it is never negative
-    /// with the consistent velocity mass).
-    pub particle_grid_gap: f64,
-    /// Kinetic energy lost in the transfers back to the particles, summed over the steps so
-    /// far: `Σ [K_p,before + (½ Σ m_p |Nᵀw|² − ½ Σ m_p |Nᵀv|²) − K_p,after]`, what the particles'
-    /// kinetic energy changed by less than the grid's (PIC loses the whole gap; FLIP with the
-    /// consistent velocity mass nothing).
-    pub transfer_loss: f64,
-    /// Potential of the body forces `−Σ_p m_p (b_p + g) · x_p` after the step.
-    pub potential_energy: f64,
-    /// `kinetic + strain + potential`.
-    pub total_energy: f64,
-    /// `Σ_p m_p v_p` after the step.
-    pub momentum: [f64; 2],
-    /// `Σ_p m_p (x_p × v_p)` after the step (the APIC affine part is not included).
-    pub angular_momentum: f64,
-    /// `Σ_I x_I × q_I`: angular momentum of the grid momentum of this step's (3), which APIC
-    /// conserves exactly.
-    pub grid_angular_momentum: f64,
-    /// `Σ_p m_p`.
-    pub mass: f64,
-    /// `max_p |v_p|` after the step.
-    pub max_speed: f64,
-    /// What the velocity projection did.
-    pub velocity_solve: SolveReport,
-    /// What the acceleration solve did.
-    pub acceleration_solve: SolveReport,
-}
-
-impl StepReport {
-    /// Column names of [`StepReport::values`], for a CSV header.
-    pub const COLUMNS: [&'static str; 25] = [
-        "step",
-        "time",
-        "dt",
-        "stable_time_step",
-        "kinetic_energy",
-        "grid_kinetic_energy_lumped",
-        "grid_kinetic_energy_consistent",
-        "strain_energy",
-        "particle_grid_gap",
-        "transfer_loss",
-        "potential_energy",
-        "total_energy",
-        "momentum_x",
-        "momentum_y",
-        "angular_momentum",
-        "grid_angular_momentum",
-        "mass",
-        "max_speed",
-        "velocity_outcome",
-        "velocity_iterations",
-        "velocity_residual",
-        "acceleration_outcome",
-        "acceleration_iterations",
-        "acceleration_residual",
-        "velocity_fallback_node",
-    ];
-
-    /// The report as numbers, in the order of [`StepReport::COLUMNS`]. Outcomes are coded
-    /// 0 = solved, 1 = fell back to lumped, 2 = regularized; the fallback node is −1 when none.
-    pub fn values(&self) -> [f64; 25] {
-        let code = |r: &SolveReport| match r.outcome {
-            SolveOutcome::Solved => 0.0,
-            SolveOutcome::FellBackToLumped { .. } => 1.0,
-            SolveOutcome::Regularized { .. } => 2.0,
-        };
-        let node = match self.velocity_solve.outcome {
-            SolveOutcome::FellBackToLumped { node: Some(n), .. } | SolveOutcome::Regularized { node: Some(n), .. } => {
-                n as f64
-            }
-            _ => -1.0,
-        };
-        [
-            self.step as f64,
-            self.time,
-            self.dt,
-            self.stable_time_step,
-            self.kinetic_energy,
-            self.grid_kinetic_energy_lumped,
-            self.grid_kinetic_energy_consistent,
-            self.strain_energy,
-            self.particle_grid_gap,
-            self.transfer_loss,
-            self.potential_energy,
-            self.total_energy,
-            self.momentum[0],
-            self.momentum[1],
-            self.angular_momentum,
-            self.grid_angular_momentum,
-            self.mass,
-            self.max_speed,
-            code(&self.velocity_solve),
-            self.velocity_solve.iterations as f64,
-            self.velocity_solve.relative_residual,
-            code(&self.acceleration_solve),
-            self.acceleration_solve.iterations as f64,
-            self.acceleration_solve.relative_residual,
-            node,
-        ]
-    }
-}
 
 /// Work arrays kept from step to step.
 #[derive(Debug, Default)]
@@ -392,7 +125,7 @@ impl Simulation {
     /// `grid` with `options`, at time 0.
     ///
     /// # Errors
-    /// The errors of [`Particles::validate`], [`Material::validate`],
+    /// The errors of [`Particles::validate`], [`Material::validate`](crate::material::Material::validate),
     /// [`ShapeFunction::validate`] and [`boundary::resolve`]; [`MpmError::InvalidScene`] for a
     /// particle naming a body that does not exist, a non-positive or non-finite fixed step or
     /// Courant number, an invalid blend weight or a non-finite gravity;

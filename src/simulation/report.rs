@@ -1,0 +1,126 @@
+//! What one step did: [`StepReport`], and its CSV columns.
+
+use crate::mass::{SolveOutcome, SolveReport};
+
+/// What one step did and the state after it: data, not log lines.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepReport {
+    /// Steps completed (1 after the first step).
+    pub step: usize,
+    /// Time at the end of the step.
+    pub time: f64,
+    /// Step length used.
+    pub dt: f64,
+    /// The stable step at the start of the step ([`Simulation::stable_time_step`](super::Simulation::stable_time_step)).
+    pub stable_time_step: f64,
+    /// `½ Σ_p m_p |v_p|²` after the step.
+    pub kinetic_energy: f64,
+    /// `½ Σ_I m_L,I |w_I|²`: grid kinetic energy of the updated grid velocity, lumped mass.
+    pub grid_kinetic_energy_lumped: f64,
+    /// `½ wᵀ M w = ½ Σ_p m_p |(Nᵀ w)_p|²`: the same with the consistent mass.
+    pub grid_kinetic_energy_consistent: f64,
+    /// `Σ_p` strain energy of each particle's material after the step.
+    pub strain_energy: f64,
+    /// `K_p − ½ Σ_p m_p |Nᵀv|²` at this step: the particles' kinetic energy that the projected
+    /// grid velocity `v` does not carry (measured at the particles, so it is never negative
+    /// with the consistent velocity mass).
+    pub particle_grid_gap: f64,
+    /// Kinetic energy lost in the transfers back to the particles, summed over the steps so
+    /// far: `Σ [K_p,before + (½ Σ m_p |Nᵀw|² − ½ Σ m_p |Nᵀv|²) − K_p,after]`, what the particles'
+    /// kinetic energy changed by less than the grid's (PIC loses the whole gap; FLIP with the
+    /// consistent velocity mass nothing).
+    pub transfer_loss: f64,
+    /// Potential of the body forces `−Σ_p m_p (b_p + g) · x_p` after the step.
+    pub potential_energy: f64,
+    /// `kinetic + strain + potential`.
+    pub total_energy: f64,
+    /// `Σ_p m_p v_p` after the step.
+    pub momentum: [f64; 2],
+    /// `Σ_p m_p (x_p × v_p)` after the step (the APIC affine part is not included).
+    pub angular_momentum: f64,
+    /// `Σ_I x_I × q_I`: angular momentum of the grid momentum of this step's (3), which APIC
+    /// conserves exactly.
+    pub grid_angular_momentum: f64,
+    /// `Σ_p m_p`.
+    pub mass: f64,
+    /// `max_p |v_p|` after the step.
+    pub max_speed: f64,
+    /// What the velocity projection did.
+    pub velocity_solve: SolveReport,
+    /// What the acceleration solve did.
+    pub acceleration_solve: SolveReport,
+}
+
+impl StepReport {
+    /// Column names of [`StepReport::values`], for a CSV header.
+    pub const COLUMNS: [&'static str; 25] = [
+        "step",
+        "time",
+        "dt",
+        "stable_time_step",
+        "kinetic_energy",
+        "grid_kinetic_energy_lumped",
+        "grid_kinetic_energy_consistent",
+        "strain_energy",
+        "particle_grid_gap",
+        "transfer_loss",
+        "potential_energy",
+        "total_energy",
+        "momentum_x",
+        "momentum_y",
+        "angular_momentum",
+        "grid_angular_momentum",
+        "mass",
+        "max_speed",
+        "velocity_outcome",
+        "velocity_iterations",
+        "velocity_residual",
+        "acceleration_outcome",
+        "acceleration_iterations",
+        "acceleration_residual",
+        "velocity_fallback_node",
+    ];
+
+    /// The report as numbers, in the order of [`StepReport::COLUMNS`]. Outcomes are coded
+    /// 0 = solved, 1 = fell back to lumped, 2 = regularized; the fallback node is −1 when none.
+    pub fn values(&self) -> [f64; 25] {
+        let code = |r: &SolveReport| match r.outcome {
+            SolveOutcome::Solved => 0.0,
+            SolveOutcome::FellBackToLumped { .. } => 1.0,
+            SolveOutcome::Regularized { .. } => 2.0,
+        };
+        let node = match self.velocity_solve.outcome {
+            SolveOutcome::FellBackToLumped { node: Some(n), .. } | SolveOutcome::Regularized { node: Some(n), .. } => {
+                n as f64
+            }
+            _ => -1.0,
+        };
+        [
+            self.step as f64,
+            self.time,
+            self.dt,
+            self.stable_time_step,
+            self.kinetic_energy,
+            self.grid_kinetic_energy_lumped,
+            self.grid_kinetic_energy_consistent,
+            self.strain_energy,
+            self.particle_grid_gap,
+            self.transfer_loss,
+            self.potential_energy,
+            self.total_energy,
+            self.momentum[0],
+            self.momentum[1],
+            self.angular_momentum,
+            self.grid_angular_momentum,
+            self.mass,
+            self.max_speed,
+            code(&self.velocity_solve),
+            self.velocity_solve.iterations as f64,
+            self.velocity_solve.relative_residual,
+            code(&self.acceleration_solve),
+            self.acceleration_solve.iterations as f64,
+            self.acceleration_solve.relative_residual,
+            node,
+        ]
+    }
+}
