@@ -113,6 +113,7 @@ pub mod error;
 pub mod grid;
 pub mod homework;
 pub mod io;
+pub mod kernels;
 pub mod mass;
 pub mod material;
 pub mod operators;

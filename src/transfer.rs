@@ -3,6 +3,7 @@
 //! Every function here is one line of the formulation (docs/formulation.md); nodal and
 //! particle vector quantities are [`VectorField`]s (an x and a y component vector).
 
+pub use crate::kernels::{extend_to_inactive_nodes, series_velocity_into, ExtensionScratch, SeriesScratch};
 use crate::mass::ConsistentMassSolver;
 use crate::operators::{Operator, Operators};
 
@@ -84,26 +85,13 @@ pub fn external_force(ops: &Operators, m: &[f64], bx: &[f64], by: &[f64]) -> Vec
 /// f_int,y = −( Gx (V ∘ σxy) + Gy (V ∘ σyy) )      (two n-vectors; V, σ are P-vectors)
 /// ```
 ///
-/// Computed in one pass over the shared pattern of Gx and Gy.
+/// Computed in one pass over the shared pattern of Gx and Gy ([`crate::kernels::add_internal_force`]).
 ///
 /// # Panics
 /// If an input's length is not the particle count.
 pub fn internal_force(ops: &Operators, volume: &[f64], sxx: &[f64], syy: &[f64], sxy: &[f64]) -> VectorField {
-    let np = ops.num_particles();
-    for f in [volume, sxx, syy, sxy] {
-        assert_eq!(f.len(), np, "particle field length must equal the particle count");
-    }
     let mut f = VectorField::zeros(ops.num_nodes());
-    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-    let (gx, gy) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
-    for p in 0..np {
-        let (txx, tyy, txy) = (volume[p] * sxx[p], volume[p] * syy[p], volume[p] * sxy[p]);
-        for e in cp[p]..cp[p + 1] {
-            let i = ri[e];
-            f.x[i] -= gx[e] * txx + gy[e] * txy;
-            f.y[i] -= gx[e] * txy + gy[e] * tyy;
-        }
-    }
+    crate::kernels::add_internal_force(ops, volume, sxx, syy, sxy, &mut f);
     f
 }
 
@@ -306,150 +294,4 @@ pub fn extend_to_massless_nodes(ops: &Operators, active: &[usize], v: &mut Vecto
     active.iter().for_each(|&i| is_active[i] = true);
     let mut scratch = ExtensionScratch::default();
     extend_to_inactive_nodes(ops, &is_active, v, &mut scratch);
-}
-
-/// Work arrays of [`extend_to_inactive_nodes`], kept between calls so that it allocates
-/// nothing once they have grown to the node count.
-#[derive(Debug, Clone, Default)]
-pub struct ExtensionScratch {
-    sum: VectorField,
-    count: Vec<u32>,
-}
-
-impl ExtensionScratch {
-    /// Work arrays already sized for `num_nodes` nodes.
-    pub fn new(num_nodes: usize) -> ExtensionScratch {
-        ExtensionScratch {
-            sum: VectorField::zeros(num_nodes),
-            count: vec![0; num_nodes],
-        }
-    }
-}
-
-/// [`extend_to_massless_nodes`] with the active nodes as a mask (`is_active[I]`) and reused work
-/// arrays. Only the columns of particles that touch an inactive node are visited; returns
-/// whether any node was changed.
-///
-/// # Panics
-/// If `v` or `is_active` does not have one entry per node.
-pub fn extend_to_inactive_nodes(
-    ops: &Operators,
-    is_active: &[bool],
-    v: &mut VectorField,
-    scratch: &mut ExtensionScratch,
-) -> bool {
-    let n = ops.num_nodes();
-    assert!(
-        v.len() == n && is_active.len() == n,
-        "one velocity and one flag per node"
-    );
-    let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
-    let mut any = false;
-    for p in 0..ops.num_particles() {
-        let column = cp[p]..cp[p + 1];
-        if ri[column.clone()].iter().all(|&i| is_active[i]) {
-            continue;
-        }
-        if !any {
-            scratch.sum.x.clear();
-            scratch.sum.x.resize(n, 0.0);
-            scratch.sum.y.clear();
-            scratch.sum.y.resize(n, 0.0);
-            scratch.count.clear();
-            scratch.count.resize(n, 0);
-            any = true;
-        }
-        let (mut vx, mut vy) = (0.0, 0.0);
-        for e in column.clone() {
-            vx += nv[e] * v.x[ri[e]];
-            vy += nv[e] * v.y[ri[e]];
-        }
-        for e in column {
-            let i = ri[e];
-            if !is_active[i] {
-                scratch.sum.x[i] += vx;
-                scratch.sum.y[i] += vy;
-                scratch.count[i] += 1;
-            }
-        }
-    }
-    if any {
-        for i in 0..n {
-            if scratch.count[i] > 0 {
-                let c = scratch.count[i] as f64;
-                v.x[i] = scratch.sum.x[i] / c;
-                v.y[i] = scratch.sum.y[i] / c;
-            }
-        }
-    }
-    any
-}
-
-/// Work arrays of [`series_velocity_into`], kept between calls so that it allocates nothing
-/// once they have grown to size.
-#[derive(Debug, Clone, Default)]
-pub struct SeriesScratch {
-    increment: VectorField,
-    at_particles: VectorField,
-    momentum: VectorField,
-}
-
-/// The truncated series of the full-mass inverse applied to a lumped grid velocity `u`, by
-/// particle–grid products only (Nairn's FMPM loop; `M` is never formed):
-///
-/// ```text
-/// v(k) = Σ_{ℓ=0}^{k−1} Δv_ℓ,   Δv_0 = u,   Δv_ℓ = Π₀ (Δv_{ℓ−1} − M_L⁻¹ N (m ∘ Nᵀ Δv_{ℓ−1}))
-/// ```
-///
-/// which is `Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ u = M_k⁻¹ M_L u`, `M_k⁻¹` the series of
-/// [`crate::mass::MassScheme::TruncatedSeries`], when no component is constrained. `inv_m` holds
-/// `1/m_L,I` on active nodes and 0 elsewhere; `constrain` (`Π₀`) zeroes the prescribed components
-/// of each increment, so that the velocity boundary conditions `u` satisfies hold for `v(k)`
-/// too. `k = 1` returns `u`.
-///
-/// # Panics
-/// On length mismatch, or `k = 0`.
-#[allow(clippy::too_many_arguments)]
-pub fn series_velocity_into(
-    ops: &Operators,
-    m: &[f64],
-    inv_m: &[f64],
-    k: usize,
-    constrain: &dyn Fn(&mut VectorField),
-    u: &VectorField,
-    out: &mut VectorField,
-    scratch: &mut SeriesScratch,
-) {
-    assert!(k >= 1, "the series needs at least one term");
-    let (n, np) = (ops.num_nodes(), ops.num_particles());
-    assert!(
-        u.len() == n && inv_m.len() == n,
-        "one velocity and one inverse mass per node"
-    );
-    let SeriesScratch {
-        increment: dv,
-        at_particles: up,
-        momentum: q,
-    } = scratch;
-    for (field, len) in [(&mut *out, n), (&mut *dv, n), (&mut *q, n), (&mut *up, np)] {
-        field.x.resize(len, 0.0);
-        field.y.resize(len, 0.0);
-    }
-    out.x.copy_from_slice(&u.x);
-    out.y.copy_from_slice(&u.y);
-    dv.x.copy_from_slice(&u.x);
-    dv.y.copy_from_slice(&u.y);
-    for _ in 1..k {
-        ops.gather(Operator::N, [&dv.x, &dv.y], [&mut up.x, &mut up.y]);
-        ops.scatter_scaled(Operator::N, Some(m), [&up.x, &up.y], [&mut q.x, &mut q.y]);
-        for i in 0..n {
-            dv.x[i] -= q.x[i] * inv_m[i];
-            dv.y[i] -= q.y[i] * inv_m[i];
-        }
-        constrain(dv);
-        for i in 0..n {
-            out.x[i] += dv.x[i];
-            out.y[i] += dv.y[i];
-        }
-    }
 }

@@ -20,6 +20,7 @@
 use nalgebra_sparse::CscMatrix;
 
 use crate::error::{MpmError, Result};
+pub use crate::kernels::weighted_product;
 use crate::operators::{Operator, Operators};
 
 mod cg;
@@ -75,75 +76,6 @@ pub fn lumped_mass_into(ops: &Operators, m: &[f64], out: &mut [f64]) {
 /// If `m.len()` is not the particle count.
 pub fn consistent_mass(ops: &Operators, m: &[f64]) -> CscMatrix<f64> {
     weighted_product(ops, Operator::N, Operator::N, m)
-}
-
-/// The weighted product of two of the operators, the building block of mass and stiffness:
-///
-/// ```text
-/// A diag(w) Bᵀ    (n × n sparse; A, B ∈ {N, Gx, Gy}, w a P-vector)
-/// ```
-///
-/// e.g. `weighted_product(ops, Gx, Gx, V ∘ C11)` is the xx block of the stiffness's normal
-/// part. Built column by column (Gustavson's product through the row pattern of B), with sorted
-/// row indices. Every pair of nodes sharing a particle is stored, even if the value is zero.
-///
-/// # Panics
-/// If `w.len()` is not the particle count.
-pub fn weighted_product(ops: &Operators, a: Operator, b: Operator, w: &[f64]) -> CscMatrix<f64> {
-    let (n, np) = (ops.num_nodes(), ops.num_particles());
-    assert_eq!(w.len(), np, "the weight must have one entry per particle");
-    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-    let (av, bv) = (ops.values(a), ops.values(b));
-    // Row pattern of the operators: for each node, the stored entries touching it.
-    let mut row_ptr = vec![0usize; n + 1];
-    for &i in ri {
-        row_ptr[i + 1] += 1;
-    }
-    for i in 0..n {
-        row_ptr[i + 1] += row_ptr[i];
-    }
-    let mut fill = row_ptr.clone();
-    let mut row_entry = vec![0usize; ri.len()];
-    for e in 0..ri.len() {
-        let i = ri[e];
-        row_entry[fill[i]] = e;
-        fill[i] += 1;
-    }
-    let mut col_ptr = Vec::with_capacity(n + 1);
-    col_ptr.push(0);
-    let mut rows = Vec::new();
-    let mut vals = Vec::new();
-    let mut work = vec![0.0f64; n];
-    let mut marker = vec![usize::MAX; n];
-    let mut touched = Vec::new();
-    for j in 0..n {
-        touched.clear();
-        for &ej in &row_entry[row_ptr[j]..row_ptr[j + 1]] {
-            let p = particle_of_entry(cp, ej);
-            let scale = w[p] * bv[ej];
-            for e in cp[p]..cp[p + 1] {
-                let i = ri[e];
-                if marker[i] != j {
-                    marker[i] = j;
-                    work[i] = 0.0;
-                    touched.push(i);
-                }
-                work[i] += scale * av[e];
-            }
-        }
-        touched.sort_unstable();
-        for &i in &touched {
-            rows.push(i);
-            vals.push(work[i]);
-        }
-        col_ptr.push(rows.len());
-    }
-    CscMatrix::try_from_csc_data(n, n, col_ptr, rows, vals).expect("rows are sorted and in range")
-}
-
-/// The column (particle) that stored entry `e` belongs to.
-fn particle_of_entry(col_ptr: &[usize], e: usize) -> usize {
-    col_ptr.partition_point(|&c| c <= e) - 1
 }
 
 /// The active nodes: those with `m_L,I > tolerance · max_J m_L,J`, ascending.

@@ -31,7 +31,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::operators::{Operator, Operators};
+use crate::operators::Operators;
 use crate::shape::{bspline, ShapeFunction};
 
 /// Default ghost-penalty weight γ of [`Stabilization::GhostPenalty`].
@@ -194,12 +194,13 @@ fn read_cells(ops: &Operators, grid: &Grid, p: usize) -> (Vec<bool>, [usize; 2])
     let [nx, ny] = grid.nodes_per_axis();
     let dims = [nx - p, ny - p];
     let mut read = vec![false; dims[0] * dims[1]];
-    let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
     let gimp = matches!(ops.shape_function(), ShapeFunction::Gimp { .. });
     for q in 0..ops.num_particles() {
-        let column = cp[q]..cp[q + 1];
         // Rows ascend, so the first is the stencil's lower-left node in either numbering.
-        let (fx, fy) = grid.node_ij(ri[column.start]);
+        let Some((first, ..)) = ops.column(q).next() else {
+            continue;
+        };
+        let (fx, fy) = grid.node_ij(first);
         if !gimp {
             read[fy * dims[0] + fx] = true;
             continue;
@@ -207,9 +208,9 @@ fn read_cells(ops: &Operators, grid: &Grid, p: usize) -> (Vec<bool>, [usize; 2])
         // Along each axis, the stencil nodes with weight: a cell is overlapped when both its
         // nodes carry weight.
         let (mut wx, mut wy) = ([false; 3], [false; 3]);
-        for e in column {
-            if nv[e] > 0.0 {
-                let (i, j) = grid.node_ij(ri[e]);
+        for (node, n, _, _) in ops.column(q) {
+            if n > 0.0 {
+                let (i, j) = grid.node_ij(node);
                 wx[i - fx] = true;
                 wy[j - fy] = true;
             }

@@ -46,47 +46,33 @@ pub use report::StepReport;
 use crate::boundary::{self, Prescribed};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
+use crate::kernels::{
+    self, extend_to_inactive_nodes, series_velocity_into, ApicInertia, ExtensionScratch, G2pRule, GridField, GridState,
+    ParticleScratch, SeriesScratch, Stress,
+};
 use crate::mass::{GridMass, MassScheme, Role, SolveOutcome, SolveReport};
-use crate::operators::{Operator, Operators};
+use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
-use crate::step::PositionUpdate;
 use crate::stiffness::{self, FrequencyEstimate};
-use crate::transfer::{extend_to_inactive_nodes, series_velocity_into, ExtensionScratch, SeriesScratch, VectorField};
+use crate::transfer::VectorField;
 
-/// Work arrays kept from step to step.
+/// Work arrays of the phases that are not grid or particle fields, kept between steps.
 #[derive(Debug, Default)]
-struct Work {
-    // Grid (one entry per node).
-    m: Vec<f64>,
-    q: VectorField,
-    f: VectorField,
-    v: VectorField,
-    v_series: VectorField,
-    series: SeriesScratch,
-    a: VectorField,
-    w: VectorField,
-    active: Vec<bool>,
-    node_x: Vec<f64>,
-    node_y: Vec<f64>,
+struct Scratch {
     extension: ExtensionScratch,
-    prescribed: VectorField,
-    // Particles.
-    displacement: VectorField,
-    l: [Vec<f64>; 4],
-    // Sorting.
+    series: SeriesScratch,
+    sorting: Sorting,
+}
+
+/// The counting sort's arrays.
+#[derive(Debug, Default)]
+struct Sorting {
     keys: Vec<usize>,
     counts: Vec<usize>,
     order: Vec<usize>,
-    scratch: Vec<f64>,
-    scratch_index: Vec<usize>,
-    grid_angular_momentum: f64,
-    strain_energy: f64,
-    inv_m: Vec<f64>,
-    /// This step's kinetic energies: particles before, `½ Σ m_p |Nᵀv|²`, `½ Σ m_p |Nᵀw|²`.
-    kinetic_before: f64,
-    kinetic_projected: f64,
-    kinetic_updated: f64,
+    values: Vec<f64>,
+    indices: Vec<usize>,
 }
 
 /// A running simulation: grid, particles, bodies, options and everything kept between steps.
@@ -105,7 +91,15 @@ pub struct Simulation {
     failed: Option<String>,
     stability: Option<Stability>,
     transfer_loss: f64,
-    work: Work,
+    /// Grid fields of the step.
+    nodes: GridState,
+    /// Per-particle fields of the step.
+    particle_scratch: ParticleScratch,
+    /// The prescribed velocities as a grid field (0 where free).
+    prescribed_velocity: VectorField,
+    /// Strain energy after the last stress update.
+    strain_energy: f64,
+    scratch: Scratch,
 }
 
 /// The stable step found by the last frequency estimate.
@@ -212,39 +206,28 @@ impl Simulation {
         let mut ops = Operators::default();
         ops.reassemble(&grid, options.shape, &particles.x, &particles.y)?;
         let n = grid.num_nodes();
-        let mut work = Work {
-            node_x: grid.node_x(),
-            node_y: grid.node_y(),
-            prescribed: VectorField {
-                x: prescribed
-                    .vx
-                    .iter()
-                    .map(|v| if v.is_nan() { 0.0 } else { *v })
-                    .collect(),
-                y: prescribed
-                    .vy
-                    .iter()
-                    .map(|v| if v.is_nan() { 0.0 } else { *v })
-                    .collect(),
-            },
-            ..Work::default()
+        let prescribed_velocity = VectorField {
+            x: prescribed
+                .vx
+                .iter()
+                .map(|v| if v.is_nan() { 0.0 } else { *v })
+                .collect(),
+            y: prescribed
+                .vy
+                .iter()
+                .map(|v| if v.is_nan() { 0.0 } else { *v })
+                .collect(),
         };
-        work.m.resize(n, 0.0);
-        work.inv_m.resize(n, 0.0);
-        work.extension = ExtensionScratch::new(n);
-        work.active.resize(n, false);
-        for field in [
-            &mut work.q,
-            &mut work.f,
-            &mut work.v,
-            &mut work.v_series,
-            &mut work.a,
-            &mut work.w,
-        ] {
-            *field = VectorField::zeros(n);
-        }
         let [cx, cy] = grid.cells();
-        work.counts.resize(cx * cy + 1, 0);
+        let scratch = Scratch {
+            extension: ExtensionScratch::new(n),
+            sorting: Sorting {
+                counts: vec![0; cx * cy + 1],
+                ..Sorting::default()
+            },
+            ..Scratch::default()
+        };
+        let nodes = GridState::new(&grid);
         let mut sim = Simulation {
             grid,
             particles,
@@ -259,7 +242,11 @@ impl Simulation {
             failed: None,
             stability: None,
             transfer_loss: 0.0,
-            work,
+            nodes,
+            particle_scratch: ParticleScratch::default(),
+            prescribed_velocity,
+            strain_energy: 0.0,
+            scratch,
         };
         // The stable step before the first step, so that a fixed step above it is refused now.
         sim.prepare_grid()?;
@@ -301,11 +288,11 @@ impl Simulation {
     }
     /// Lumped grid mass `m_L` of the last step.
     pub fn lumped_mass(&self) -> &[f64] {
-        &self.work.m
+        &self.nodes.mass
     }
     /// The updated grid velocity `w` of the last step.
     pub fn grid_velocity(&self) -> &VectorField {
-        &self.work.w
+        &self.nodes.updated
     }
     /// Sets every particle's body force per unit mass (besides gravity) to `b(id, x_p)`, with
     /// `id` the particle's permanent id and `x_p` its current position. For a time-dependent load,
@@ -376,7 +363,7 @@ impl Simulation {
     /// Estimates `ω²_max` of the update with the grid prepared for the current configuration
     /// ((1)–(5) and the mass) and keeps it.
     fn estimate_stability(&mut self) -> Result<()> {
-        let (ops, p, w) = (&self.ops, &self.particles, &self.work);
+        let (ops, p, nodes) = (&self.ops, &self.particles, &self.nodes);
         let n = ops.num_nodes();
         let tangent: Vec<[f64; 3]> = (0..p.len())
             .map(|k| {
@@ -384,7 +371,7 @@ impl Simulation {
                 self.bodies[p.body[k]].material.tangent(f)
             })
             .collect();
-        let mut free: Vec<bool> = w.active.iter().chain(&w.active).copied().collect();
+        let mut free: Vec<bool> = nodes.active.iter().chain(&nodes.active).copied().collect();
         let c = &self.prescribed.constraints;
         c.fixed_x.iter().for_each(|&i| free[i] = false);
         c.fixed_y.iter().for_each(|&i| free[n + i] = false);
@@ -402,8 +389,12 @@ impl Simulation {
                 }
                 let mut u = VectorField::zeros(n);
                 for i in 0..n {
-                    u.x[i] = if free[i] { r.x[i] * w.inv_m[i] } else { 0.0 };
-                    u.y[i] = if free[n + i] { r.y[i] * w.inv_m[i] } else { 0.0 };
+                    u.x[i] = if free[i] { r.x[i] * nodes.inverse_mass[i] } else { 0.0 };
+                    u.y[i] = if free[n + i] {
+                        r.y[i] * nodes.inverse_mass[i]
+                    } else {
+                        0.0
+                    };
                 }
                 if let Transfer::Fmpm { k } = transfer {
                     // FMPM's particle velocity and stress update read M_k⁻¹ M_L of the lumped
@@ -416,7 +407,16 @@ impl Simulation {
                     };
                     let mut out = VectorField::default();
                     let mut scratch = SeriesScratch::default();
-                    series_velocity_into(ops, &p.mass, &w.inv_m, k, &constrain, &u, &mut out, &mut scratch);
+                    series_velocity_into(
+                        ops,
+                        &p.mass,
+                        &nodes.inverse_mass,
+                        k,
+                        &constrain,
+                        &u,
+                        &mut out,
+                        &mut scratch,
+                    );
                     return Ok(out);
                 }
                 Ok(u)
@@ -541,7 +541,20 @@ impl Simulation {
         let shape = self.options.shape;
         self.ops
             .reassemble(&self.grid, shape, &self.particles.x, &self.particles.y)?; //         (1)
-        self.particle_to_grid(self.options.update != UpdateScheme::Usf); //                (2)–(5)
+        let stress = if self.options.update == UpdateScheme::Usf {
+            Stress::Omit
+        } else {
+            Stress::Include
+        };
+        let apic = self.apic();
+        kernels::p2g(
+            &self.ops,
+            &self.particles,
+            apic,
+            self.options.gravity,
+            stress,
+            &mut self.nodes,
+        ); // (2)–(5)
         self.prepare_mass()?;
         let due = match self.stability {
             None => true,
@@ -557,31 +570,43 @@ impl Simulation {
     }
 
     fn phases(&mut self, max_dt: f64) -> Result<StepReport> {
-        self.prepare_grid()?;
+        self.prepare_grid()?; //                                                       (1)–(5), mass
         let stable = self.stable_time_step();
         let dt = self.next_time_step(stable)?.min(max_dt);
-        let usf = self.options.update == UpdateScheme::Usf;
         let velocity_solve = self.project_velocity()?; //                                   (6)
-        if usf {
+        if self.options.update == UpdateScheme::Usf {
             let field = self.stress_velocity(GridField::Projected);
-            self.extend_to_inactive_nodes(field);
-            self.velocity_gradient(field);
+            self.gradient_of(field);
             self.update_stress(dt)?;
-            self.internal_force();
+            let p = &self.particles;
+            kernels::add_internal_force(&self.ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut self.nodes.force);
+            // (5)
         }
         let acceleration_solve = self.solve_acceleration()?; //                             (7)
         self.update_grid_velocity(dt); //                                                   (8)
-        self.extend_to_inactive_nodes(GridField::Updated);
+        self.extend_to_inactive_nodes(GridField::Updated); //                              (8b)
         self.series_particle_velocity(); //                                          XPIC, FMPM
-        self.grid_to_particle(dt, self.options.update == UpdateScheme::Usl); //             (9)–(11)
+        let rule = G2pRule {
+            transfer: self.options.transfer,
+            position: self.options.position_update,
+            linear: self.options.shape == ShapeFunction::Linear,
+            gradient: (self.options.update == UpdateScheme::Usl).then(|| self.stress_field(GridField::Updated)),
+        };
+        kernels::g2p(
+            &self.ops,
+            &self.nodes,
+            &rule,
+            dt,
+            &mut self.particles,
+            &mut self.particle_scratch,
+        ); // (9)–(11)
         match self.options.update {
             UpdateScheme::Usl => self.update_stress(dt)?, //                                (12)
             UpdateScheme::Musl => {
-                self.reproject(); //                                                        (11)
+                kernels::reproject_momentum(&self.ops, &self.particles, self.apic(), &mut self.nodes); // (11)
                 self.project_velocity()?;
                 let field = self.stress_velocity(GridField::Projected);
-                self.extend_to_inactive_nodes(field);
-                self.velocity_gradient(field);
+                self.gradient_of(field);
                 self.update_stress(dt)?; //                                                 (12)
             }
             UpdateScheme::Usf => {}
@@ -590,112 +615,53 @@ impl Simulation {
         self.time += dt;
         self.steps += 1;
         let mut report = self.report(dt, stable, velocity_solve, acceleration_solve)?;
-        let w = &self.work;
-        self.transfer_loss += w.kinetic_before + (w.kinetic_updated - w.kinetic_projected) - report.kinetic_energy;
+        let k = &self.particle_scratch.kinetic;
+        self.transfer_loss += k.before + (k.updated - k.projected) - report.kinetic_energy;
         report.transfer_loss = self.transfer_loss;
         Ok(report)
     }
 
+    /// The APIC inertia of the shape functions, when the transfer is APIC.
+    fn apic(&self) -> Option<ApicInertia> {
+        (self.options.transfer == Transfer::Apic).then(|| ApicInertia::of(self.options.shape, &self.grid))
+    }
+
     /// Counting sort of the particles by cell index (row-major), allocation-free.
     fn sort_particles(&mut self) {
-        let (grid, p, w) = (&self.grid, &mut self.particles, &mut self.work);
+        let (grid, p, s) = (&self.grid, &mut self.particles, &mut self.scratch.sorting);
         let np = p.len();
         let [cx, cy] = grid.cells();
-        w.keys.resize(np, 0);
-        w.order.resize(np, 0);
-        w.counts.iter_mut().for_each(|c| *c = 0);
+        s.keys.resize(np, 0);
+        s.order.resize(np, 0);
+        s.counts.iter_mut().for_each(|c| *c = 0);
         for k in 0..np {
             let key = grid.cell_of(p.x[k], p.y[k]).map_or(cx * cy, |(i, j)| j * cx + i);
-            w.keys[k] = key.min(cx * cy);
-            w.counts[w.keys[k]] += 1;
+            s.keys[k] = key.min(cx * cy);
+            s.counts[s.keys[k]] += 1;
         }
         let mut start = 0;
-        for c in w.counts.iter_mut() {
+        for c in s.counts.iter_mut() {
             let n = *c;
             *c = start;
             start += n;
         }
         for k in 0..np {
-            let key = w.keys[k];
-            w.order[w.counts[key]] = k;
-            w.counts[key] += 1;
+            let key = s.keys[k];
+            s.order[s.counts[key]] = k;
+            s.counts[key] += 1;
         }
-        p.permute(&w.order, &mut w.scratch, &mut w.scratch_index);
+        p.permute(&s.order, &mut s.values, &mut s.indices);
     }
 
-    /// (2)–(5) in one pass over the shared pattern of N, Gx, Gy:
-    ///
-    /// ```text
-    /// m_L = N m,   q = N (m ∘ v) [+ APIC: Σ_p N_Ip m_p B_p D_p⁻¹ (x_I − x_p)],
-    /// f = N (m ∘ b) + m_L g − [Gx (V∘σxx) + Gy (V∘σxy); Gx (V∘σxy) + Gy (V∘σyy)]
-    /// ```
-    fn particle_to_grid(&mut self, with_internal: bool) {
-        let (ops, p, w) = (&self.ops, &self.particles, &mut self.work);
-        let apic = self.options.transfer == Transfer::Apic;
-        let inertia = apic.then(|| ApicInertia::of(self.options.shape, &self.grid));
-        let [gx, gy] = self.options.gravity;
-        w.m.iter_mut().for_each(|v| *v = 0.0);
-        for field in [&mut w.q, &mut w.f] {
-            field.x.iter_mut().for_each(|v| *v = 0.0);
-            field.y.iter_mut().for_each(|v| *v = 0.0);
-        }
-        let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-        let (nv, gxv, gyv) = (
-            ops.values(Operator::N),
-            ops.values(Operator::Gx),
-            ops.values(Operator::Gy),
-        );
-        let internal = if with_internal { 1.0 } else { 0.0 };
-        for k in 0..p.len() {
-            let m = p.mass[k];
-            let (mvx, mvy) = (m * p.vx[k], m * p.vy[k]);
-            let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
-            let v = internal * p.volume[k];
-            let (vsxx, vsyy, vsxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
-            let affine = apic_affine(p, k, &w.node_x, &w.node_y, ops, inertia);
-            for e in cp[k]..cp[k + 1] {
-                let (i, n) = (ri[e], nv[e]);
-                w.m[i] += n * m;
-                let [ax, ay] = affine.velocity(i, &w.node_x, &w.node_y, n);
-                w.q.x[i] += n * mvx + m * ax;
-                w.q.y[i] += n * mvy + m * ay;
-                w.f.x[i] += n * mbx - (gxv[e] * vsxx + gyv[e] * vsxy);
-                w.f.y[i] += n * mby - (gxv[e] * vsxy + gyv[e] * vsyy);
-            }
-        }
-        let mut ang = 0.0;
-        for i in 0..w.m.len() {
-            w.f.x[i] += w.m[i] * gx;
-            w.f.y[i] += w.m[i] * gy;
-            ang += w.node_x[i] * w.q.y[i] - w.node_y[i] * w.q.x[i];
-        }
-        w.grid_angular_momentum = ang;
-    }
-
-    /// (5) alone, added to `f` (USF recomputes it after the stress update).
-    fn internal_force(&mut self) {
-        let (ops, p, w) = (&self.ops, &self.particles, &mut self.work);
-        let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-        let (gxv, gyv) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
-        for k in 0..p.len() {
-            let v = p.volume[k];
-            let (sxx, syy, sxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
-            for e in cp[k]..cp[k + 1] {
-                let i = ri[e];
-                w.f.x[i] -= gxv[e] * sxx + gyv[e] * sxy;
-                w.f.y[i] -= gxv[e] * sxy + gyv[e] * syy;
-            }
-        }
-    }
-
-    /// Active nodes, and the consistent mass and its factorizations when a scheme needs them.
+    /// The active nodes and `1/m_L` from `m_L`; the consistent mass and its factorizations when
+    /// a scheme needs them.
     fn prepare_mass(&mut self) -> Result<()> {
-        let w = &mut self.work;
-        let max = w.m.iter().cloned().fold(0.0, f64::max);
+        let g = &mut self.nodes;
+        let max = g.mass.iter().cloned().fold(0.0, f64::max);
         let threshold = self.options.mass.active_tolerance * max;
-        for i in 0..w.m.len() {
-            w.active[i] = w.m[i] > threshold && w.m[i] > 0.0;
-            w.inv_m[i] = if w.active[i] { 1.0 / w.m[i] } else { 0.0 };
+        for i in 0..g.mass.len() {
+            g.active[i] = g.mass[i] > threshold && g.mass[i] > 0.0;
+            g.inverse_mass[i] = if g.active[i] { 1.0 / g.mass[i] } else { 0.0 };
         }
         if self.uses_grid_mass() {
             self.grid_mass.update(
@@ -713,106 +679,105 @@ impl Simulation {
         m.velocity != MassScheme::Lumped || m.acceleration != MassScheme::Lumped
     }
 
-    /// (6) `v = Π M_v⁻¹ q` into `work.v`.
+    /// (6) `v = Π M_v⁻¹ q`.
     fn project_velocity(&mut self) -> Result<SolveReport> {
-        let w = &mut self.work;
+        let g = &mut self.nodes;
         let report = if self.options.mass.velocity == MassScheme::Lumped {
-            divide_by_lumped(&w.inv_m, &w.q, &mut w.v)
+            divide_by_lumped(&g.inverse_mass, &g.momentum, &mut g.projected)
         } else {
-            let (v, report) = self
-                .grid_mass
-                .solve(Role::Velocity, &w.q, Some(&w.prescribed), &self.ops)?;
-            w.v = v;
+            let (v, report) =
+                self.grid_mass
+                    .solve(Role::Velocity, &g.momentum, Some(&self.prescribed_velocity), &self.ops)?;
+            g.projected = v;
             report
         };
-        self.prescribed.apply_velocity(&mut w.v.x, &mut w.v.y);
+        self.prescribed.apply_velocity(&mut g.projected.x, &mut g.projected.y);
         Ok(report)
     }
 
-    /// (7) `a = Π₀ M_a⁻¹ f` into `work.a`.
+    /// (7) `a = Π₀ M_a⁻¹ f`.
     fn solve_acceleration(&mut self) -> Result<SolveReport> {
-        let w = &mut self.work;
+        let g = &mut self.nodes;
         let report = if self.options.mass.acceleration == MassScheme::Lumped {
-            divide_by_lumped(&w.inv_m, &w.f, &mut w.a)
+            divide_by_lumped(&g.inverse_mass, &g.force, &mut g.acceleration)
         } else {
-            let (a, report) = self.grid_mass.solve(Role::Acceleration, &w.f, None, &self.ops)?;
-            w.a = a;
+            let (a, report) = self.grid_mass.solve(Role::Acceleration, &g.force, None, &self.ops)?;
+            g.acceleration = a;
             report
         };
-        self.prescribed.zero(&mut w.a.x, &mut w.a.y);
+        self.prescribed.zero(&mut g.acceleration.x, &mut g.acceleration.y);
         Ok(report)
     }
 
     /// (8) `w = Π (v + Δt a)` on active nodes, 0 elsewhere.
     fn update_grid_velocity(&mut self, dt: f64) {
-        let w = &mut self.work;
-        for i in 0..w.m.len() {
-            let s = if w.active[i] { 1.0 } else { 0.0 };
-            w.w.x[i] = s * (w.v.x[i] + dt * w.a.x[i]);
-            w.w.y[i] = s * (w.v.y[i] + dt * w.a.y[i]);
+        let g = &mut self.nodes;
+        for i in 0..g.mass.len() {
+            let s = if g.active[i] { 1.0 } else { 0.0 };
+            g.updated.x[i] = s * (g.projected.x[i] + dt * g.acceleration.x[i]);
+            g.updated.y[i] = s * (g.projected.y[i] + dt * g.acceleration.y[i]);
         }
-        self.prescribed.apply_velocity(&mut w.w.x, &mut w.w.y);
+        self.prescribed.apply_velocity(&mut g.updated.x, &mut g.updated.y);
+    }
+
+    /// The field the stress update reads when the scheme projects `field`: FMPM(k)'s series
+    /// velocity of it (computed by [`Simulation::stress_velocity`]), else `field` itself.
+    fn stress_field(&self, field: GridField) -> GridField {
+        match self.options.transfer {
+            Transfer::Fmpm { .. } => GridField::Series,
+            _ => field,
+        }
     }
 
     /// The grid velocity the stress update reads, given the one the update scheme projects:
-    /// FMPM(k) passes it through its series first (into `work.v_series`).
+    /// FMPM(k) passes it through its series first (into the series field).
     fn stress_velocity(&mut self, field: GridField) -> GridField {
         let Transfer::Fmpm { k } = self.options.transfer else {
             return field;
         };
-        let w = &mut self.work;
-        let source = match field {
-            GridField::Projected => &w.v,
-            GridField::Updated => &w.w,
-            GridField::Series => return field,
-        };
-        let prescribed = &self.prescribed;
-        let constrain = |u: &mut VectorField| prescribed.zero(&mut u.x, &mut u.y);
-        series_velocity_into(
-            &self.ops,
-            &self.particles.mass,
-            &w.inv_m,
-            k,
-            &constrain,
-            source,
-            &mut w.v_series,
-            &mut w.series,
-        );
+        self.series_of(field, k);
         GridField::Series
     }
 
+    /// `v* = Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ u` of the field `source` into the series field, each increment
+    /// with its prescribed components zeroed ([`kernels::series_velocity_into`]).
+    fn series_of(&mut self, source: GridField, k: usize) {
+        let g = &mut self.nodes;
+        let prescribed = &self.prescribed;
+        let constrain = |u: &mut VectorField| prescribed.zero(&mut u.x, &mut u.y);
+        let u = match source {
+            GridField::Projected => &g.projected,
+            GridField::Updated => &g.updated,
+            GridField::Series => unreachable!("the series is taken of a projected or updated velocity"),
+        };
+        series_velocity_into(
+            &self.ops,
+            &self.particles.mass,
+            &g.inverse_mass,
+            k,
+            &constrain,
+            u,
+            &mut g.series,
+            &mut self.scratch.series,
+        );
+    }
+
     /// XPIC(k) and FMPM(k), once per step before the particle update: the grid velocity the new
-    /// particle velocities interpolate, into `work.v_series`,
+    /// particle velocities interpolate, into the series field,
     ///
     /// ```text
     /// XPIC(k):  v* = Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ v + (w − v)      (v: this step's projected velocity)
     /// FMPM(k):  v* = Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ w                 (w: the updated velocity)
     /// ```
-    ///
-    /// each increment with its prescribed components zeroed ([`series_velocity_into`]).
     fn series_particle_velocity(&mut self) {
         match self.options.transfer {
-            Transfer::Fmpm { .. } => {
-                self.stress_velocity(GridField::Updated);
-            }
+            Transfer::Fmpm { k } => self.series_of(GridField::Updated, k),
             Transfer::Xpic { k } => {
-                let w = &mut self.work;
-                let prescribed = &self.prescribed;
-                let constrain = |u: &mut VectorField| prescribed.zero(&mut u.x, &mut u.y);
-                let m = &self.particles.mass;
-                series_velocity_into(
-                    &self.ops,
-                    m,
-                    &w.inv_m,
-                    k,
-                    &constrain,
-                    &w.v,
-                    &mut w.v_series,
-                    &mut w.series,
-                );
-                for i in 0..w.w.len() {
-                    w.v_series.x[i] += w.w.x[i] - w.v.x[i];
-                    w.v_series.y[i] += w.w.y[i] - w.v.y[i];
+                self.series_of(GridField::Projected, k);
+                let g = &mut self.nodes;
+                for i in 0..g.updated.len() {
+                    g.series.x[i] += g.updated.x[i] - g.projected.x[i];
+                    g.series.y[i] += g.updated.y[i] - g.projected.y[i];
                 }
             }
             _ => return,
@@ -820,188 +785,36 @@ impl Simulation {
         self.extend_to_inactive_nodes(GridField::Series);
     }
 
-    /// Gives the inactive nodes inside some particle's support the mean interpolated velocity of
-    /// those particles (see [`crate::transfer::extend_to_massless_nodes`]), in the grid velocity
-    /// `field`; prescribed components keep their values.
+    /// (8b) in the grid velocity `field`; prescribed components keep their values.
     fn extend_to_inactive_nodes(&mut self, field: GridField) {
-        let w = &mut self.work;
+        let GridState {
+            active,
+            projected,
+            updated,
+            series,
+            ..
+        } = &mut self.nodes;
         let u = match field {
-            GridField::Projected => &mut w.v,
-            GridField::Updated => &mut w.w,
-            GridField::Series => &mut w.v_series,
+            GridField::Projected => projected,
+            GridField::Updated => updated,
+            GridField::Series => series,
         };
-        if extend_to_inactive_nodes(&self.ops, &w.active, u, &mut w.extension) {
+        if extend_to_inactive_nodes(&self.ops, active, u, &mut self.scratch.extension) {
             self.prescribed.apply_velocity(&mut u.x, &mut u.y);
         }
     }
 
-    /// `L = [Gxᵀ u, Gyᵀ u]` at every particle into `work.l`, for the grid velocity `field`.
-    fn velocity_gradient(&mut self, field: GridField) {
-        let (ops, w) = (&self.ops, &mut self.work);
-        let np = ops.num_particles();
-        for l in w.l.iter_mut() {
-            l.resize(np, 0.0);
-        }
-        let u = match field {
-            GridField::Projected => &w.v,
-            GridField::Updated => &w.w,
-            GridField::Series => &w.v_series,
-        };
-        let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-        let (gxv, gyv) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
-        for k in 0..np {
-            let mut l = [0.0; 4];
-            for e in cp[k]..cp[k + 1] {
-                let (ux, uy) = (u.x[ri[e]], u.y[ri[e]]);
-                l[0] += gxv[e] * ux;
-                l[1] += gyv[e] * ux;
-                l[2] += gxv[e] * uy;
-                l[3] += gyv[e] * uy;
-            }
-            for c in 0..4 {
-                w.l[c][k] = l[c];
-            }
-        }
+    /// `L = [Gxᵀ u, Gyᵀ u]` at every particle for the grid velocity `field` (extended to the
+    /// massless support nodes first).
+    fn gradient_of(&mut self, field: GridField) {
+        self.extend_to_inactive_nodes(field);
+        let u = self.nodes.field(field);
+        kernels::velocity_gradient_into(&self.ops, u, &mut self.particle_scratch.velocity_gradient);
     }
 
-    /// (9)–(11) in one pass over N, Gx, Gy: particle velocities (and APIC `C`), the position
-    /// increments (applied by [`Simulation::move_particles`]) and, when `with_gradient`,
-    /// `L = [Gxᵀ u, Gyᵀ u]` with `u` the velocity the stress update reads (`w`, or FMPM's `v*`).
-    ///
-    /// FLIP's increment is `Nᵀ (w − v)`, the change of the grid velocity with the boundary
-    /// conditions applied to both (`Δt Nᵀ a` when they are constant), for every mass scheme
-    /// (docs/formulation.md).
-    fn grid_to_particle(&mut self, dt: f64, with_gradient: bool) {
-        let (ops, p, w) = (&self.ops, &mut self.particles, &mut self.work);
-        let np = p.len();
-        w.displacement.x.resize(np, 0.0);
-        w.displacement.y.resize(np, 0.0);
-        for l in w.l.iter_mut() {
-            l.resize(np, 0.0);
-        }
-        let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-        let (nv, gxv, gyv) = (
-            ops.values(Operator::N),
-            ops.values(Operator::Gx),
-            ops.values(Operator::Gy),
-        );
-        let transfer = self.options.transfer;
-        let trapezoidal = self.options.position_update == PositionUpdate::Trapezoidal;
-        // Linear kernels keep C_p = Σ_I w_I ∇N_Iᵀ itself (see `apic_affine`).
-        let linear_apic = transfer == Transfer::Apic && self.options.shape == ShapeFunction::Linear;
-        let need_l = with_gradient || linear_apic;
-        // The field the new velocity interpolates, the reference of increments (the projected v)
-        // and the field of the stress update's gradient.
-        let series = transfer.series_terms().is_some();
-        let target = if series { &w.v_series } else { &w.w };
-        let reference = &w.v;
-        let gradient = if matches!(transfer, Transfer::Fmpm { .. }) {
-            &w.v_series
-        } else {
-            &w.w
-        };
-        let (mut kinetic_before, mut kinetic_projected, mut kinetic_updated) = (0.0, 0.0, 0.0);
-        for k in 0..np {
-            let (mut vx, mut vy, mut tx, mut ty, mut rx, mut ry) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-            let mut l = [0.0; 4];
-            let mut lw = [0.0; 4];
-            let mut b = [0.0; 4];
-            for e in cp[k]..cp[k + 1] {
-                let (i, n) = (ri[e], nv[e]);
-                let (wx, wy) = (w.w.x[i], w.w.y[i]);
-                vx += n * wx;
-                vy += n * wy;
-                tx += n * target.x[i];
-                ty += n * target.y[i];
-                rx += n * reference.x[i];
-                ry += n * reference.y[i];
-                if need_l {
-                    let (gx, gy) = (gradient.x[i], gradient.y[i]);
-                    l[0] += gxv[e] * gx;
-                    l[1] += gyv[e] * gx;
-                    l[2] += gxv[e] * gy;
-                    l[3] += gyv[e] * gy;
-                }
-                if transfer == Transfer::Apic {
-                    lw[0] += gxv[e] * wx;
-                    lw[1] += gyv[e] * wx;
-                    lw[2] += gxv[e] * wy;
-                    lw[3] += gyv[e] * wy;
-                    let (dx, dy) = (w.node_x[i] - p.x[k], w.node_y[i] - p.y[k]);
-                    b[0] += n * wx * dx;
-                    b[1] += n * wx * dy;
-                    b[2] += n * wy * dx;
-                    b[3] += n * wy * dy;
-                }
-            }
-            if with_gradient {
-                for c in 0..4 {
-                    w.l[c][k] = l[c];
-                }
-            }
-            let (old_x, old_y) = (p.vx[k], p.vy[k]);
-            let half_m = 0.5 * p.mass[k];
-            kinetic_before += half_m * (old_x * old_x + old_y * old_y);
-            kinetic_projected += half_m * (rx * rx + ry * ry);
-            kinetic_updated += half_m * (vx * vx + vy * vy);
-            let (dvx, dvy) = (vx - rx, vy - ry);
-            let (new_x, new_y) = match transfer {
-                Transfer::Pic | Transfer::Apic => (vx, vy),
-                Transfer::Xpic { .. } | Transfer::Fmpm { .. } => (tx, ty),
-                Transfer::Flip => (old_x + dvx, old_y + dvy),
-                Transfer::Blend { flip } => (
-                    flip * (old_x + dvx) + (1.0 - flip) * vx,
-                    flip * (old_y + dvy) + (1.0 - flip) * vy,
-                ),
-            };
-            p.vx[k] = new_x;
-            p.vy[k] = new_y;
-            if transfer == Transfer::Apic {
-                let b = if linear_apic { lw } else { b };
-                p.affine_xx[k] = b[0];
-                p.affine_xy[k] = b[1];
-                p.affine_yx[k] = b[2];
-                p.affine_yy[k] = b[3];
-            }
-            let (ux, uy) = match transfer {
-                // Nairn: x += Δt (Nᵀ v + ½ (v_p,new − v_p,old)).
-                Transfer::Xpic { .. } => (rx + 0.5 * (new_x - old_x), ry + 0.5 * (new_y - old_y)),
-                Transfer::Fmpm { .. } => (0.5 * (old_x + new_x), 0.5 * (old_y + new_y)),
-                _ if trapezoidal => (0.5 * (old_x + vx), 0.5 * (old_y + vy)),
-                _ => (vx, vy),
-            };
-            w.displacement.x[k] = dt * ux;
-            w.displacement.y[k] = dt * uy;
-        }
-        w.kinetic_before = kinetic_before;
-        w.kinetic_projected = kinetic_projected;
-        w.kinetic_updated = kinetic_updated;
-    }
-
-    /// MUSL's re-projection `q' = N (m ∘ v_p) [+ APIC term]` with the operators and positions of
-    /// the start of the step (particles move after it).
-    fn reproject(&mut self) {
-        let (ops, p, w) = (&self.ops, &self.particles, &mut self.work);
-        let apic = self.options.transfer == Transfer::Apic;
-        w.q.x.iter_mut().for_each(|v| *v = 0.0);
-        w.q.y.iter_mut().for_each(|v| *v = 0.0);
-        let inertia = apic.then(|| ApicInertia::of(self.options.shape, &self.grid));
-        let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
-        for k in 0..p.len() {
-            let m = p.mass[k];
-            let affine = apic_affine(p, k, &w.node_x, &w.node_y, ops, inertia);
-            for e in cp[k]..cp[k + 1] {
-                let (i, n) = (ri[e], nv[e]);
-                let [ax, ay] = affine.velocity(i, &w.node_x, &w.node_y, n);
-                w.q.x[i] += n * m * p.vx[k] + m * ax;
-                w.q.y[i] += n * m * p.vy[k] + m * ay;
-            }
-        }
-    }
-
-    /// (10) `x_p ← x_p + Δt v̂_p` with the displacement stored by the grid-to-particle pass.
+    /// (10) `x_p ← x_p + Δx_p` with the increments of the grid-to-particle pass.
     fn move_particles(&mut self) {
-        let (p, d) = (&mut self.particles, &self.work.displacement);
+        let (p, d) = (&mut self.particles, &self.particle_scratch.displacement);
         for k in 0..p.len() {
             p.x[k] += d.x[k];
             p.y[k] += d.y[k];
@@ -1010,10 +823,10 @@ impl Simulation {
 
     /// (12) `F ← (I + Δt L) F`, `V ← V det(I + Δt L)`, `σ ← material(σ, L, F)`.
     fn update_stress(&mut self, dt: f64) -> Result<()> {
-        let (p, w) = (&mut self.particles, &mut self.work);
+        let (p, l) = (&mut self.particles, &self.particle_scratch.velocity_gradient);
         let mut energy = 0.0;
         for k in 0..p.len() {
-            let l = [w.l[0][k], w.l[1][k], w.l[2][k], w.l[3][k]];
+            let l = [l[0][k], l[1][k], l[2][k], l[3][k]];
             let g = [1.0 + dt * l[0], dt * l[1], dt * l[2], 1.0 + dt * l[3]];
             let j_inc = g[0] * g[3] - g[1] * g[2];
             let f = [
@@ -1046,7 +859,7 @@ impl Simulation {
             p.syy[k] = s[1];
             p.sxy[k] = s[2];
         }
-        w.strain_energy = energy;
+        self.strain_energy = energy;
         Ok(())
     }
 
@@ -1057,9 +870,9 @@ impl Simulation {
         velocity_solve: SolveReport,
         acceleration_solve: SolveReport,
     ) -> Result<StepReport> {
-        let (p, w) = (&self.particles, &self.work);
+        let (p, g, kinetic) = (&self.particles, &self.nodes, &self.particle_scratch.kinetic);
         let [gx, gy] = self.options.gravity;
-        let strain = w.strain_energy;
+        let strain = self.strain_energy;
         let (mut ke, mut potential, mut ang, mut mass, mut max_speed) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
         let (mut px, mut py) = (0.0, 0.0);
         for k in 0..p.len() {
@@ -1083,8 +896,8 @@ impl Simulation {
             ang += m * (p.x[k] * vy - p.y[k] * vx);
             potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
         }
-        let ke_l: f64 = (0..w.m.len())
-            .map(|i| 0.5 * w.m[i] * (w.w.x[i].powi(2) + w.w.y[i].powi(2)))
+        let ke_l: f64 = (0..g.mass.len())
+            .map(|i| 0.5 * g.mass[i] * (g.updated.x[i].powi(2) + g.updated.y[i].powi(2)))
             .sum();
         Ok(StepReport {
             step: self.steps,
@@ -1092,16 +905,16 @@ impl Simulation {
             dt,
             stable_time_step,
             kinetic_energy: ke,
-            particle_grid_gap: w.kinetic_before - w.kinetic_projected,
+            particle_grid_gap: kinetic.before - kinetic.projected,
             transfer_loss: self.transfer_loss,
             grid_kinetic_energy_lumped: ke_l,
-            grid_kinetic_energy_consistent: w.kinetic_updated,
+            grid_kinetic_energy_consistent: kinetic.updated,
             strain_energy: strain,
             potential_energy: potential,
             total_energy: ke + strain + potential,
             momentum: [px, py],
             angular_momentum: ang,
-            grid_angular_momentum: w.grid_angular_momentum,
+            grid_angular_momentum: g.angular_momentum,
             mass,
             max_speed,
             velocity_solve,
@@ -1123,97 +936,4 @@ fn divide_by_lumped(inv_m: &[f64], r: &VectorField, u: &mut VectorField) -> Solv
         iterations: 0,
         relative_residual: 0.0,
     }
-}
-
-/// Which grid velocity a phase reads.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum GridField {
-    /// `v`: projected from the particles (6).
-    Projected,
-    /// `w`: updated (8).
-    Updated,
-    /// `v*`: XPIC's or FMPM's series velocity.
-    Series,
-}
-
-/// How a kernel's APIC inertia `D_p` is obtained.
-#[derive(Clone, Copy)]
-enum ApicInertia {
-    /// Linear kernels: the particle stores `C_p` itself.
-    StoredC,
-    /// B-splines: `D_p = diag(dxx, dyy)`, the same for every particle.
-    Constant([f64; 2]),
-    /// GIMP: summed over the particle's column.
-    Column,
-}
-
-impl ApicInertia {
-    fn of(shape: ShapeFunction, grid: &Grid) -> ApicInertia {
-        let [hx, hy] = grid.cell_size();
-        match shape {
-            ShapeFunction::Linear => ApicInertia::StoredC,
-            ShapeFunction::QuadraticBSpline => ApicInertia::Constant([hx * hx / 4.0, hy * hy / 4.0]),
-            ShapeFunction::CubicBSpline => ApicInertia::Constant([hx * hx / 3.0, hy * hy / 3.0]),
-            ShapeFunction::Gimp { .. } => ApicInertia::Column,
-        }
-    }
-}
-
-/// The APIC affine velocity of one particle at the nodes of its column.
-enum Affine {
-    /// Not APIC.
-    None,
-    /// `C_p` and the particle's position: the affine velocity at node I is `C_p (x_I − x_p)`.
-    Matrix([f64; 4], [f64; 2]),
-}
-
-impl Affine {
-    /// The affine momentum per unit particle mass at node `i` with weight `n`:
-    /// `m_p⁻¹ × N_I m_p C_p (x_I − x_p)`.
-    #[inline]
-    fn velocity(&self, i: usize, node_x: &[f64], node_y: &[f64], n: f64) -> [f64; 2] {
-        match *self {
-            Affine::None => [0.0, 0.0],
-            Affine::Matrix(c, [x, y]) => {
-                let (dx, dy) = (node_x[i] - x, node_y[i] - y);
-                [n * (c[0] * dx + c[1] * dy), n * (c[2] * dx + c[3] * dy)]
-            }
-        }
-    }
-}
-
-/// Particle `k`'s APIC affine velocity matrix at its current position: `C_p = B_p D_p⁻¹` with
-/// `D_p = diag(Σ_I N_I dx², Σ_I N_I dy²)` (the off-diagonal part vanishes for tensor-product
-/// kernels; `h²/4` for quadratic and `h²/3` for cubic B-splines, summed over the column for
-/// GIMP). Linear kernels store `C_p = Σ_I w_I ∇N_Iᵀ` itself (their `D_p` vanishes on grid
-/// lines; `∇N_I = D_p⁻¹ N_I (x_I − x_p)` at the old position).
-fn apic_affine(
-    p: &Particles,
-    k: usize,
-    node_x: &[f64],
-    node_y: &[f64],
-    ops: &Operators,
-    kind: Option<ApicInertia>,
-) -> Affine {
-    let Some(kind) = kind else {
-        return Affine::None;
-    };
-    let b = [p.affine_xx[k], p.affine_xy[k], p.affine_yx[k], p.affine_yy[k]];
-    let position = [p.x[k], p.y[k]];
-    match kind {
-        ApicInertia::StoredC => return Affine::Matrix(b, position),
-        ApicInertia::Constant([dxx, dyy]) => {
-            return Affine::Matrix([b[0] / dxx, b[1] / dyy, b[2] / dxx, b[3] / dyy], position)
-        }
-        ApicInertia::Column => {}
-    }
-    let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
-    let (mut dxx, mut dyy) = (0.0, 0.0);
-    for e in cp[k]..cp[k + 1] {
-        let (dx, dy) = (node_x[ri[e]] - p.x[k], node_y[ri[e]] - p.y[k]);
-        dxx += nv[e] * dx * dx;
-        dyy += nv[e] * dy * dy;
-    }
-    // D_p > 0 for GIMP and B-splines: their weights always spread over more than one node.
-    Affine::Matrix([b[0] / dxx, b[1] / dyy, b[2] / dxx, b[3] / dyy], [p.x[k], p.y[k]])
 }

@@ -1,0 +1,708 @@
+//! The fused particle ↔ grid kernels: tier 2 of the products with N, Gx, Gy.
+//!
+//! Tier 1 ([`crate::transfer`], [`crate::mass`]) writes one product per call, as the equations
+//! read: `m_L = N m`, `q = N (m ∘ v)`, `L = [Gxᵀ v, Gyᵀ v]` … The time loop makes the same products
+//! in fewer passes over the shared pattern of N, Gx, Gy: these kernels, each a named phase with
+//! its inputs by `&` and its outputs by `&mut`. Together with [`crate::operators`] this is the
+//! one place that indexes the compressed-column arrays; `tests/kernels.rs` holds the two tiers
+//! equal to round-off for every shape function, transfer and update scheme.
+//!
+//! | kernel | equations (docs/formulation.md) |
+//! |---|---|
+//! | [`p2g`] | (2)–(5): `m_L = N m`, `q = N (m ∘ v) [+ APIC]`, `f = N (m ∘ b) + m_L g − G (V σ)` |
+//! | [`add_internal_force`] | (5) alone: `f −= [Gx (V∘σxx) + Gy (V∘σxy); Gx (V∘σxy) + Gy (V∘σyy)]` |
+//! | [`reproject_momentum`] | MUSL's `q' = N (m ∘ v_p) [+ APIC]` |
+//! | [`velocity_gradient_into`] | `L = [Gxᵀ u, Gyᵀ u]` |
+//! | [`g2p`] | (9)–(11): new particle velocities, APIC moments, position increments, `L` |
+//! | [`extend_to_inactive_nodes`] | (8b): massless support nodes take their particles' mean velocity |
+//! | [`series_velocity_into`] | XPIC / FMPM: `Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ u` by products |
+//! | [`weighted_product`] | `A diag(w) Bᵀ`, `A, B ∈ {N, Gx, Gy}`: the consistent mass, the stiffness |
+
+use nalgebra_sparse::CscMatrix;
+
+use crate::grid::Grid;
+use crate::operators::{Operator, Operators};
+use crate::particles::Particles;
+use crate::shape::ShapeFunction;
+use crate::simulation::Transfer;
+use crate::step::PositionUpdate;
+use crate::transfer::VectorField;
+
+/// Which grid velocity a phase reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GridField {
+    /// `v`: projected from the particles, (6).
+    Projected,
+    /// `w = v + Δt a`: updated, (8).
+    Updated,
+    /// `v*`: the series velocity of XPIC and FMPM.
+    Series,
+}
+
+/// The grid fields of one step, one entry per node.
+#[derive(Debug, Clone, Default)]
+pub struct GridState {
+    /// Lumped mass `m_L = N m`.
+    pub mass: Vec<f64>,
+    /// `1/m_L` on active nodes, 0 elsewhere.
+    pub inverse_mass: Vec<f64>,
+    /// Whether each node is active (carries mass above the tolerance).
+    pub active: Vec<bool>,
+    /// Momentum `q`.
+    pub momentum: VectorField,
+    /// Force `f = f_ext + f_int`.
+    pub force: VectorField,
+    /// Projected velocity `v`.
+    pub projected: VectorField,
+    /// Acceleration `a`.
+    pub acceleration: VectorField,
+    /// Updated velocity `w`.
+    pub updated: VectorField,
+    /// XPIC's or FMPM's series velocity `v*`.
+    pub series: VectorField,
+    /// Node coordinates.
+    pub node_x: Vec<f64>,
+    /// Node coordinates.
+    pub node_y: Vec<f64>,
+    /// `Σ_I x_I × q_I` of the last [`p2g`].
+    pub angular_momentum: f64,
+}
+
+impl GridState {
+    /// Zeroed fields for the nodes of `grid`.
+    pub fn new(grid: &Grid) -> GridState {
+        let n = grid.num_nodes();
+        let zero = VectorField::zeros(n);
+        GridState {
+            mass: vec![0.0; n],
+            inverse_mass: vec![0.0; n],
+            active: vec![false; n],
+            momentum: zero.clone(),
+            force: zero.clone(),
+            projected: zero.clone(),
+            acceleration: zero.clone(),
+            updated: zero.clone(),
+            series: zero,
+            node_x: grid.node_x(),
+            node_y: grid.node_y(),
+            angular_momentum: 0.0,
+        }
+    }
+
+    /// The velocity field `field`.
+    pub fn field(&self, field: GridField) -> &VectorField {
+        match field {
+            GridField::Projected => &self.projected,
+            GridField::Updated => &self.updated,
+            GridField::Series => &self.series,
+        }
+    }
+
+    /// The velocity field `field`, to write.
+    pub fn field_mut(&mut self, field: GridField) -> &mut VectorField {
+        match field {
+            GridField::Projected => &mut self.projected,
+            GridField::Updated => &mut self.updated,
+            GridField::Series => &mut self.series,
+        }
+    }
+}
+
+/// Kinetic energies measured at the particles by [`g2p`]:
+/// `K(u) = ½ Σ_p m_p |(Nᵀu)_p|²`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct KineticEnergies {
+    /// The particles' own, before the update.
+    pub before: f64,
+    /// `K(v)`, of the projected velocity.
+    pub projected: f64,
+    /// `K(w)`, of the updated velocity.
+    pub updated: f64,
+}
+
+/// Per-particle fields of one step.
+#[derive(Debug, Clone, Default)]
+pub struct ParticleScratch {
+    /// `L = [[Lxx, Lxy], [Lyx, Lyy]]` as `[Lxx, Lxy, Lyx, Lyy]`, one vector each.
+    pub velocity_gradient: [Vec<f64>; 4],
+    /// Position increments of [`g2p`].
+    pub displacement: VectorField,
+    /// Kinetic energies of the last [`g2p`].
+    pub kinetic: KineticEnergies,
+}
+
+impl ParticleScratch {
+    fn resize(&mut self, np: usize) {
+        for l in self.velocity_gradient.iter_mut() {
+            l.resize(np, 0.0);
+        }
+        self.displacement.x.resize(np, 0.0);
+        self.displacement.y.resize(np, 0.0);
+    }
+}
+
+/// How a kernel's APIC inertia `D_p` is obtained.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ApicInertia {
+    /// Linear kernels: the particle stores `C_p` itself (their `D_p` vanishes on grid lines).
+    StoredC,
+    /// B-splines: `D_p = diag(dxx, dyy)`, the same for every particle.
+    Constant([f64; 2]),
+    /// GIMP: summed over the particle's column.
+    Column,
+}
+
+impl ApicInertia {
+    /// The inertia of `shape` on `grid` (`h²/4` quadratic, `h²/3` cubic B-splines).
+    pub fn of(shape: ShapeFunction, grid: &Grid) -> ApicInertia {
+        let [hx, hy] = grid.cell_size();
+        match shape {
+            ShapeFunction::Linear => ApicInertia::StoredC,
+            ShapeFunction::QuadraticBSpline => ApicInertia::Constant([hx * hx / 4.0, hy * hy / 4.0]),
+            ShapeFunction::CubicBSpline => ApicInertia::Constant([hx * hx / 3.0, hy * hy / 3.0]),
+            ShapeFunction::Gimp { .. } => ApicInertia::Column,
+        }
+    }
+}
+
+/// Whether [`p2g`] adds the internal force (USF adds it after its stress update instead).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stress {
+    /// `f` includes `f_int`.
+    Include,
+    /// `f` is the external force only.
+    Omit,
+}
+
+/// The APIC affine velocity matrix of one particle, `C_p` with its position.
+#[derive(Clone, Copy)]
+struct Affine {
+    c: [f64; 4],
+    at: [f64; 2],
+}
+
+impl Affine {
+    /// `C_p (x_I − x_p)` at node `i`, weighted by `n`.
+    #[inline]
+    fn velocity(&self, i: usize, node_x: &[f64], node_y: &[f64], n: f64) -> [f64; 2] {
+        let (dx, dy) = (node_x[i] - self.at[0], node_y[i] - self.at[1]);
+        [
+            n * (self.c[0] * dx + self.c[1] * dy),
+            n * (self.c[2] * dx + self.c[3] * dy),
+        ]
+    }
+}
+
+/// Particle `k`'s APIC affine velocity matrix at its current position: `C_p = B_p D_p⁻¹` with
+/// `D_p = diag(Σ_I N_I dx², Σ_I N_I dy²)` (the off-diagonal part vanishes for tensor-product
+/// kernels). Linear kernels store `C_p = Σ_I w_I ∇N_Iᵀ` itself (`∇N_I = D_p⁻¹ N_I (x_I − x_p)` at
+/// the old position).
+fn apic_affine(p: &Particles, k: usize, grid: &GridState, ops: &Operators, kind: ApicInertia) -> Affine {
+    let b = [p.affine_xx[k], p.affine_xy[k], p.affine_yx[k], p.affine_yy[k]];
+    let at = [p.x[k], p.y[k]];
+    let [dxx, dyy] = match kind {
+        ApicInertia::StoredC => return Affine { c: b, at },
+        ApicInertia::Constant(d) => d,
+        ApicInertia::Column => {
+            let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
+            let (mut dxx, mut dyy) = (0.0, 0.0);
+            for e in cp[k]..cp[k + 1] {
+                let (dx, dy) = (grid.node_x[ri[e]] - at[0], grid.node_y[ri[e]] - at[1]);
+                dxx += nv[e] * dx * dx;
+                dyy += nv[e] * dy * dy;
+            }
+            // D_p > 0 for GIMP: its weights always spread over more than one node.
+            [dxx, dyy]
+        }
+    };
+    Affine {
+        c: [b[0] / dxx, b[1] / dyy, b[2] / dxx, b[3] / dyy],
+        at,
+    }
+}
+
+/// (2)–(5) in one pass over the shared pattern of N, Gx, Gy, into `grid.mass`,
+/// `grid.momentum`, `grid.force` and `grid.angular_momentum`:
+///
+/// ```text
+/// m_L = N m,   q = N (m ∘ v) [+ APIC: Σ_p N_Ip m_p C_p (x_I − x_p)],
+/// f = N (m ∘ b) + m_L g − [Gx (V∘σxx) + Gy (V∘σxy); Gx (V∘σxy) + Gy (V∘σyy)]   (Stress::Include)
+/// ```
+///
+/// # Panics
+/// If `grid` does not have one entry per node of the operators.
+pub fn p2g(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    gravity: [f64; 2],
+    stress: Stress,
+    grid: &mut GridState,
+) {
+    let n = ops.num_nodes();
+    assert_eq!(grid.mass.len(), n, "grid state sized for the operators' nodes");
+    grid.mass.iter_mut().for_each(|v| *v = 0.0);
+    for field in [&mut grid.momentum, &mut grid.force] {
+        field.x.iter_mut().for_each(|v| *v = 0.0);
+        field.y.iter_mut().for_each(|v| *v = 0.0);
+    }
+    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    let (nv, gxv, gyv) = (
+        ops.values(Operator::N),
+        ops.values(Operator::Gx),
+        ops.values(Operator::Gy),
+    );
+    let internal = if stress == Stress::Include { 1.0 } else { 0.0 };
+    for k in 0..p.len() {
+        let m = p.mass[k];
+        let (mvx, mvy) = (m * p.vx[k], m * p.vy[k]);
+        let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
+        let v = internal * p.volume[k];
+        let (vsxx, vsyy, vsxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
+        let affine = apic.map(|kind| apic_affine(p, k, grid, ops, kind));
+        for e in cp[k]..cp[k + 1] {
+            let (i, n) = (ri[e], nv[e]);
+            grid.mass[i] += n * m;
+            let [ax, ay] = affine.map_or([0.0, 0.0], |a| a.velocity(i, &grid.node_x, &grid.node_y, n));
+            grid.momentum.x[i] += n * mvx + m * ax;
+            grid.momentum.y[i] += n * mvy + m * ay;
+            grid.force.x[i] += n * mbx - (gxv[e] * vsxx + gyv[e] * vsxy);
+            grid.force.y[i] += n * mby - (gxv[e] * vsxy + gyv[e] * vsyy);
+        }
+    }
+    let [gx, gy] = gravity;
+    let mut angular = 0.0;
+    for i in 0..n {
+        grid.force.x[i] += grid.mass[i] * gx;
+        grid.force.y[i] += grid.mass[i] * gy;
+        angular += grid.node_x[i] * grid.momentum.y[i] - grid.node_y[i] * grid.momentum.x[i];
+    }
+    grid.angular_momentum = angular;
+}
+
+/// (5) added to `f`:
+///
+/// ```text
+/// f_x −= Gx (V∘σxx) + Gy (V∘σxy),   f_y −= Gx (V∘σxy) + Gy (V∘σyy)
+/// ```
+///
+/// # Panics
+/// If `f` does not have one entry per node.
+pub fn add_internal_force(ops: &Operators, volume: &[f64], sxx: &[f64], syy: &[f64], sxy: &[f64], f: &mut VectorField) {
+    let np = ops.num_particles();
+    for field in [volume, sxx, syy, sxy] {
+        assert_eq!(field.len(), np, "particle field length must equal the particle count");
+    }
+    assert_eq!(f.len(), ops.num_nodes(), "one force per node");
+    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    let (gxv, gyv) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
+    for k in 0..np {
+        let (txx, tyy, txy) = (volume[k] * sxx[k], volume[k] * syy[k], volume[k] * sxy[k]);
+        for e in cp[k]..cp[k + 1] {
+            let i = ri[e];
+            f.x[i] -= gxv[e] * txx + gyv[e] * txy;
+            f.y[i] -= gxv[e] * txy + gyv[e] * tyy;
+        }
+    }
+}
+
+/// MUSL's re-projection of the updated particle velocities into `grid.momentum`, with the
+/// operators and positions of the start of the step:
+///
+/// ```text
+/// q' = N (m ∘ v_p) [+ APIC: Σ_p N_Ip m_p C_p (x_I − x_p)]
+/// ```
+pub fn reproject_momentum(ops: &Operators, p: &Particles, apic: Option<ApicInertia>, grid: &mut GridState) {
+    grid.momentum.x.iter_mut().for_each(|v| *v = 0.0);
+    grid.momentum.y.iter_mut().for_each(|v| *v = 0.0);
+    let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
+    for k in 0..p.len() {
+        let m = p.mass[k];
+        let affine = apic.map(|kind| apic_affine(p, k, grid, ops, kind));
+        for e in cp[k]..cp[k + 1] {
+            let (i, n) = (ri[e], nv[e]);
+            let [ax, ay] = affine.map_or([0.0, 0.0], |a| a.velocity(i, &grid.node_x, &grid.node_y, n));
+            grid.momentum.x[i] += n * m * p.vx[k] + m * ax;
+            grid.momentum.y[i] += n * m * p.vy[k] + m * ay;
+        }
+    }
+}
+
+/// The velocity gradient of the grid velocity `u` at every particle, into `l`:
+///
+/// ```text
+/// Lxx = Gxᵀ ux,  Lxy = Gyᵀ ux,  Lyx = Gxᵀ uy,  Lyy = Gyᵀ uy
+/// ```
+///
+/// # Panics
+/// If `u` does not have one entry per node.
+pub fn velocity_gradient_into(ops: &Operators, u: &VectorField, l: &mut [Vec<f64>; 4]) {
+    let np = ops.num_particles();
+    assert_eq!(u.len(), ops.num_nodes(), "one velocity per node");
+    for c in l.iter_mut() {
+        c.resize(np, 0.0);
+    }
+    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    let (gxv, gyv) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
+    for k in 0..np {
+        let mut g = [0.0; 4];
+        for e in cp[k]..cp[k + 1] {
+            let (ux, uy) = (u.x[ri[e]], u.y[ri[e]]);
+            g[0] += gxv[e] * ux;
+            g[1] += gyv[e] * ux;
+            g[2] += gxv[e] * uy;
+            g[3] += gyv[e] * uy;
+        }
+        for c in 0..4 {
+            l[c][k] = g[c];
+        }
+    }
+}
+
+/// What [`g2p`] does with the grid velocities.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct G2pRule {
+    /// The particle velocity update.
+    pub transfer: Transfer,
+    /// The position update (XPIC and FMPM use their own).
+    pub position: PositionUpdate,
+    /// Whether the kernels are bilinear (APIC then stores `C_p` itself).
+    pub linear: bool,
+    /// The grid velocity whose gradient to write into the scratch (USL), if any.
+    pub gradient: Option<GridField>,
+}
+
+/// (9)–(11) in one pass over N, Gx, Gy. With `v_pic = Nᵀ w` and the increment
+/// `Δv = Nᵀ (w − v)` (the one FLIP rule, docs/formulation.md):
+///
+/// ```text
+/// PIC, APIC:  v_p ← v_pic        (APIC: B_p ← Σ_I N_I w_I (x_I − x_p)ᵀ; bilinear: C_p ← Gᵀ w)
+/// FLIP:       v_p ← v_p + Δv     blend α: α (v_p + Δv) + (1 − α) v_pic
+/// XPIC, FMPM: v_p ← Nᵀ v*
+/// Δx_p = Δt Nᵀ w   (trapezoidal: (Δt/2)(v_p,old + Nᵀ w); FMPM: (Δt/2)(v_p,old + v_p,new);
+///                   XPIC: Δt (Nᵀ v + ½ (v_p,new − v_p,old)))
+/// L = [Gxᵀ u, Gyᵀ u]   for u = rule.gradient
+/// ```
+///
+/// The position increments go to `scratch.displacement` (applied after the stress update), the
+/// kinetic energies `K_p`, `K(v)`, `K(w)` to `scratch.kinetic`.
+pub fn g2p(
+    ops: &Operators,
+    grid: &GridState,
+    rule: &G2pRule,
+    dt: f64,
+    p: &mut Particles,
+    scratch: &mut ParticleScratch,
+) {
+    let np = p.len();
+    scratch.resize(np);
+    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    let (nv, gxv, gyv) = (
+        ops.values(Operator::N),
+        ops.values(Operator::Gx),
+        ops.values(Operator::Gy),
+    );
+    let transfer = rule.transfer;
+    let apic = transfer == Transfer::Apic;
+    let linear_apic = apic && rule.linear;
+    let with_gradient = rule.gradient.is_some();
+    let need_l = with_gradient || linear_apic;
+    let (w, v) = (&grid.updated, &grid.projected);
+    let target = if transfer.series_terms().is_some() {
+        &grid.series
+    } else {
+        w
+    };
+    let gradient = grid.field(rule.gradient.unwrap_or(GridField::Updated));
+    let trapezoidal = rule.position == PositionUpdate::Trapezoidal;
+    let mut kinetic = KineticEnergies::default();
+    for k in 0..np {
+        let (mut vx, mut vy, mut tx, mut ty, mut rx, mut ry) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut l = [0.0; 4];
+        let mut lw = [0.0; 4];
+        let mut b = [0.0; 4];
+        for e in cp[k]..cp[k + 1] {
+            let (i, n) = (ri[e], nv[e]);
+            let (wx, wy) = (w.x[i], w.y[i]);
+            vx += n * wx;
+            vy += n * wy;
+            tx += n * target.x[i];
+            ty += n * target.y[i];
+            rx += n * v.x[i];
+            ry += n * v.y[i];
+            if need_l {
+                let (gx, gy) = (gradient.x[i], gradient.y[i]);
+                l[0] += gxv[e] * gx;
+                l[1] += gyv[e] * gx;
+                l[2] += gxv[e] * gy;
+                l[3] += gyv[e] * gy;
+            }
+            if apic {
+                lw[0] += gxv[e] * wx;
+                lw[1] += gyv[e] * wx;
+                lw[2] += gxv[e] * wy;
+                lw[3] += gyv[e] * wy;
+                let (dx, dy) = (grid.node_x[i] - p.x[k], grid.node_y[i] - p.y[k]);
+                b[0] += n * wx * dx;
+                b[1] += n * wx * dy;
+                b[2] += n * wy * dx;
+                b[3] += n * wy * dy;
+            }
+        }
+        if with_gradient {
+            for c in 0..4 {
+                scratch.velocity_gradient[c][k] = l[c];
+            }
+        }
+        let (old_x, old_y) = (p.vx[k], p.vy[k]);
+        let half_m = 0.5 * p.mass[k];
+        kinetic.before += half_m * (old_x * old_x + old_y * old_y);
+        kinetic.projected += half_m * (rx * rx + ry * ry);
+        kinetic.updated += half_m * (vx * vx + vy * vy);
+        let (dvx, dvy) = (vx - rx, vy - ry);
+        let (new_x, new_y) = match transfer {
+            Transfer::Pic | Transfer::Apic => (vx, vy),
+            Transfer::Xpic { .. } | Transfer::Fmpm { .. } => (tx, ty),
+            Transfer::Flip => (old_x + dvx, old_y + dvy),
+            Transfer::Blend { flip } => (
+                flip * (old_x + dvx) + (1.0 - flip) * vx,
+                flip * (old_y + dvy) + (1.0 - flip) * vy,
+            ),
+        };
+        p.vx[k] = new_x;
+        p.vy[k] = new_y;
+        if apic {
+            let b = if linear_apic { lw } else { b };
+            p.affine_xx[k] = b[0];
+            p.affine_xy[k] = b[1];
+            p.affine_yx[k] = b[2];
+            p.affine_yy[k] = b[3];
+        }
+        let (ux, uy) = match transfer {
+            Transfer::Xpic { .. } => (rx + 0.5 * (new_x - old_x), ry + 0.5 * (new_y - old_y)),
+            Transfer::Fmpm { .. } => (0.5 * (old_x + new_x), 0.5 * (old_y + new_y)),
+            _ if trapezoidal => (0.5 * (old_x + vx), 0.5 * (old_y + vy)),
+            _ => (vx, vy),
+        };
+        scratch.displacement.x[k] = dt * ux;
+        scratch.displacement.y[k] = dt * uy;
+    }
+    scratch.kinetic = kinetic;
+}
+
+/// Work arrays of [`extend_to_inactive_nodes`], kept between calls so that it allocates
+/// nothing once they have grown to the node count.
+#[derive(Debug, Clone, Default)]
+pub struct ExtensionScratch {
+    sum: VectorField,
+    count: Vec<u32>,
+}
+
+impl ExtensionScratch {
+    /// Work arrays already sized for `num_nodes` nodes.
+    pub fn new(num_nodes: usize) -> ExtensionScratch {
+        ExtensionScratch {
+            sum: VectorField::zeros(num_nodes),
+            count: vec![0; num_nodes],
+        }
+    }
+}
+
+/// Gives the inactive nodes in some particle's support the mean interpolated velocity of those
+/// particles ([`crate::transfer::extend_to_massless_nodes`]), with the active nodes as a mask
+/// (`is_active[I]`) and reused work arrays:
+///
+/// ```text
+/// v_I = (1/|P_I|) Σ_{p ∈ P_I} (Nᵀ v)_p     for inactive I,   P_I = {p : I in the support of p}
+/// ```
+///
+/// Only the columns of particles that touch an inactive node are visited; returns whether any
+/// node was changed.
+///
+/// # Panics
+/// If `v` or `is_active` does not have one entry per node.
+pub fn extend_to_inactive_nodes(
+    ops: &Operators,
+    is_active: &[bool],
+    v: &mut VectorField,
+    scratch: &mut ExtensionScratch,
+) -> bool {
+    let n = ops.num_nodes();
+    assert!(
+        v.len() == n && is_active.len() == n,
+        "one velocity and one flag per node"
+    );
+    let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
+    let mut any = false;
+    for p in 0..ops.num_particles() {
+        let column = cp[p]..cp[p + 1];
+        if ri[column.clone()].iter().all(|&i| is_active[i]) {
+            continue;
+        }
+        if !any {
+            scratch.sum.x.clear();
+            scratch.sum.x.resize(n, 0.0);
+            scratch.sum.y.clear();
+            scratch.sum.y.resize(n, 0.0);
+            scratch.count.clear();
+            scratch.count.resize(n, 0);
+            any = true;
+        }
+        let (mut vx, mut vy) = (0.0, 0.0);
+        for e in column.clone() {
+            vx += nv[e] * v.x[ri[e]];
+            vy += nv[e] * v.y[ri[e]];
+        }
+        for e in column {
+            let i = ri[e];
+            if !is_active[i] {
+                scratch.sum.x[i] += vx;
+                scratch.sum.y[i] += vy;
+                scratch.count[i] += 1;
+            }
+        }
+    }
+    if any {
+        for i in 0..n {
+            if scratch.count[i] > 0 {
+                let c = scratch.count[i] as f64;
+                v.x[i] = scratch.sum.x[i] / c;
+                v.y[i] = scratch.sum.y[i] / c;
+            }
+        }
+    }
+    any
+}
+
+/// Work arrays of [`series_velocity_into`], kept between calls so that it allocates nothing
+/// once they have grown to size.
+#[derive(Debug, Clone, Default)]
+pub struct SeriesScratch {
+    increment: VectorField,
+    at_particles: VectorField,
+    momentum: VectorField,
+}
+
+/// The truncated series of the full-mass inverse applied to a lumped grid velocity `u`, by
+/// particle–grid products only (Nairn's FMPM loop; `M` is never formed):
+///
+/// ```text
+/// v(k) = Σ_{ℓ=0}^{k−1} Δv_ℓ,   Δv_0 = u,   Δv_ℓ = Π₀ (Δv_{ℓ−1} − M_L⁻¹ N (m ∘ Nᵀ Δv_{ℓ−1}))
+/// ```
+///
+/// which is `Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ u = M_k⁻¹ M_L u`, `M_k⁻¹` the series of
+/// [`crate::mass::MassScheme::TruncatedSeries`], when no component is constrained. `inv_m` holds
+/// `1/m_L,I` on active nodes and 0 elsewhere; `constrain` (`Π₀`) zeroes the prescribed components
+/// of each increment, so that the velocity boundary conditions `u` satisfies hold for `v(k)`
+/// too. `k = 1` returns `u`.
+///
+/// # Panics
+/// On length mismatch, or `k = 0`.
+#[allow(clippy::too_many_arguments)]
+pub fn series_velocity_into(
+    ops: &Operators,
+    m: &[f64],
+    inv_m: &[f64],
+    k: usize,
+    constrain: &dyn Fn(&mut VectorField),
+    u: &VectorField,
+    out: &mut VectorField,
+    scratch: &mut SeriesScratch,
+) {
+    assert!(k >= 1, "the series needs at least one term");
+    let (n, np) = (ops.num_nodes(), ops.num_particles());
+    assert!(
+        u.len() == n && inv_m.len() == n,
+        "one velocity and one inverse mass per node"
+    );
+    let SeriesScratch {
+        increment: dv,
+        at_particles: up,
+        momentum: q,
+    } = scratch;
+    for (field, len) in [(&mut *out, n), (&mut *dv, n), (&mut *q, n), (&mut *up, np)] {
+        field.x.resize(len, 0.0);
+        field.y.resize(len, 0.0);
+    }
+    out.x.copy_from_slice(&u.x);
+    out.y.copy_from_slice(&u.y);
+    dv.x.copy_from_slice(&u.x);
+    dv.y.copy_from_slice(&u.y);
+    for _ in 1..k {
+        ops.gather(Operator::N, [&dv.x, &dv.y], [&mut up.x, &mut up.y]);
+        ops.scatter_scaled(Operator::N, Some(m), [&up.x, &up.y], [&mut q.x, &mut q.y]);
+        for i in 0..n {
+            dv.x[i] -= q.x[i] * inv_m[i];
+            dv.y[i] -= q.y[i] * inv_m[i];
+        }
+        constrain(dv);
+        for i in 0..n {
+            out.x[i] += dv.x[i];
+            out.y[i] += dv.y[i];
+        }
+    }
+}
+
+/// The weighted product of two of the operators, the building block of mass and stiffness:
+///
+/// ```text
+/// A diag(w) Bᵀ    (n × n sparse; A, B ∈ {N, Gx, Gy}, w a P-vector)
+/// ```
+///
+/// e.g. `weighted_product(ops, Gx, Gx, V ∘ C11)` is the xx block of the stiffness's normal
+/// part. Built column by column (Gustavson's product through the row pattern of B), with sorted
+/// row indices. Every pair of nodes sharing a particle is stored, even if the value is zero.
+///
+/// # Panics
+/// If `w.len()` is not the particle count.
+pub fn weighted_product(ops: &Operators, a: Operator, b: Operator, w: &[f64]) -> CscMatrix<f64> {
+    let (n, np) = (ops.num_nodes(), ops.num_particles());
+    assert_eq!(w.len(), np, "the weight must have one entry per particle");
+    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    let (av, bv) = (ops.values(a), ops.values(b));
+    // Row pattern of the operators: for each node, the stored entries touching it.
+    let mut row_ptr = vec![0usize; n + 1];
+    for &i in ri {
+        row_ptr[i + 1] += 1;
+    }
+    for i in 0..n {
+        row_ptr[i + 1] += row_ptr[i];
+    }
+    let mut fill = row_ptr.clone();
+    let mut row_entry = vec![0usize; ri.len()];
+    for e in 0..ri.len() {
+        let i = ri[e];
+        row_entry[fill[i]] = e;
+        fill[i] += 1;
+    }
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    col_ptr.push(0);
+    let mut rows = Vec::new();
+    let mut vals = Vec::new();
+    let mut work = vec![0.0f64; n];
+    let mut marker = vec![usize::MAX; n];
+    let mut touched = Vec::new();
+    for j in 0..n {
+        touched.clear();
+        for &ej in &row_entry[row_ptr[j]..row_ptr[j + 1]] {
+            let p = cp.partition_point(|&c| c <= ej) - 1;
+            let scale = w[p] * bv[ej];
+            for e in cp[p]..cp[p + 1] {
+                let i = ri[e];
+                if marker[i] != j {
+                    marker[i] = j;
+                    work[i] = 0.0;
+                    touched.push(i);
+                }
+                work[i] += scale * av[e];
+            }
+        }
+        touched.sort_unstable();
+        for &i in &touched {
+            rows.push(i);
+            vals.push(work[i]);
+        }
+        col_ptr.push(rows.len());
+    }
+    CscMatrix::try_from_csc_data(n, n, col_ptr, rows, vals).expect("rows are sorted and in range")
+}
