@@ -48,7 +48,7 @@
 //! (10) v ← v + Δt Nᵀ a                                             transfer::update_velocities
 //! (11) L = [Gxᵀ v̄′, Gyᵀ v̄′],  ε̇ = sym L                            transfer::velocity_gradient, strain_rate
 //! (12) σ ← σ + C : (ε̇ Δt)                                          material::LinearElastic::update_stress
-//! (13) V ← V (1 + Δt tr ε̇)                                         transfer::update_volumes
+//! (13) V ← V det(I + Δt L)                                         transfer::update_volumes
 //! ```
 //!
 //! ## A whole simulation

@@ -18,7 +18,7 @@
 //! | (10) | `v ← v + Δt Nᵀ a` (the change of the grid velocity, `a` zero on constrained components) | [`update_velocities`] |
 //! | (11) | `L = (Gxᵀ v̄', Gyᵀ v̄')`, `ε̇ = sym L` | [`velocity_gradient`], [`strain_rate`] |
 //! | (12) | `σ ← σ + C : (ε̇ Δt)` | [`LinearElastic::update_stress`] |
-//! | (13) | `V ← V (1 + Δt tr ε̇)` | [`update_volumes`] |
+//! | (13) | `V ← V det(I + Δt L)` | [`update_volumes`] |
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
@@ -131,7 +131,7 @@ pub fn explicit_step(
     let l = velocity_gradient(&ops, &v_new); //                                                         (11)
     let rate = strain_rate(&l); //                                                                      (11)
     material.update_stress(&mut p.sxx, &mut p.syy, &mut p.sxy, &rate, dt); //                           (12)
-    update_volumes(&mut p.volume, &rate, dt); //                                                        (13)
+    update_volumes(&mut p.volume, &l, dt); //                                                           (13)
     Ok(StepRecord {
         operators: ops,
         mass,

@@ -250,18 +250,22 @@ pub fn update_velocities(ops: &Operators, vx: &mut [f64], vy: &mut [f64], a: &Ve
     axpy(vy, dt, &da.y);
 }
 
-/// Volume update from the volumetric strain rate:
+/// Volume update by the determinant of the step's deformation increment, the library's one
+/// volume update (the time loop's too):
 ///
 /// ```text
-/// V_p ← V_p (1 + Δt (ε̇xx + ε̇yy))
+/// V_p ← V_p det(I + Δt L_p) = V_p [(1 + Δt Lxx)(1 + Δt Lyy) − Δt² Lxy Lyx]
 /// ```
+///
+/// It is the `J` of `F ← (I + Δt L) F`, so `V = V₀ det F` holds exactly step after step; the
+/// first-order `V (1 + Δt tr ε̇)` drops the `Δt²` term and drifts from `det F`.
 ///
 /// # Panics
 /// On length mismatch.
-pub fn update_volumes(volume: &mut [f64], rate: &StrainRate, dt: f64) {
-    assert_eq!(volume.len(), rate.xx.len(), "one volume per particle");
+pub fn update_volumes(volume: &mut [f64], l: &VelocityGradient, dt: f64) {
+    assert_eq!(volume.len(), l.xx.len(), "one volume per particle");
     for p in 0..volume.len() {
-        volume[p] *= 1.0 + dt * (rate.xx[p] + rate.yy[p]);
+        volume[p] *= (1.0 + dt * l.xx[p]) * (1.0 + dt * l.yy[p]) - dt * dt * l.xy[p] * l.yx[p];
     }
 }
 

@@ -162,7 +162,8 @@ fn reference_step(
         after.sxx[k] = p.sxx[k] + c11 * exx + c12 * eyy;
         after.syy[k] = p.syy[k] + c12 * exx + c11 * eyy;
         after.sxy[k] = p.sxy[k] + 2.0 * g * exy;
-        after.volume[k] = p.volume[k] * (1.0 + dt * (rate[0][k] + rate[1][k]));
+        // V det(I + Δt L), L = [[Lxx, Lxy], [Lyx, Lyy]] = [[l0, l1], [l2, l3]].
+        after.volume[k] = p.volume[k] * ((1.0 + dt * l[0][k]) * (1.0 + dt * l[3][k]) - dt * dt * l[1][k] * l[2][k]);
     }
     RefStep {
         lumped,
