@@ -63,6 +63,9 @@ pub enum MpmError {
         /// Where particles are accepted, `[x_min, x_max, y_min, y_max]`
         /// ([`ShapeFunction::allowed_region`](crate::ShapeFunction::allowed_region)).
         allowed: [f64; 4],
+        /// Cells of padding on each side that keep such particles' supports inside
+        /// ([`ShapeFunction::recommended_padding`](crate::ShapeFunction::recommended_padding)).
+        padding: usize,
     },
     /// A material or step parameter is unusable.
     InvalidParameter {
@@ -72,6 +75,14 @@ pub enum MpmError {
         value: f64,
         /// The admissible range, in words.
         reason: &'static str,
+    },
+    /// A simulation option is unusable or contradicts another one.
+    InvalidOption {
+        /// The option's path in [`Options`](crate::simulation::Options): `"time_step.dt"`,
+        /// `"time_step.cfl"`, `"transfer.flip"`, `"transfer.k"`, `"transfer"`, `"gravity"` …
+        option: &'static str,
+        /// What is wrong and what would be accepted.
+        reason: String,
     },
     /// The consistent mass matrix restricted to the active nodes is singular (or so close to it
     /// that a solve would return garbage).
@@ -99,13 +110,46 @@ pub enum MpmError {
         /// What is wrong and what would be accepted.
         reason: String,
     },
-    /// The simulation cannot go on (a particle inverted, a velocity became non-finite, a fixed
-    /// time step exceeds the stable estimate).
-    Unstable {
+    /// A particle inverted or collapsed: `det(I + Δt L) ≤ 0` or `det F ≤ 0` after the update.
+    InvertedParticle {
         /// Step number (from 0) at which it happened.
         step: usize,
-        /// What happened and what to change.
-        reason: String,
+        /// 0-based particle index (in the simulation's current order).
+        particle: usize,
+        /// The particle's stable id.
+        id: usize,
+        /// Name of the body it belongs to.
+        body: String,
+        /// Determinant of the increment, `det(I + Δt L)`.
+        det_increment: f64,
+        /// Determinant of the updated deformation gradient, `det F`.
+        det_f: f64,
+    },
+    /// A quantity became NaN or infinite.
+    NonFinite {
+        /// Step number (from 0) at which it happened.
+        step: usize,
+        /// Which quantity, e.g. `"particle velocity"`.
+        stage: &'static str,
+        /// 0-based particle index (in the simulation's current order).
+        particle: usize,
+        /// The particle's stable id.
+        id: usize,
+        /// The offending value (both components of a vector).
+        value: [f64; 2],
+    },
+    /// A CFL time step was asked for but nothing sets a wave speed or particle speed (no
+    /// particles, or no stiffness and no motion).
+    NoStableTimeStep {
+        /// Step number (from 0) at which it happened.
+        step: usize,
+    },
+    /// A step was asked for after an earlier step failed; the state is not usable.
+    EarlierFailure {
+        /// Step number (from 0) of the refused step.
+        step: usize,
+        /// The earlier error, as text.
+        cause: String,
     },
     /// A fixed time step exceeds the stable step of the update with the chosen masses.
     TimeStepAboveStable {
@@ -158,8 +202,8 @@ impl fmt::Display for MpmError {
                 position,
                 shape,
                 allowed,
+                padding: k,
             } => {
-                let k = crate::shape::recommended_padding_for(shape);
                 write!(
                     f,
                     "particle {particle} at ({}, {}): the {shape} support needs nodes outside the grid; particles \
@@ -170,12 +214,13 @@ impl fmt::Display for MpmError {
                     allowed[1],
                     allowed[2],
                     allowed[3],
-                    if k == 1 { "" } else { "s" }
+                    if *k == 1 { "" } else { "s" }
                 )
             }
             MpmError::InvalidParameter { name, value, reason } => {
                 write!(f, "parameter `{name}` = {value} is invalid: {reason}")
             }
+            MpmError::InvalidOption { option, reason } => write!(f, "option `{option}`: {reason}"),
             MpmError::SingularMassMatrix {
                 node,
                 particles,
@@ -195,7 +240,40 @@ impl fmt::Display for MpmError {
             }
             MpmError::Solver { reason } => write!(f, "sparse solver failed: {reason}"),
             MpmError::InvalidScene { key, reason } => write!(f, "`{key}`: {reason}"),
-            MpmError::Unstable { step, reason } => write!(f, "step {step}: {reason}"),
+            MpmError::InvertedParticle {
+                step,
+                particle,
+                id,
+                body,
+                det_increment,
+                det_f,
+            } => write!(
+                f,
+                "step {step}: particle {particle} (id {id}, body `{body}`) inverted: det(I + Δt L) = \
+                 {det_increment:e}, det F = {det_f:e}; reduce the time step (Courant number) or check the material \
+                 and loads"
+            ),
+            MpmError::NonFinite {
+                step,
+                stage,
+                particle,
+                id,
+                value,
+            } => write!(
+                f,
+                "step {step}: particle {particle} (id {id}) has a non-finite {stage} ({}, {}); reduce the time step",
+                value[0], value[1]
+            ),
+            MpmError::NoStableTimeStep { step } => write!(
+                f,
+                "step {step}: no stiffness or particle speed to set a CFL time step (no particles?); use a fixed `dt`"
+            ),
+            MpmError::EarlierFailure { step, cause } => {
+                write!(
+                    f,
+                    "step {step}: an earlier step failed ({cause}); the state is not usable"
+                )
+            }
             MpmError::TimeStepAboveStable {
                 step,
                 dt,

@@ -58,6 +58,7 @@ fn rejection(grid: &Grid, shape: ShapeFunction, p: usize, position: [f64; 2]) ->
         position,
         shape: shape.name(),
         allowed: shape.allowed_region(grid),
+        padding: shape.recommended_padding(),
     }
 }
 

@@ -334,18 +334,8 @@ impl Scene {
         if !(t.end.is_finite() && t.end > 0.0) {
             return Err(invalid("time.end", format!("{} must be positive and finite", t.end)));
         }
-        match (t.dt, t.cfl) {
-            (Some(_), Some(_)) => return Err(invalid("time", "give `dt` or `cfl`, not both")),
-            (Some(dt), None) if !(dt.is_finite() && dt > 0.0) => {
-                return Err(invalid("time.dt", format!("{dt} must be positive and finite")))
-            }
-            (None, Some(c)) if !(c > 0.0 && c <= 1.0) => {
-                return Err(invalid(
-                    "time.cfl",
-                    format!("{c}: the Courant number must lie in (0, 1]"),
-                ))
-            }
-            _ => {}
+        if t.dt.is_some() && t.cfl.is_some() {
+            return Err(invalid("time", "give `dt` or `cfl`, not both"));
         }
         if let Some(s) = self.output.snapshot_interval {
             if !(s.is_finite() && s > 0.0) {
@@ -364,14 +354,7 @@ impl Scene {
                 .validate()
                 .map_err(|e| invalid(format!("schemes.mass.{role}"), e.to_string()))?;
         }
-        if let Transfer::Blend { flip } = s.transfer {
-            if !(0.0..=1.0).contains(&flip) {
-                return Err(invalid(
-                    "schemes.transfer.blend.flip",
-                    format!("{flip} must lie in [0, 1]"),
-                ));
-            }
-        }
+        self.options().validate().map_err(|e| self.scene_error(e))?;
         if self.bodies.is_empty() {
             return Err(invalid("bodies", "the scene needs at least one [[bodies]] entry"));
         }
@@ -544,7 +527,25 @@ impl Scene {
     /// # Errors
     /// The errors of [`Scene::grid`], [`Scene::particles`] and [`Simulation::new`].
     pub fn build(&self) -> Result<Simulation> {
-        Simulation::new(self.grid()?, self.particles()?, self.bodies(), self.options())
+        Simulation::new(self.grid()?, self.particles()?, self.bodies(), self.options()).map_err(|e| self.scene_error(e))
+    }
+
+    /// An [`MpmError::InvalidOption`] of the library restated as [`MpmError::InvalidScene`] at
+    /// the scene key that sets the option; other errors unchanged.
+    fn scene_error(&self, e: MpmError) -> MpmError {
+        let MpmError::InvalidOption { option, reason } = e else {
+            return e;
+        };
+        let key = match option {
+            "time_step.dt" => "time.dt".to_string(),
+            "time_step.cfl" => "time.cfl".to_string(),
+            "transfer.flip" => "schemes.transfer.blend.flip".to_string(),
+            "transfer.k" => format!("schemes.transfer.{}.k", self.schemes.transfer.name()),
+            "transfer" => "schemes.transfer".to_string(),
+            "gravity" => "loads.gravity".to_string(),
+            other => format!("schemes.{other}"),
+        };
+        invalid(key, reason)
     }
 
     /// Time between snapshots: `output.snapshot_interval`, or a fiftieth of the run.

@@ -231,6 +231,25 @@ fn bad_scenes_get_errors_naming_the_key_and_the_problem() {
         ),
         (BASE.replace("end = 0.1", "end = 0.0"), vec!["time.end"]),
         (
+            BASE.replace("end = 0.1", "end = 0.1\ndt = -1e-4"),
+            vec!["time.dt", "-0.0001"],
+        ),
+        (
+            BASE.replace("[time]", "[schemes]\ntransfer = { xpic = { k = 0 } }\n\n[time]"),
+            vec!["schemes.transfer.xpic.k", "at least one term"],
+        ),
+        (
+            BASE.replace(
+                "[time]",
+                "[schemes]\ntransfer = { fmpm = { k = 2 } }\nmass = { velocity = \"consistent\" }\n\n[time]",
+            ),
+            vec!["schemes.transfer", "FMPM", "lumped"],
+        ),
+        (
+            BASE.to_string() + "\n[loads]\ngravity = [0.0, nan]\n",
+            vec!["loads.gravity", "finite"],
+        ),
+        (
             BASE.replace("cells = [10, 10]", "cells = [100000, 100000]"),
             vec!["grid.cells", "nodes"],
         ),

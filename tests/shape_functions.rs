@@ -954,11 +954,13 @@ fn a_particle_inside_the_margin_is_a_support_outside_grid_error_naming_it() {
                         position,
                         shape: name,
                         allowed,
+                        padding,
                     } => {
                         assert_eq!(particle, p, "{shape:?}");
                         assert_eq!(position, [px, py]);
                         assert_eq!(name, shape.name());
                         assert_eq!(allowed, shape.allowed_region(grid));
+                        assert_eq!(padding, shape.recommended_padding());
                     }
                     other => panic!("{shape:?}: expected SupportOutsideGrid for particle {p}, got {other:?}"),
                 }

@@ -453,8 +453,18 @@ fn a_particle_naming_a_missing_body_is_an_error() {
     let grid = grid(16, 0.1);
     let mut particles = block(&grid, 5, 8, 5, 8, 100.0);
     particles.body[3] = 2;
+    let n_bodies = bodies().len();
     let err = Simulation::new(grid, particles, bodies(), Options::default()).unwrap_err();
-    assert!(err.to_string().contains("particle 3 belongs to body 2"), "{err}");
+    assert!(err.to_string().contains("particle 3: `body` = 2"), "{err}");
+    match err {
+        MpmError::InvalidParticleValue {
+            particle, field, value, ..
+        } => {
+            assert_eq!((particle, field, value), (3, "body", 2.0));
+            assert!(n_bodies <= 2);
+        }
+        other => panic!("expected InvalidParticleValue, got {other:?}"),
+    }
 }
 
 #[test]
@@ -563,5 +573,57 @@ fn apic_conserves_angular_momentum_with_lumped_mass() {
                 .grid_angular_momentum;
             assert!((l - first).abs() < 1e-10 * first.abs(), "{shape:?}: {l} vs {first}");
         }
+    }
+}
+
+#[test]
+fn a_blown_up_step_names_the_particle_and_later_steps_are_refused() {
+    // A fixed step that squeezes the body flat within one step (y compressed at the rate
+    // 1.5 / Δt while x stretches), allowed on purpose: the error must carry the particle and the
+    // determinants (or the non-finite velocity).
+    let grid = grid(16, 0.1);
+    let mut particles = block(&grid, 5, 9, 5, 9, 100.0);
+    let n = particles.len();
+    let dt = 1e-2;
+    let rate = 1.5 / dt;
+    let centre = [-0.3 + 0.7, 0.2 + 0.7];
+    for k in 0..n {
+        particles.vx[k] = rate * (particles.x[k] - centre[0]);
+        particles.vy[k] = -rate * (particles.y[k] - centre[1]);
+    }
+    let options = Options {
+        time_step: TimeStep::Fixed { dt },
+        allow_unstable_time_step: true,
+        transfer: Transfer::Pic,
+        ..Options::default()
+    };
+    let mut sim = Simulation::new(grid, particles, bodies(), options).unwrap();
+    let err = (0..3).find_map(|_| sim.step().err()).expect("the body must invert");
+    let text = err.to_string();
+    match &err {
+        MpmError::InvertedParticle {
+            particle,
+            id,
+            body,
+            det_increment,
+            det_f,
+            ..
+        } => {
+            assert!(*particle < n && *id < n, "{text}");
+            assert_eq!(body, "block");
+            assert!(!(*det_increment > 0.0 && *det_f > 0.0 && det_f.is_finite()), "{text}");
+            assert!(text.contains(&format!("particle {particle} (id {id}")), "{text}");
+        }
+        MpmError::NonFinite {
+            particle, id, value, ..
+        } => {
+            assert!(*particle < n && *id < n, "{text}");
+            assert!(!value.iter().all(|v| v.is_finite()), "{text}");
+        }
+        other => panic!("expected an inverted particle or a non-finite value, got {other:?}"),
+    }
+    match sim.step().unwrap_err() {
+        MpmError::EarlierFailure { cause, .. } => assert_eq!(cause, text),
+        other => panic!("expected EarlierFailure, got {other:?}"),
     }
 }

@@ -148,27 +148,6 @@ impl AxisWeights {
     }
 }
 
-/// Every family, with the given GIMP half-width.
-fn all_shape_functions(gimp_half_width: f64) -> [ShapeFunction; 4] {
-    [
-        ShapeFunction::Linear,
-        ShapeFunction::Gimp {
-            half_width: gimp_half_width,
-        },
-        ShapeFunction::QuadraticBSpline,
-        ShapeFunction::CubicBSpline,
-    ]
-}
-
-/// [`ShapeFunction::recommended_padding`] of the family called `name` (as returned by
-/// [`ShapeFunction::name`]); 1 for an unknown name. For error messages, which only carry the name.
-pub(crate) fn recommended_padding_for(name: &str) -> usize {
-    all_shape_functions(0.5)
-        .iter()
-        .find(|s| s.name() == name)
-        .map_or(1, |s| s.recommended_padding())
-}
-
 impl ShapeFunction {
     /// The family's name: `"linear"`, `"gimp"`, `"quadratic_bspline"` or `"cubic_bspline"`.
     pub fn name(&self) -> &'static str {

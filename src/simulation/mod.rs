@@ -120,79 +120,22 @@ impl Simulation {
     ///
     /// # Errors
     /// The errors of [`Particles::validate`], [`Material::validate`](crate::material::Material::validate),
-    /// [`ShapeFunction::validate`] and [`boundary::resolve`]; [`MpmError::InvalidScene`] for a
-    /// particle naming a body that does not exist, a non-positive or non-finite fixed step or
-    /// Courant number, an invalid blend weight or a non-finite gravity;
+    /// [`Options::validate`] and [`boundary::resolve`]; [`MpmError::InvalidParticleValue`] for a
+    /// particle naming a body that does not exist;
     /// [`MpmError::ParticleOutsideGrid`] / [`MpmError::SupportOutsideGrid`] for particles
     /// outside the region the shape function allows.
     pub fn new(grid: Grid, particles: Particles, bodies: Vec<Body>, options: Options) -> Result<Simulation> {
         particles.validate()?;
-        options.shape.validate()?;
-        options.mass.velocity.validate()?;
-        options.mass.acceleration.validate()?;
+        options.validate()?;
         for body in &bodies {
             body.material.validate()?;
         }
         if let Some(p) = (0..particles.len()).find(|&p| particles.body[p] >= bodies.len()) {
-            return Err(MpmError::InvalidScene {
-                key: "bodies".into(),
-                reason: format!(
-                    "particle {p} belongs to body {} but there are {} bodies",
-                    particles.body[p],
-                    bodies.len()
-                ),
-            });
-        }
-        match options.time_step {
-            TimeStep::Fixed { dt } if !(dt.is_finite() && dt > 0.0) => {
-                return Err(MpmError::InvalidScene {
-                    key: "time.dt".into(),
-                    reason: format!("{dt} is not a positive finite time step"),
-                })
-            }
-            TimeStep::Cfl { number } if !(number > 0.0 && number <= 1.0) => {
-                return Err(MpmError::InvalidScene {
-                    key: "time.cfl".into(),
-                    reason: format!("{number}: the Courant number must lie in (0, 1]"),
-                })
-            }
-            _ => {}
-        }
-        if let Transfer::Blend { flip } = options.transfer {
-            if !(0.0..=1.0).contains(&flip) {
-                return Err(MpmError::InvalidScene {
-                    key: "schemes.transfer.blend.flip".into(),
-                    reason: format!("{flip}: the FLIP weight must lie in [0, 1]"),
-                });
-            }
-        }
-        if let Some(k) = options.transfer.series_terms() {
-            let name = if matches!(options.transfer, Transfer::Xpic { .. }) {
-                "xpic"
-            } else {
-                "fmpm"
-            };
-            if k == 0 {
-                return Err(MpmError::InvalidScene {
-                    key: format!("schemes.transfer.{name}.k"),
-                    reason: "the series needs at least one term (k = 1 is PIC)".into(),
-                });
-            }
-            if options.mass.velocity != MassScheme::Lumped || options.mass.acceleration != MassScheme::Lumped {
-                return Err(MpmError::InvalidScene {
-                    key: "schemes.mass".into(),
-                    reason: format!(
-                        "{} is defined on the lumped mass (its series is the full-mass correction); set both \
-                         solves to \"lumped\"",
-                        name.to_uppercase()
-                    ),
-                });
-            }
-        }
-        if !options.gravity.iter().all(|g| g.is_finite()) {
-            return Err(MpmError::InvalidScene {
-                key: "gravity".into(),
-                reason: format!("{:?} must be finite", options.gravity),
+            return Err(MpmError::InvalidParticleValue {
+                particle: p,
+                field: "body",
+                value: particles.body[p] as f64,
+                reason: "names a body that does not exist (the simulation's bodies are numbered from 0)",
             });
         }
         let prescribed = boundary::resolve(&grid, options.shape, &options.boundaries)?;
@@ -453,10 +396,7 @@ impl Simulation {
                 if stable.is_finite() {
                     Ok(number * stable)
                 } else {
-                    Err(MpmError::Unstable {
-                        step: self.steps,
-                        reason: "no stiffness or particle speed to set a CFL time step (no particles?)".into(),
-                    })
+                    Err(MpmError::NoStableTimeStep { step: self.steps })
                 }
             }
             TimeStep::Fixed { dt } => {
@@ -483,7 +423,8 @@ impl Simulation {
     ///
     /// # Errors
     /// [`MpmError::TimeStepAboveStable`] for a fixed step above the stable step;
-    /// [`MpmError::Unstable`] for an inverted particle (`det F ≤ 0`) or a non-finite velocity;
+    /// [`MpmError::InvertedParticle`] for an inverted particle (`det F ≤ 0`), [`MpmError::NonFinite`]
+    /// for a non-finite velocity, [`MpmError::EarlierFailure`] after a failed step;
     /// [`MpmError::ParticleOutsideGrid`] / [`MpmError::SupportOutsideGrid`] when a particle leaves
     /// the region its kernel allows; [`MpmError::SingularMassMatrix`] under
     /// [`crate::mass::SingularityPolicy::Error`]. After an error in the middle of a step the state
@@ -519,9 +460,9 @@ impl Simulation {
     /// A step no longer than `max_dt`; an error in it leaves the state unusable.
     fn advance(&mut self, max_dt: f64) -> Result<StepReport> {
         if let Some(reason) = &self.failed {
-            return Err(MpmError::Unstable {
+            return Err(MpmError::EarlierFailure {
                 step: self.steps,
-                reason: format!("an earlier step failed ({reason}); the state is not usable"),
+                cause: reason.clone(),
             });
         }
         let result = self.phases(max_dt);
@@ -837,13 +778,13 @@ impl Simulation {
             ];
             let j = f[0] * f[3] - f[1] * f[2];
             if !(j_inc > 0.0 && j > 0.0 && j.is_finite()) {
-                return Err(MpmError::Unstable {
+                return Err(MpmError::InvertedParticle {
                     step: self.steps,
-                    reason: format!(
-                        "particle {} (id {}, body `{}`) inverted: det(I + Δt L) = {j_inc:e}, det F = {j:e}; reduce \
-                         the time step (Courant number) or check the material and loads",
-                        k, p.id[k], self.bodies[p.body[k]].name
-                    ),
+                    particle: k,
+                    id: p.id[k],
+                    body: self.bodies[p.body[k]].name.clone(),
+                    det_increment: j_inc,
+                    det_f: j,
                 });
             }
             let material = &self.bodies[p.body[k]].material;
@@ -880,12 +821,12 @@ impl Simulation {
             let (vx, vy) = (p.vx[k], p.vy[k]);
             let speed = (vx * vx + vy * vy).sqrt();
             if !speed.is_finite() {
-                return Err(MpmError::Unstable {
+                return Err(MpmError::NonFinite {
                     step: self.steps,
-                    reason: format!(
-                        "particle {k} (id {}) has a non-finite velocity ({vx}, {vy}); reduce the time step",
-                        p.id[k]
-                    ),
+                    stage: "particle velocity",
+                    particle: k,
+                    id: p.id[k],
+                    value: [vx, vy],
                 });
             }
             max_speed = max_speed.max(speed);

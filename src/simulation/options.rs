@@ -4,7 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::boundary::BoundaryCondition;
-use crate::mass::MassOptions;
+use crate::error::{MpmError, Result};
+use crate::mass::{MassOptions, MassScheme};
 use crate::material::Material;
 use crate::shape::ShapeFunction;
 use crate::step::PositionUpdate;
@@ -64,6 +65,19 @@ pub enum Transfer {
 }
 
 impl Transfer {
+    /// The transfer's name as a scene spells it: `"pic"`, `"flip"`, `"blend"`, `"apic"`,
+    /// `"xpic"` or `"fmpm"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Transfer::Pic => "pic",
+            Transfer::Flip => "flip",
+            Transfer::Blend { .. } => "blend",
+            Transfer::Apic => "apic",
+            Transfer::Xpic { .. } => "xpic",
+            Transfer::Fmpm { .. } => "fmpm",
+        }
+    }
+
     /// The number of series terms of XPIC(k) and FMPM(k), `None` for the other transfers.
     pub fn series_terms(&self) -> Option<usize> {
         match *self {
@@ -153,5 +167,71 @@ impl Default for Options {
             sort_interval: 50,
             stability_interval: DEFAULT_STABILITY_INTERVAL,
         }
+    }
+}
+
+impl Options {
+    /// Checks every option on its own and against the others; [`Simulation::new`](super::Simulation::new)
+    /// calls it, and a scene maps its errors to the scene's keys.
+    ///
+    /// # Errors
+    /// The errors of [`ShapeFunction::validate`] and [`MassScheme::validate`];
+    /// [`MpmError::InvalidOption`] naming the option for a non-positive or non-finite fixed step
+    /// (`time_step.dt`), a Courant number outside (0, 1] (`time_step.cfl`), a FLIP weight
+    /// outside [0, 1] (`transfer.flip`), an XPIC/FMPM series without terms (`transfer.k`), an
+    /// XPIC/FMPM transfer with a consistent or series mass (`transfer`), or a non-finite gravity
+    /// (`gravity`).
+    pub fn validate(&self) -> Result<()> {
+        self.shape.validate()?;
+        self.mass.velocity.validate()?;
+        self.mass.acceleration.validate()?;
+        match self.time_step {
+            TimeStep::Fixed { dt } if !(dt.is_finite() && dt > 0.0) => {
+                return Err(MpmError::InvalidOption {
+                    option: "time_step.dt",
+                    reason: format!("{dt} is not a positive finite time step"),
+                })
+            }
+            TimeStep::Cfl { number } if !(number > 0.0 && number <= 1.0) => {
+                return Err(MpmError::InvalidOption {
+                    option: "time_step.cfl",
+                    reason: format!("{number}: the Courant number must lie in (0, 1]"),
+                })
+            }
+            _ => {}
+        }
+        if let Transfer::Blend { flip } = self.transfer {
+            if !(0.0..=1.0).contains(&flip) {
+                return Err(MpmError::InvalidOption {
+                    option: "transfer.flip",
+                    reason: format!("{flip}: the FLIP weight must lie in [0, 1]"),
+                });
+            }
+        }
+        if let Some(k) = self.transfer.series_terms() {
+            let name = self.transfer.name().to_uppercase();
+            if k == 0 {
+                return Err(MpmError::InvalidOption {
+                    option: "transfer.k",
+                    reason: format!("{name}(0): the series needs at least one term (k = 1 is PIC)"),
+                });
+            }
+            if self.mass.velocity != MassScheme::Lumped || self.mass.acceleration != MassScheme::Lumped {
+                return Err(MpmError::InvalidOption {
+                    option: "transfer",
+                    reason: format!(
+                        "{name} is defined on the lumped mass (its series is the full-mass correction); set both \
+                         mass solves to lumped"
+                    ),
+                });
+            }
+        }
+        if !self.gravity.iter().all(|g| g.is_finite()) {
+            return Err(MpmError::InvalidOption {
+                option: "gravity",
+                reason: format!("{:?} must be finite", self.gravity),
+            });
+        }
+        Ok(())
     }
 }
