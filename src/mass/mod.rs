@@ -78,13 +78,34 @@ pub fn consistent_mass(ops: &Operators, m: &[f64]) -> CscMatrix<f64> {
     weighted_product(ops, Operator::N, Operator::N, m)
 }
 
-/// The active nodes: those with `m_L,I > tolerance · max_J m_L,J`, ascending.
+/// The active nodes: those with `m_L,I > tolerance · max_J m_L,J`, ascending (the nodes
+/// [`mark_active`] marks).
 pub fn active_nodes(lumped: &[f64], tolerance: f64) -> Vec<usize> {
+    let mut is_active = vec![false; lumped.len()];
+    mark_active(lumped, tolerance, &mut is_active);
+    (0..lumped.len()).filter(|&i| is_active[i]).collect()
+}
+
+/// The one definition of the active set, as a mask:
+///
+/// ```text
+/// active_I  ⇔  m_L,I > tolerance · max_J m_L,J  and  m_L,I > 0
+/// ```
+///
+/// Returns the number of active nodes.
+///
+/// # Panics
+/// If `is_active` does not have one entry per node.
+pub fn mark_active(lumped: &[f64], tolerance: f64, is_active: &mut [bool]) -> usize {
+    assert_eq!(lumped.len(), is_active.len(), "one flag per node");
     let max = lumped.iter().cloned().fold(0.0, f64::max);
     let threshold = tolerance * max;
-    (0..lumped.len())
-        .filter(|&i| lumped[i] > threshold && lumped[i] > 0.0)
-        .collect()
+    let mut count = 0;
+    for (flag, &m) in is_active.iter_mut().zip(lumped) {
+        *flag = m > threshold && m > 0.0;
+        count += usize::from(*flag);
+    }
+    count
 }
 
 /// `a_I = f_I / m_L,I` on active nodes, 0 elsewhere: the lumped solve of `M_L a = f`.

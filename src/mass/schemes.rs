@@ -17,7 +17,7 @@ use nalgebra_sparse::CscMatrix;
 
 use super::stabilization::Stabilization;
 use super::{
-    active_nodes, consistent_mass, local_index, lumped_mass, singular_error, SparseCholesky,
+    consistent_mass, local_index, lumped_mass, mark_active, singular_error, SparseCholesky,
     DEFAULT_ACTIVE_MASS_TOLERANCE, DEFAULT_PIVOT_TOLERANCE,
 };
 use serde::{Deserialize, Serialize};
@@ -339,6 +339,28 @@ impl GridMass {
         options: &MassOptions,
         constraints: &Constraints,
     ) -> Result<()> {
+        let lumped = lumped_mass(ops, m);
+        self.update_with_lumped(ops, m, &lumped, options, constraints)
+    }
+
+    /// [`GridMass::update`] with the lumped mass `m_L = N m` already at hand (the time loop
+    /// accumulates it with the momentum in [`crate::kernels::p2g`]); the active set is then
+    /// [`mark_active`] of that `m_L`, the same set the lumped solves use.
+    ///
+    /// # Errors
+    /// As [`GridMass::new`].
+    ///
+    /// # Panics
+    /// If `m.len()` is not the particle count or `lumped.len()` not the node count.
+    pub fn update_with_lumped(
+        &mut self,
+        ops: &Operators,
+        m: &[f64],
+        lumped: &[f64],
+        options: &MassOptions,
+        constraints: &Constraints,
+    ) -> Result<()> {
+        assert_eq!(lumped.len(), ops.num_nodes(), "one lumped mass per node");
         options.velocity.validate()?;
         options.acceleration.validate()?;
         options.stabilization.validate()?;
@@ -353,12 +375,12 @@ impl GridMass {
         }
         let n = ops.num_nodes();
         self.options = Some(*options);
-        self.lumped = lumped_mass(ops, m);
-        self.active = active_nodes(&self.lumped, options.active_tolerance);
-        self.is_active = vec![false; n];
-        for &i in &self.active {
-            self.is_active[i] = true;
-        }
+        self.lumped.clear();
+        self.lumped.extend_from_slice(lumped);
+        self.is_active.resize(n, false);
+        mark_active(&self.lumped, options.active_tolerance, &mut self.is_active);
+        self.active.clear();
+        self.active.extend((0..n).filter(|&i| self.is_active[i]));
         self.dofs_x = Dofs::new(n, &self.active, &constraints.fixed_x);
         self.dofs_y = Dofs::new(n, &self.active, &constraints.fixed_y);
         let needs_matrix = options.velocity.needs_consistent_matrix()
@@ -379,6 +401,11 @@ impl GridMass {
     /// The options in force.
     pub fn options(&self) -> MassOptions {
         self.options.unwrap_or_default()
+    }
+
+    /// The active set as a mask, one flag per node ([`mark_active`] of the lumped mass).
+    pub fn is_active(&self) -> &[bool] {
+        &self.is_active
     }
 
     /// Free degrees of freedom of the x and y components (active nodes less prescribed ones).

@@ -50,7 +50,7 @@ use crate::kernels::{
     self, extend_to_inactive_nodes, series_velocity_into, ApicInertia, ExtensionScratch, G2pRule, GridField, GridState,
     ParticleScratch, SeriesScratch, Stress,
 };
-use crate::mass::{GridMass, MassScheme, Role, SolveOutcome, SolveReport};
+use crate::mass::{mark_active, GridMass, MassScheme, Role, SolveOutcome, SolveReport};
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
@@ -594,23 +594,25 @@ impl Simulation {
         p.permute(&s.order, &mut s.values, &mut s.indices);
     }
 
-    /// The active nodes and `1/m_L` from `m_L`; the consistent mass and its factorizations when
-    /// a scheme needs them.
+    /// The active nodes ([`mark_active`] of `m_L`, the one active set of every solve) and `1/m_L`;
+    /// the consistent mass and its factorizations when a scheme needs them.
     fn prepare_mass(&mut self) -> Result<()> {
+        let uses_grid_mass = self.uses_grid_mass();
         let g = &mut self.nodes;
-        let max = g.mass.iter().cloned().fold(0.0, f64::max);
-        let threshold = self.options.mass.active_tolerance * max;
-        for i in 0..g.mass.len() {
-            g.active[i] = g.mass[i] > threshold && g.mass[i] > 0.0;
-            g.inverse_mass[i] = if g.active[i] { 1.0 / g.mass[i] } else { 0.0 };
-        }
-        if self.uses_grid_mass() {
-            self.grid_mass.update(
+        if uses_grid_mass {
+            self.grid_mass.update_with_lumped(
                 &self.ops,
                 &self.particles.mass,
+                &g.mass,
                 &self.options.mass,
                 &self.prescribed.constraints,
             )?;
+            g.active.copy_from_slice(self.grid_mass.is_active());
+        } else {
+            mark_active(&g.mass, self.options.mass.active_tolerance, &mut g.active);
+        }
+        for i in 0..g.mass.len() {
+            g.inverse_mass[i] = if g.active[i] { 1.0 / g.mass[i] } else { 0.0 };
         }
         Ok(())
     }
