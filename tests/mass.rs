@@ -6,8 +6,9 @@ mod common;
 use common::*;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use sparse_mpm::mass::{
-    active_nodes, consistent_mass, divide_by_lumped_mass, lumped_mass, ConsistentMassSolver, ConsistentSolveOptions,
-    Constraints, GridMass, MassOptions, MassScheme, Role, SolveOutcome, DEFAULT_ACTIVE_MASS_TOLERANCE,
+    active_nodes, consistent_mass, divide_by_lumped_mass, lumped_mass, mark_active, ConsistentMassSolver,
+    ConsistentSolveOptions, Constraints, GridMass, MassOptions, MassScheme, Role, SolveOutcome,
+    DEFAULT_ACTIVE_MASS_TOLERANCE,
 };
 use sparse_mpm::transfer::{external_force, internal_force, momentum, VectorField};
 use sparse_mpm::{Grid, MpmError, NodeOrder, Operators, Particles, ShapeFunction};
@@ -368,6 +369,31 @@ fn active_nodes_are_those_above_the_relative_lumped_mass_tolerance() {
     assert_eq!(active_nodes(&lumped, 1e-12), vec![2, 3, 4]);
     assert_eq!(active_nodes(&lumped, 0.0), vec![1, 2, 3, 4, 5]);
     assert_eq!(active_nodes(&[0.0; 4], 1e-12), Vec::<usize>::new());
+    let mut mask = [true; 7];
+    assert_eq!(mark_active(&lumped, 1e-12, &mut mask), 3);
+    assert_eq!(mask, [false, false, true, true, true, false, false]);
+}
+
+#[test]
+fn grid_mass_keeps_the_one_active_set_of_the_lumped_mass_it_is_given() {
+    let grid = well_posed_grid(NodeOrder::XFastest);
+    let (x, y) = positions_per_cell(&grid, 2, 0.3, 7);
+    let p = random_particles_at(x, y, 8);
+    let ops = ops_of(&grid, &p);
+    let m_l = lumped_mass(&ops, &p.mass);
+    let options = MassOptions::both(MassScheme::Consistent);
+    let from_particles = GridMass::new(&ops, &p.mass, &options, &Constraints::none()).unwrap();
+    let mut given = GridMass::default();
+    given
+        .update_with_lumped(&ops, &p.mass, &m_l, &options, &Constraints::none())
+        .unwrap();
+    let active = active_nodes(&m_l, options.active_tolerance);
+    for mass in [&from_particles, &given] {
+        assert_eq!(mass.active, active);
+        let mask: Vec<usize> = (0..m_l.len()).filter(|&i| mass.is_active()[i]).collect();
+        assert_eq!(mask, active);
+        assert_eq!(mass.lumped, m_l);
+    }
 }
 
 /// Checks a `SingularMassMatrix` error against the operators and the dense matrix.
