@@ -4,7 +4,7 @@
 //! Every choice is an independent axis of [`Options`]: the shape function
 //! ([`ShapeFunction`]), the update scheme ([`UpdateScheme`]), the particle velocity transfer
 //! ([`Transfer`]), the mass treatment of each solve ([`MassOptions`](crate::mass::MassOptions)), the position rule
-//! ([`PositionUpdate`]), the time step ([`TimeStep`]), gravity and the boundary conditions
+//! ([`PositionUpdate`](crate::step::PositionUpdate)), the time step ([`TimeStep`]), gravity and the boundary conditions
 //! ([`BoundaryCondition`](crate::boundary::BoundaryCondition)). Particles belong to bodies, each with its own [`Material`](crate::material::Material); bodies
 //! meet through the shared grid (no contact algorithm: the grid velocity is single-valued).
 //!
@@ -39,9 +39,11 @@
 
 mod options;
 mod report;
+mod stability;
 
 pub use options::{Body, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
 pub use report::StepReport;
+use stability::Stability;
 
 use crate::boundary::{self, Prescribed};
 use crate::error::{MpmError, Result};
@@ -54,7 +56,6 @@ use crate::mass::{mark_active, GridMass, MassScheme, Role, SolveOutcome, SolveRe
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
-use crate::stiffness::{self, FrequencyEstimate};
 use crate::transfer::VectorField;
 
 /// Work arrays of the phases that are not grid or particle fields, kept between steps.
@@ -100,18 +101,6 @@ pub struct Simulation {
     /// Strain energy after the last stress update.
     strain_energy: f64,
     scratch: Scratch,
-}
-
-/// The stable step found by the last frequency estimate.
-#[derive(Debug, Clone, Copy)]
-struct Stability {
-    /// [`stiffness::mpm_critical_time_step`] at that estimate.
-    wave_step: f64,
-    /// Largest tangent P-wave speed over the particles then.
-    wave_speed: f64,
-    /// Steps completed when it was made.
-    at_step: usize,
-    estimate: FrequencyEstimate,
 }
 
 impl Simulation {
@@ -250,173 +239,6 @@ impl Simulation {
     /// Reference density of each body (largest `m_p / V₀_p` of its particles).
     pub fn body_densities(&self) -> &[f64] {
         &self.density
-    }
-
-    /// The stable time step for the current state:
-    ///
-    /// ```text
-    /// Δt_stable = 1 / (1/Δt_wave + max_p |v_p| / min(hx, hy)),
-    /// Δt_wave = TIME_STEP_SAFETY · √(2 (1 + α))/ω_max · min(1, c_est / c_now)
-    /// ```
-    ///
-    /// `ω²_max` is the largest squared frequency of the update with this simulation's masses
-    /// ([`stiffness::mpm_max_frequency_squared`]: `λ_max(M_a⁻¹ K M_v⁻¹ M)` from the current
-    /// operators, tangent stiffness and masses, by Lanczos), estimated when the simulation is
-    /// made and again every [`Options::stability_interval`] steps; between estimates the step
-    /// shrinks if the largest tangent P-wave speed `c = √(C11/ρ)` over the particles rises above
-    /// its value at the estimate. `α` is the transfer's [`Transfer::flip_weight`] (FLIP is stable
-    /// up to `2/ω_max`, PIC-type updates up to `√2/ω_max`). The particle-speed term keeps particles
-    /// from crossing more than a cell per step.
-    pub fn stable_time_step(&self) -> f64 {
-        let Some(s) = self.stability else {
-            return f64::INFINITY;
-        };
-        let p = &self.particles;
-        let max_speed = (0..p.len())
-            .map(|k| (p.vx[k] * p.vx[k] + p.vy[k] * p.vy[k]).sqrt())
-            .fold(0.0, f64::max);
-        let c_now = self.max_wave_speed();
-        let wave = if c_now > s.wave_speed {
-            s.wave_step * s.wave_speed / c_now
-        } else {
-            s.wave_step
-        };
-        let [hx, hy] = self.grid.cell_size();
-        1.0 / (1.0 / wave + max_speed / hx.min(hy))
-    }
-
-    /// The last frequency estimate behind [`Simulation::stable_time_step`] and the number of
-    /// steps completed when it was made.
-    pub fn frequency_estimate(&self) -> Option<(FrequencyEstimate, usize)> {
-        self.stability.map(|s| (s.estimate, s.at_step))
-    }
-
-    /// Largest tangent P-wave speed `√(C11_p / ρ_p)` over the particles, `ρ_p = m_p / V_p`.
-    fn max_wave_speed(&self) -> f64 {
-        let p = &self.particles;
-        (0..p.len())
-            .map(|k| {
-                let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
-                let c11 = self.bodies[p.body[k]].material.tangent(f)[0];
-                (c11 * p.volume[k] / p.mass[k]).max(0.0).sqrt()
-            })
-            .fold(0.0, f64::max)
-    }
-
-    /// Estimates `ω²_max` of the update with the grid prepared for the current configuration
-    /// ((1)–(5) and the mass) and keeps it.
-    fn estimate_stability(&mut self) -> Result<()> {
-        let (ops, p, nodes) = (&self.ops, &self.particles, &self.nodes);
-        let n = ops.num_nodes();
-        let tangent: Vec<[f64; 3]> = (0..p.len())
-            .map(|k| {
-                let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
-                self.bodies[p.body[k]].material.tangent(f)
-            })
-            .collect();
-        let mut free: Vec<bool> = nodes.active.iter().chain(&nodes.active).copied().collect();
-        let c = &self.prescribed.constraints;
-        c.fixed_x.iter().for_each(|&i| free[i] = false);
-        c.fixed_y.iter().for_each(|&i| free[n + i] = false);
-        let free = &free;
-        let grid_mass = &self.grid_mass;
-        let transfer = self.options.transfer;
-        let inverse = |role: Role| {
-            let scheme = match role {
-                Role::Velocity => self.options.mass.velocity,
-                Role::Acceleration => self.options.mass.acceleration,
-            };
-            move |r: &VectorField| -> Result<VectorField> {
-                if scheme != MassScheme::Lumped {
-                    return grid_mass.solve(role, r, None, ops).map(|(u, _)| u);
-                }
-                let mut u = VectorField::zeros(n);
-                for i in 0..n {
-                    u.x[i] = if free[i] { r.x[i] * nodes.inverse_mass[i] } else { 0.0 };
-                    u.y[i] = if free[n + i] {
-                        r.y[i] * nodes.inverse_mass[i]
-                    } else {
-                        0.0
-                    };
-                }
-                if let Transfer::Fmpm { k } = transfer {
-                    // FMPM's particle velocity and stress update read M_k⁻¹ M_L of the lumped
-                    // velocity: the series is the mass of both halves of the update.
-                    let constrain = |v: &mut VectorField| {
-                        for i in 0..n {
-                            v.x[i] = if free[i] { v.x[i] } else { 0.0 };
-                            v.y[i] = if free[n + i] { v.y[i] } else { 0.0 };
-                        }
-                    };
-                    let mut out = VectorField::default();
-                    let mut scratch = SeriesScratch::default();
-                    series_velocity_into(
-                        ops,
-                        &p.mass,
-                        &nodes.inverse_mass,
-                        k,
-                        &constrain,
-                        &u,
-                        &mut out,
-                        &mut scratch,
-                    );
-                    return Ok(out);
-                }
-                Ok(u)
-            }
-        };
-        let mut velocity = inverse(Role::Velocity);
-        let mut acceleration = inverse(Role::Acceleration);
-        let same = self.options.mass.velocity == self.options.mass.acceleration;
-        let estimate = stiffness::mpm_max_frequency_squared(
-            ops,
-            &p.mass,
-            &p.volume,
-            &tangent,
-            free,
-            &mut velocity,
-            if same { None } else { Some(&mut acceleration) },
-        )?;
-        let wave_speed = self.max_wave_speed();
-
-        self.stability = Some(Stability {
-            wave_step: stiffness::mpm_critical_time_step(&estimate, self.options.transfer.flip_weight()),
-            wave_speed,
-            at_step: self.steps,
-            estimate,
-        });
-        Ok(())
-    }
-
-    /// The step to take now: the fixed one (refused above the stable step unless allowed) or
-    /// the Courant number times the stable step.
-    fn next_time_step(&self, stable: f64) -> Result<f64> {
-        match self.options.time_step {
-            TimeStep::Cfl { number } => {
-                if stable.is_finite() {
-                    Ok(number * stable)
-                } else {
-                    Err(MpmError::NoStableTimeStep { step: self.steps })
-                }
-            }
-            TimeStep::Fixed { dt } => {
-                if dt > stable && !self.options.allow_unstable_time_step {
-                    let m = &self.options.mass;
-                    Err(MpmError::TimeStepAboveStable {
-                        step: self.steps,
-                        dt,
-                        stable,
-                        masses: if m.velocity == m.acceleration {
-                            m.velocity.label()
-                        } else {
-                            format!("{} / {}", m.velocity.label(), m.acceleration.label())
-                        },
-                    })
-                } else {
-                    Ok(dt)
-                }
-            }
-        }
     }
 
     /// Advances one step (see the [module docs](self)) and reports it.
@@ -804,65 +626,6 @@ impl Simulation {
         }
         self.strain_energy = energy;
         Ok(())
-    }
-
-    fn report(
-        &self,
-        dt: f64,
-        stable_time_step: f64,
-        velocity_solve: SolveReport,
-        acceleration_solve: SolveReport,
-    ) -> Result<StepReport> {
-        let (p, g, kinetic) = (&self.particles, &self.nodes, &self.particle_scratch.kinetic);
-        let [gx, gy] = self.options.gravity;
-        let strain = self.strain_energy;
-        let (mut ke, mut potential, mut ang, mut mass, mut max_speed) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
-        let (mut px, mut py) = (0.0, 0.0);
-        for k in 0..p.len() {
-            let m = p.mass[k];
-            let (vx, vy) = (p.vx[k], p.vy[k]);
-            let speed = (vx * vx + vy * vy).sqrt();
-            if !speed.is_finite() {
-                return Err(MpmError::NonFinite {
-                    step: self.steps,
-                    stage: "particle velocity",
-                    particle: k,
-                    id: p.id[k],
-                    value: [vx, vy],
-                });
-            }
-            max_speed = max_speed.max(speed);
-            mass += m;
-            ke += 0.5 * m * (vx * vx + vy * vy);
-            px += m * vx;
-            py += m * vy;
-            ang += m * (p.x[k] * vy - p.y[k] * vx);
-            potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
-        }
-        let ke_l: f64 = (0..g.mass.len())
-            .map(|i| 0.5 * g.mass[i] * (g.updated.x[i].powi(2) + g.updated.y[i].powi(2)))
-            .sum();
-        Ok(StepReport {
-            step: self.steps,
-            time: self.time,
-            dt,
-            stable_time_step,
-            kinetic_energy: ke,
-            particle_grid_gap: kinetic.before - kinetic.projected,
-            transfer_loss: self.transfer_loss,
-            grid_kinetic_energy_lumped: ke_l,
-            grid_kinetic_energy_consistent: kinetic.updated,
-            strain_energy: strain,
-            potential_energy: potential,
-            total_energy: ke + strain + potential,
-            momentum: [px, py],
-            angular_momentum: ang,
-            grid_angular_momentum: g.angular_momentum,
-            mass,
-            max_speed,
-            velocity_solve,
-            acceleration_solve,
-        })
     }
 }
 

@@ -175,7 +175,8 @@ impl Options {
     /// calls it, and a scene maps its errors to the scene's keys.
     ///
     /// # Errors
-    /// The errors of [`ShapeFunction::validate`] and [`MassScheme::validate`];
+    /// The errors of [`ShapeFunction::validate`] and of the mass schemes (a blend weight outside
+    /// [0, 1], a series without terms …);
     /// [`MpmError::InvalidOption`] naming the option for a non-positive or non-finite fixed step
     /// (`time_step.dt`), a Courant number outside (0, 1] (`time_step.cfl`), a FLIP weight
     /// outside [0, 1] (`transfer.flip`), an XPIC/FMPM series without terms (`transfer.k`), an

@@ -1,5 +1,7 @@
 //! What one step did: [`StepReport`], and its CSV columns.
 
+use super::Simulation;
+use crate::error::{MpmError, Result};
 use crate::mass::{SolveOutcome, SolveReport};
 
 /// What one step did and the state after it: data, not log lines.
@@ -122,5 +124,68 @@ impl StepReport {
             self.acceleration_solve.relative_residual,
             node,
         ]
+    }
+}
+
+impl Simulation {
+    /// The report of the step just taken: energies, momenta and mass summed over the particles and
+    /// the grid, after checking every particle velocity is finite.
+    pub(super) fn report(
+        &self,
+        dt: f64,
+        stable_time_step: f64,
+        velocity_solve: SolveReport,
+        acceleration_solve: SolveReport,
+    ) -> Result<StepReport> {
+        let (p, g, kinetic) = (&self.particles, &self.nodes, &self.particle_scratch.kinetic);
+        let [gx, gy] = self.options.gravity;
+        let strain = self.strain_energy;
+        let (mut ke, mut potential, mut ang, mut mass, mut max_speed) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
+        let (mut px, mut py) = (0.0, 0.0);
+        for k in 0..p.len() {
+            let m = p.mass[k];
+            let (vx, vy) = (p.vx[k], p.vy[k]);
+            let speed = (vx * vx + vy * vy).sqrt();
+            if !speed.is_finite() {
+                return Err(MpmError::NonFinite {
+                    step: self.steps,
+                    stage: "particle velocity",
+                    particle: k,
+                    id: p.id[k],
+                    value: [vx, vy],
+                });
+            }
+            max_speed = max_speed.max(speed);
+            mass += m;
+            ke += 0.5 * m * (vx * vx + vy * vy);
+            px += m * vx;
+            py += m * vy;
+            ang += m * (p.x[k] * vy - p.y[k] * vx);
+            potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
+        }
+        let ke_l: f64 = (0..g.mass.len())
+            .map(|i| 0.5 * g.mass[i] * (g.updated.x[i].powi(2) + g.updated.y[i].powi(2)))
+            .sum();
+        Ok(StepReport {
+            step: self.steps,
+            time: self.time,
+            dt,
+            stable_time_step,
+            kinetic_energy: ke,
+            particle_grid_gap: kinetic.before - kinetic.projected,
+            transfer_loss: self.transfer_loss,
+            grid_kinetic_energy_lumped: ke_l,
+            grid_kinetic_energy_consistent: kinetic.updated,
+            strain_energy: strain,
+            potential_energy: potential,
+            total_energy: ke + strain + potential,
+            momentum: [px, py],
+            angular_momentum: ang,
+            grid_angular_momentum: g.angular_momentum,
+            mass,
+            max_speed,
+            velocity_solve,
+            acceleration_solve,
+        })
     }
 }
