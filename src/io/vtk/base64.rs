@@ -1,0 +1,241 @@
+//! Base64 (RFC 4648, standard alphabet, `=` padding) for the binary arrays of VTK XML files:
+//! a streaming encoder for writing and a decoder for reading.
+
+use std::io::Write;
+
+const BASE64_ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+/// Raw bytes encoded per write: a multiple of 6, encoding to 1 MiB, which `BufWriter` passes
+/// straight to the file.
+const BASE64_CHUNK: usize = 3 << 18;
+
+/// The base64 digits of every 12-bit value: two symbols per lookup.
+static BASE64_PAIRS: [[u8; 2]; 4096] = {
+    let mut table = [[0u8; 2]; 4096];
+    let mut i = 0;
+    while i < 4096 {
+        table[i] = [BASE64_ALPHABET[i >> 6], BASE64_ALPHABET[i & 63]];
+        i += 1;
+    }
+    table
+};
+
+/// A streaming base64 encoder for one array at a time: `begin` (writes the UInt64 header),
+/// `push` (8 bytes at a time), `finish` (pads and writes the rest). Keeps its buffers between
+/// arrays.
+pub(super) struct Base64Writer {
+    /// `BASE64_CHUNK + 8` bytes, of which `len` are pending.
+    raw: Vec<u8>,
+    len: usize,
+    /// `BASE64_CHUNK / 3 * 4` bytes.
+    encoded: Vec<u8>,
+}
+
+impl Base64Writer {
+    pub(super) fn new() -> Self {
+        Base64Writer {
+            raw: vec![0; BASE64_CHUNK + 8],
+            len: 0,
+            encoded: vec![0; BASE64_CHUNK / 3 * 4],
+        }
+    }
+
+    pub(super) fn begin<W: Write>(&mut self, w: &mut W, data_bytes: u64) -> std::io::Result<()> {
+        self.len = 0;
+        self.push(w, data_bytes.to_le_bytes())
+    }
+
+    #[inline(always)]
+    pub(super) fn push<W: Write>(&mut self, w: &mut W, bytes: [u8; 8]) -> std::io::Result<()> {
+        self.raw[self.len..self.len + 8].copy_from_slice(&bytes);
+        self.len += 8;
+        if self.len >= BASE64_CHUNK {
+            self.drain(w)?;
+        }
+        Ok(())
+    }
+
+    /// Encodes and writes all whole 3-byte groups, keeping the 0–2 bytes left over.
+    #[inline(never)]
+    fn drain<W: Write>(&mut self, w: &mut W) -> std::io::Result<()> {
+        let whole = self.len / 3 * 3;
+        let encoded = &mut self.encoded[..whole / 3 * 4];
+        encode_base64(&self.raw[..whole], encoded);
+        w.write_all(encoded)?;
+        self.raw.copy_within(whole..self.len, 0);
+        self.len -= whole;
+        Ok(())
+    }
+
+    pub(super) fn finish<W: Write>(&mut self, w: &mut W) -> std::io::Result<()> {
+        self.drain(w)?;
+        if self.len > 0 {
+            w.write_all(&encode_base64_tail(&self.raw[..self.len]))?;
+        }
+        self.len = 0;
+        Ok(())
+    }
+}
+
+/// Encodes `input` (a multiple of 3 bytes) into `out` (`input.len() / 3 * 4` bytes).
+pub(super) fn encode_base64(input: &[u8], out: &mut [u8]) {
+    debug_assert!(input.len().is_multiple_of(3) && out.len() == input.len() / 3 * 4);
+    let pair = |n: u64| BASE64_PAIRS[(n & 0xfff) as usize];
+    // Six bytes (48 bits, four 12-bit pairs) at a time, then a last group of three.
+    let mut src = input.chunks_exact(6);
+    let mut dst = out.chunks_exact_mut(8);
+    for (s, d) in (&mut src).zip(&mut dst) {
+        let n = u64::from_be_bytes([0, 0, s[0], s[1], s[2], s[3], s[4], s[5]]);
+        let (a, b, c, e) = (pair(n >> 36), pair(n >> 24), pair(n >> 12), pair(n));
+        d.copy_from_slice(&[a[0], a[1], b[0], b[1], c[0], c[1], e[0], e[1]]);
+    }
+    if let [x, y, z] = *src.remainder() {
+        let n = u64::from_be_bytes([0, 0, 0, 0, 0, x, y, z]);
+        let (a, b) = (pair(n >> 12), pair(n));
+        dst.into_remainder().copy_from_slice(&[a[0], a[1], b[0], b[1]]);
+    }
+}
+
+/// Encodes the last one or two bytes of a stream, with `=` padding.
+fn encode_base64_tail(tail: &[u8]) -> [u8; 4] {
+    let symbol = |v: u8| BASE64_ALPHABET[v as usize];
+    match *tail {
+        [a] => [symbol(a >> 2), symbol((a & 3) << 4), b'=', b'='],
+        [a, b] => [
+            symbol(a >> 2),
+            symbol(((a & 3) << 4) | (b >> 4)),
+            symbol((b & 15) << 2),
+            b'=',
+        ],
+        _ => unreachable!("a base64 tail has one or two bytes"),
+    }
+}
+
+/// Base64 → bytes. ASCII whitespace is skipped; `=` may only pad the last group.
+pub(super) fn decode_base64(text: &str) -> std::result::Result<Vec<u8>, String> {
+    const INVALID: u8 = 255;
+    const TABLE: [u8; 256] = {
+        let mut t = [INVALID; 256];
+        let mut i = 0;
+        while i < 64 {
+            t[BASE64_ALPHABET[i] as usize] = i as u8;
+            i += 1;
+        }
+        t
+    };
+    let bytes = text.as_bytes();
+    let symbols: std::borrow::Cow<'_, [u8]> = if bytes.iter().any(u8::is_ascii_whitespace) {
+        bytes
+            .iter()
+            .copied()
+            .filter(|b| !b.is_ascii_whitespace())
+            .collect::<Vec<u8>>()
+            .into()
+    } else {
+        bytes.into()
+    };
+    if !symbols.len().is_multiple_of(4) {
+        return Err(format!(
+            "{} base64 symbols: not a whole number of 4-symbol groups",
+            symbols.len()
+        ));
+    }
+    let padding = symbols.iter().rev().take(2).take_while(|&&b| b == b'=').count();
+    let mut out = Vec::with_capacity(symbols.len() / 4 * 3);
+    let last_group = symbols.len() / 4;
+    for (g, group) in symbols.chunks_exact(4).enumerate() {
+        let mut n = 0u32;
+        for (k, &c) in group.iter().enumerate() {
+            let mut v = TABLE[c as usize];
+            if v == INVALID {
+                if c == b'=' && g + 1 == last_group && k >= 4 - padding {
+                    v = 0;
+                } else {
+                    return Err(format!(
+                        "invalid base64 character {:?} at symbol {}",
+                        c as char,
+                        4 * g + k
+                    ));
+                }
+            }
+            n = (n << 6) | u32::from(v);
+        }
+        out.extend_from_slice(&[(n >> 16) as u8, (n >> 8) as u8, n as u8]);
+    }
+    out.truncate(out.len() - padding);
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn encode_all(bytes: &[u8]) -> String {
+        let whole = bytes.len() / 3 * 3;
+        let mut out = vec![0; whole / 3 * 4];
+        encode_base64(&bytes[..whole], &mut out);
+        if whole < bytes.len() {
+            out.extend_from_slice(&encode_base64_tail(&bytes[whole..]));
+        }
+        String::from_utf8(out).unwrap()
+    }
+
+    #[test]
+    fn base64_matches_the_rfc_4648_test_vectors_and_decodes_back() {
+        let vectors = [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+            ("foobarb", "Zm9vYmFyYg=="),
+        ];
+        for (plain, encoded) in vectors {
+            assert_eq!(encode_all(plain.as_bytes()), encoded);
+            assert_eq!(decode_base64(encoded).unwrap(), plain.as_bytes());
+        }
+        assert_eq!(decode_base64(" Zm9v\nYmE=\n").unwrap(), b"fooba");
+    }
+
+    #[test]
+    fn the_streaming_encoder_matches_the_one_shot_encoding_across_chunk_boundaries() {
+        for words in [
+            0,
+            1,
+            2,
+            3,
+            BASE64_CHUNK / 8 - 1,
+            BASE64_CHUNK / 8,
+            2 * BASE64_CHUNK / 8 + 5,
+        ] {
+            let values: Vec<u64> = (0..words as u64)
+                .map(|i| i.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+                .collect();
+            let mut enc = Base64Writer::new();
+            let mut out = Vec::new();
+            enc.begin(&mut out, 8 * words as u64).unwrap();
+            for v in &values {
+                enc.push(&mut out, v.to_le_bytes()).unwrap();
+            }
+            enc.finish(&mut out).unwrap();
+            let mut raw = (8 * words as u64).to_le_bytes().to_vec();
+            raw.extend(values.iter().flat_map(|v| v.to_le_bytes()));
+            assert_eq!(
+                String::from_utf8(out.clone()).unwrap(),
+                encode_all(&raw),
+                "{words} words"
+            );
+            assert_eq!(decode_base64(std::str::from_utf8(&out).unwrap()).unwrap(), raw);
+        }
+    }
+
+    #[test]
+    fn base64_decoding_rejects_bad_characters_and_lengths() {
+        assert!(decode_base64("Zm9v!AAA").is_err());
+        assert!(decode_base64("Zm9").is_err());
+        assert!(decode_base64("Zg==Zg==").is_err());
+        assert!(decode_base64("Z===").is_err());
+    }
+}
