@@ -26,13 +26,15 @@ use crate::operators::{Operator, Operators};
 mod cg;
 mod cholesky;
 mod diagnostics;
+mod options;
 mod schemes;
 pub mod stabilization;
 
 pub(crate) use cholesky::SparseCholesky;
 pub use diagnostics::{solve_condition_number, MassDiagnostics, TINY_MASS_FRACTION};
+pub use options::{Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome, SolveReport};
 pub(crate) use schemes::spmv;
-pub use schemes::{Constraints, GridMass, MassOptions, MassScheme, Role, SingularityPolicy, SolveOutcome, SolveReport};
+pub use schemes::{GridMass, Role};
 pub use stabilization::Stabilization;
 
 /// Default relative mass below which a node is inactive: `m_L,I ≤ 1e-12 · max m_L`. A node
