@@ -20,13 +20,13 @@
 
 use nalgebra_sparse::CscMatrix;
 
+use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::operators::{Operator, Operators};
 use crate::particles::Particles;
+use crate::schemes::PositionUpdate;
+use crate::schemes::Transfer;
 use crate::shape::ShapeFunction;
-use crate::simulation::Transfer;
-use crate::step::PositionUpdate;
-use crate::transfer::VectorField;
 
 /// Which grid velocity a phase reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

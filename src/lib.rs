@@ -110,6 +110,7 @@
 
 pub mod boundary;
 pub mod error;
+mod fields;
 pub mod grid;
 pub mod homework;
 pub mod io;
@@ -120,6 +121,7 @@ pub mod operators;
 pub mod particles;
 pub mod run;
 pub mod scene;
+mod schemes;
 pub mod shape;
 pub mod simulation;
 pub mod spectral;

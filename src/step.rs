@@ -33,16 +33,7 @@ use crate::transfer::{
     VelocityGradient,
 };
 
-/// How particle positions move in step (9).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PositionUpdate {
-    /// `x ← x + Δt Nᵀ v̄'`: the standard MPM update with the updated grid velocity.
-    #[default]
-    GridVelocity,
-    /// `x ← x + (Δt/2)(v_p + Nᵀ v̄')`: the seed's 4(C) as read in docs/homework.md.
-    Trapezoidal,
-}
+pub use crate::schemes::PositionUpdate;
 
 /// The choices of one explicit step.
 #[derive(Debug, Clone, PartialEq)]

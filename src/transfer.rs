@@ -3,52 +3,10 @@
 //! Every function here is one line of the formulation (docs/formulation.md); nodal and
 //! particle vector quantities are [`VectorField`]s (an x and a y component vector).
 
+pub use crate::fields::{StrainRate, VectorField, VelocityGradient};
 pub use crate::kernels::{extend_to_inactive_nodes, series_velocity_into, ExtensionScratch, SeriesScratch};
 use crate::mass::ConsistentMassSolver;
 use crate::operators::{Operator, Operators};
-
-/// A 2D vector quantity at every node or every particle, as two component vectors.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct VectorField {
-    /// x components.
-    pub x: Vec<f64>,
-    /// y components.
-    pub y: Vec<f64>,
-}
-
-impl VectorField {
-    /// `len` zero vectors.
-    pub fn zeros(len: usize) -> VectorField {
-        VectorField {
-            x: vec![0.0; len],
-            y: vec![0.0; len],
-        }
-    }
-    /// Number of entries.
-    pub fn len(&self) -> usize {
-        self.x.len()
-    }
-    /// Whether there are no entries.
-    pub fn is_empty(&self) -> bool {
-        self.x.is_empty()
-    }
-    /// `self + s · other`, entrywise.
-    ///
-    /// # Panics
-    /// On length mismatch.
-    pub fn add_scaled(&self, s: f64, other: &VectorField) -> VectorField {
-        assert_eq!(self.len(), other.len(), "vector fields must have equal length");
-        let f = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a + s * b).collect();
-        VectorField {
-            x: f(&self.x, &other.x),
-            y: f(&self.y, &other.y),
-        }
-    }
-    /// Sum of the components, `(Σ x, Σ y)`: total force or momentum on the grid.
-    pub fn sum(&self) -> [f64; 2] {
-        [self.x.iter().sum(), self.y.iter().sum()]
-    }
-}
 
 /// Grid momentum (the numerator of the seed's 4(A)):
 ///
@@ -155,30 +113,6 @@ pub fn velocity_gradient(ops: &Operators, v: &VectorField) -> VelocityGradient {
     ops.gather(Operator::Gx, [&v.x, &v.y], [&mut l.xx, &mut l.yx]);
     ops.gather(Operator::Gy, [&v.x, &v.y], [&mut l.xy, &mut l.yy]);
     l
-}
-
-/// Velocity gradient components per particle, `ab = ∂v_a/∂x_b`.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct VelocityGradient {
-    /// `∂vx/∂x`.
-    pub xx: Vec<f64>,
-    /// `∂vx/∂y`.
-    pub xy: Vec<f64>,
-    /// `∂vy/∂x`.
-    pub yx: Vec<f64>,
-    /// `∂vy/∂y`.
-    pub yy: Vec<f64>,
-}
-
-/// Strain rate (tensor components) per particle.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct StrainRate {
-    /// `ε̇xx`.
-    pub xx: Vec<f64>,
-    /// `ε̇yy`.
-    pub yy: Vec<f64>,
-    /// Tensor shear rate `ε̇xy` (half the engineering shear rate `γ̇xy`).
-    pub xy: Vec<f64>,
 }
 
 /// Strain rate, the symmetric part of the velocity gradient (seed 4(E)):

@@ -2,9 +2,9 @@
 
 use super::{active_nodes, consistent_mass, local_index, lumped_mass, GridMass, MassOptions, Role, SparseCholesky};
 use crate::error::{MpmError, Result};
+use crate::fields::VectorField;
 use crate::operators::Operators;
 use crate::spectral::{lanczos_extremes, start_vector, DEFAULT_LANCZOS_STEPS};
-use crate::transfer::VectorField;
 
 /// A node is counted as tiny-mass when its lumped mass is below this fraction of the largest:
 /// such nodes (touched only by the corner of a particle's support) carry accelerations

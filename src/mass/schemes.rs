@@ -19,8 +19,8 @@ use super::options::{Constraints, MassOptions, MassScheme, SingularityPolicy, So
 use super::{consistent_mass, local_index, lumped_mass, mark_active, singular_error, SparseCholesky};
 
 use crate::error::{MpmError, Result};
+use crate::fields::VectorField;
 use crate::operators::Operators;
-use crate::transfer::VectorField;
 
 /// One component's free degrees of freedom.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -7,96 +7,12 @@ use crate::boundary::BoundaryCondition;
 use crate::error::{MpmError, Result};
 use crate::mass::{MassOptions, MassScheme};
 use crate::material::Material;
+use crate::schemes::PositionUpdate;
+pub use crate::schemes::{Transfer, UpdateScheme};
 use crate::shape::ShapeFunction;
-use crate::step::PositionUpdate;
 
 /// Default [`Options::stability_interval`]: steps between estimates of the stable time step.
 pub const DEFAULT_STABILITY_INTERVAL: usize = 100;
-
-/// When the stress is updated relative to the grid solve.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum UpdateScheme {
-    /// Update stress first, from the grid velocity of the particles' momentum.
-    Usf,
-    /// Update stress last, from the updated grid velocity. Nodes with tiny mass at a body's
-    /// edge can give large `a = f / m` and so large strain rates (the small-mass problem).
-    Usl,
-    /// Modified USL (the default): the stress is updated from a grid velocity re-projected from
-    /// the updated particle velocities (Sulsky et al. 1995), which removes the small-mass
-    /// problem of USL.
-    #[default]
-    Musl,
-}
-
-/// How the particle velocities are updated from the grid.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum Transfer {
-    /// Particle velocity = interpolated grid velocity (dissipative, stable).
-    Pic,
-    /// Particle velocity incremented by the interpolated grid velocity change.
-    #[default]
-    Flip,
-    /// `flip · FLIP + (1 − flip) · PIC`.
-    Blend {
-        /// Weight of FLIP, in [0, 1].
-        flip: f64,
-    },
-    /// Affine PIC (Jiang et al. 2015): PIC plus a per-particle affine velocity matrix `C`.
-    Apic,
-    /// Hammerquist & Nairn's XPIC(k): the particle velocity interpolates the lumped grid
-    /// velocity of the step's start extrapolated by k terms of the full-mass series, plus the
-    /// lumped acceleration; `x ← x + Δt (Nᵀ v + ½ (v_p,new − v_p,old))`. Lumped mass only.
-    /// XPIC(1) gives PIC's velocities.
-    Xpic {
-        /// Number of series terms, at least 1.
-        k: usize,
-    },
-    /// Nairn & Hammerquist's FMPM(k): the particle velocity interpolates the updated lumped
-    /// grid velocity passed through k terms of the full-mass series (once per step, just before
-    /// the particle update), the stress update uses that velocity, and
-    /// `x ← x + (Δt/2)(v_p,old + v_p,new)`. Lumped mass only. FMPM(1) is PIC with the
-    /// trapezoidal position update.
-    Fmpm {
-        /// Number of series terms, at least 1.
-        k: usize,
-    },
-}
-
-impl Transfer {
-    /// The transfer's name as a scene spells it: `"pic"`, `"flip"`, `"blend"`, `"apic"`,
-    /// `"xpic"` or `"fmpm"`.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Transfer::Pic => "pic",
-            Transfer::Flip => "flip",
-            Transfer::Blend { .. } => "blend",
-            Transfer::Apic => "apic",
-            Transfer::Xpic { .. } => "xpic",
-            Transfer::Fmpm { .. } => "fmpm",
-        }
-    }
-
-    /// The number of series terms of XPIC(k) and FMPM(k), `None` for the other transfers.
-    pub fn series_terms(&self) -> Option<usize> {
-        match *self {
-            Transfer::Xpic { k } | Transfer::Fmpm { k } => Some(k),
-            _ => None,
-        }
-    }
-
-    /// The weight `α` with which the new particle velocity keeps the old one: 1 for FLIP, the
-    /// FLIP weight of a blend, 0 for PIC, APIC, XPIC and FMPM (which replace it by an
-    /// interpolated velocity). It sets the stable step ([`crate::stiffness::mpm_critical_time_step`]).
-    pub fn flip_weight(&self) -> f64 {
-        match *self {
-            Transfer::Flip => 1.0,
-            Transfer::Blend { flip } => flip,
-            _ => 0.0,
-        }
-    }
-}
 
 /// How the time step is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

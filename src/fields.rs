@@ -1,0 +1,70 @@
+//! The field types the products read and write: a 2D vector at every node or particle
+//! ([`VectorField`]), and the velocity gradient and strain rate at every particle. They are
+//! re-exported by [`crate::transfer`], where the products that make them live.
+
+/// A 2D vector quantity at every node or every particle, as two component vectors.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct VectorField {
+    /// x components.
+    pub x: Vec<f64>,
+    /// y components.
+    pub y: Vec<f64>,
+}
+
+impl VectorField {
+    /// `len` zero vectors.
+    pub fn zeros(len: usize) -> VectorField {
+        VectorField {
+            x: vec![0.0; len],
+            y: vec![0.0; len],
+        }
+    }
+    /// Number of entries.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+    /// Whether there are no entries.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+    /// `self + s · other`, entrywise.
+    ///
+    /// # Panics
+    /// On length mismatch.
+    pub fn add_scaled(&self, s: f64, other: &VectorField) -> VectorField {
+        assert_eq!(self.len(), other.len(), "vector fields must have equal length");
+        let f = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a + s * b).collect();
+        VectorField {
+            x: f(&self.x, &other.x),
+            y: f(&self.y, &other.y),
+        }
+    }
+    /// Sum of the components, `(Σ x, Σ y)`: total force or momentum on the grid.
+    pub fn sum(&self) -> [f64; 2] {
+        [self.x.iter().sum(), self.y.iter().sum()]
+    }
+}
+
+/// Velocity gradient components per particle, `ab = ∂v_a/∂x_b`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct VelocityGradient {
+    /// `∂vx/∂x`.
+    pub xx: Vec<f64>,
+    /// `∂vx/∂y`.
+    pub xy: Vec<f64>,
+    /// `∂vy/∂x`.
+    pub yx: Vec<f64>,
+    /// `∂vy/∂y`.
+    pub yy: Vec<f64>,
+}
+
+/// Strain rate (tensor components) per particle.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct StrainRate {
+    /// `ε̇xx`.
+    pub xx: Vec<f64>,
+    /// `ε̇yy`.
+    pub yy: Vec<f64>,
+    /// Tensor shear rate `ε̇xy` (half the engineering shear rate `γ̇xy`).
+    pub xy: Vec<f64>,
+}
