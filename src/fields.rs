@@ -68,3 +68,16 @@ pub struct StrainRate {
     /// Tensor shear rate `ε̇xy` (half the engineering shear rate `γ̇xy`).
     pub xy: Vec<f64>,
 }
+
+/// The deformation increment of one particle over a step and its determinant, the one
+/// definition both tiers use for (12) and (13):
+///
+/// ```text
+/// G = I + Δt L = [1 + Δt Lxx, Δt Lxy; Δt Lyx, 1 + Δt Lyy],   J = det G = G₀₀ G₁₁ − G₀₁ G₁₀
+/// ```
+///
+/// `l` and the returned `G` are row-major `[xx, xy, yx, yy]`.
+pub fn deformation_increment(l: [f64; 4], dt: f64) -> ([f64; 4], f64) {
+    let g = [1.0 + dt * l[0], dt * l[1], dt * l[2], 1.0 + dt * l[3]];
+    (g, g[0] * g[3] - g[1] * g[2])
+}

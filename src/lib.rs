@@ -40,8 +40,8 @@
 //! (3)  q = N (m ∘ v)                                               transfer::momentum
 //! (4)  f_ext = N (m ∘ b)                                           transfer::external_force
 //! (5)  f_int = −[Gx (V∘σxx) + Gy (V∘σxy);  Gx (V∘σxy) + Gy (V∘σyy)]  transfer::internal_force
-//! (6)  a  = M⁻¹ (f_ext + f_int)       (lumped or consistent, on A) mass::GridMass::solve
-//! (7)  v̄  = M⁻¹ q                                                  mass::GridMass::solve
+//! (6)  v̄  = M⁻¹ q                    (lumped or consistent, on A) mass::GridMass::solve
+//! (7)  a  = M⁻¹ (f_ext + f_int)                                    mass::GridMass::solve
 //! (8)  v̄′ = v̄ + Δt a                                               transfer::VectorField::add_scaled
 //! (8b) massless support nodes take the particles' mean velocity    transfer::extend_to_massless_nodes
 //! (9)  x ← x + Δt Nᵀ v̄′                                            transfer::update_positions

@@ -10,8 +10,8 @@
 //! | (3) | `q = N (m ∘ v)` | [`momentum`] |
 //! | (4) | `f_ext = N (m ∘ b)` | [`external_force`] |
 //! | (5) | `f_int = −(Gx (V∘σxx) + Gy (V∘σxy), Gx (V∘σxy) + Gy (V∘σyy))` | [`internal_force`] |
-//! | (6) | `a = M⁻¹ (f_ext + f_int)` | [`GridMass::solve`] |
-//! | (7) | `v̄ = M⁻¹ q` | [`GridMass::solve`] |
+//! | (6) | `v̄ = M⁻¹ q` | [`GridMass::solve`] |
+//! | (7) | `a = M⁻¹ (f_ext + f_int)` | [`GridMass::solve`] |
 //! | (8) | `v̄' = v̄ + Δt a` | [`VectorField::add_scaled`] |
 //! | (8b) | massless nodes in a particle's support take the mean particle velocity | [`extend_to_massless_nodes`] |
 //! | (9) | `x ← x + Δt Nᵀ v̄'` (or the trapezoidal rule) | [`update_positions`] |
@@ -42,7 +42,7 @@ pub struct StepOptions {
     pub dt: f64,
     /// Shape-function family.
     pub shape: ShapeFunction,
-    /// Mass schemes of the velocity projection (7) and the acceleration solve (6), the
+    /// Mass schemes of the velocity projection (6) and the acceleration solve (7), the
     /// singularity policy and tolerances.
     pub mass: MassOptions,
     /// Grid degrees of freedom held at zero velocity (fixed and roller nodes).
@@ -71,9 +71,9 @@ pub struct StepRecord {
     pub operators: Operators,
     /// (2) Lumped mass, active nodes and (when a scheme needs it) the consistent mass.
     pub mass: GridMass,
-    /// (6) What the acceleration solve did.
+    /// (7) What the acceleration solve did.
     pub acceleration_report: SolveReport,
-    /// (7) What the velocity projection did.
+    /// (6) What the velocity projection did.
     pub velocity_report: SolveReport,
     /// (3) Grid momentum `q`.
     pub momentum: VectorField,
@@ -81,9 +81,9 @@ pub struct StepRecord {
     pub external_force: VectorField,
     /// (5) Internal grid force.
     pub internal_force: VectorField,
-    /// (6) Grid acceleration.
+    /// (7) Grid acceleration.
     pub acceleration: VectorField,
-    /// (7) Grid velocity from the particles' momentum, before the update.
+    /// (6) Grid velocity from the particles' momentum, before the update.
     pub grid_velocity: VectorField,
     /// (8) Updated grid velocity.
     pub updated_grid_velocity: VectorField,
@@ -113,8 +113,8 @@ pub fn explicit_step(
     let q = momentum(&ops, &p.mass, &p.vx, &p.vy); //                                                    (3)
     let f_ext = external_force(&ops, &p.mass, &p.bx, &p.by); //                                          (4)
     let f_int = internal_force(&ops, &p.volume, &p.sxx, &p.syy, &p.sxy); //                               (5)
-    let (a, a_report) = mass.solve(Role::Acceleration, &f_ext.add_scaled(1.0, &f_int), None, &ops)?; //  (6)
-    let (v, v_report) = mass.solve(Role::Velocity, &q, None, &ops)?; //                                  (7)
+    let (v, v_report) = mass.solve(Role::Velocity, &q, None, &ops)?; //                                  (6)
+    let (a, a_report) = mass.solve(Role::Acceleration, &f_ext.add_scaled(1.0, &f_int), None, &ops)?; //  (7)
     let mut v_new = v.add_scaled(dt, &a); //                                                             (8)
     extend_to_massless_nodes(&ops, &mass.active, &mut v_new); //                                        (8b)
     move_particles(&ops, p, &v_new, dt, options.position_update); //                                     (9)

@@ -3,7 +3,7 @@
 //! Every function here is one line of the formulation (docs/formulation.md); nodal and
 //! particle vector quantities are [`VectorField`]s (an x and a y component vector).
 
-pub use crate::fields::{StrainRate, VectorField, VelocityGradient};
+pub use crate::fields::{deformation_increment, StrainRate, VectorField, VelocityGradient};
 pub use crate::kernels::{extend_to_inactive_nodes, series_velocity_into, ExtensionScratch, SeriesScratch};
 use crate::mass::ConsistentMassSolver;
 use crate::operators::{Operator, Operators};
@@ -199,7 +199,7 @@ pub fn update_velocities(ops: &Operators, vx: &mut [f64], vy: &mut [f64], a: &Ve
 pub fn update_volumes(volume: &mut [f64], l: &VelocityGradient, dt: f64) {
     assert_eq!(volume.len(), l.xx.len(), "one volume per particle");
     for p in 0..volume.len() {
-        volume[p] *= (1.0 + dt * l.xx[p]) * (1.0 + dt * l.yy[p]) - dt * dt * l.xy[p] * l.yx[p];
+        volume[p] *= deformation_increment([l.xx[p], l.xy[p], l.yx[p], l.yy[p]], dt).1;
     }
 }
 

@@ -22,13 +22,15 @@
 //!      USF: L = [Gxᵀ v, Gyᵀ v], update F, V, σ, redo (5)
 //! (7)  a = Π₀ M_a⁻¹ (f_ext + f_int)                       acceleration scheme; 0 on prescribed dofs
 //! (8)  w = Π (v + Δt a);  massless nodes in a particle's support take the particles' mean velocity
-//! (9)  v_pic = Nᵀ w,   Δv = Nᵀ (w − v)      (the change of the grid velocity; XPIC, FMPM: below)
+//! (9)  x_p ← x_p + Δt v_pic,  v_pic = Nᵀ w   (or the trapezoidal rule (Δt/2)(v_p_old + v_pic);
+//!      XPIC, FMPM: below)
+//! (10) Δv = Nᵀ (w − v)   (the change of the grid velocity)
 //!      PIC:  v_p ← v_pic          FLIP: v_p ← v_p + Δv        blend α: α (v_p + Δv) + (1 − α) v_pic
 //!      APIC: v_p ← v_pic,  B_p ← Σ_I N_I w_I (x_I − x_p)ᵀ;  in (3) C_p = B_p D_p⁻¹ at the new position
-//! (10) x_p ← x_p + Δt v_pic     (or the trapezoidal rule (Δt/2)(v_p_old + v_pic))
 //! (11) USL:  L = [Gxᵀ w, Gyᵀ w]
 //!      MUSL: q' = N (m ∘ v_p) [+ APIC term],  v' = Π M_v⁻¹ q',  L = [Gxᵀ v', Gyᵀ v']
-//! (12) F ← (I + Δt L) F,   V ← V det(I + Δt L),   σ ← material(σ, L, F)
+//! (12) F ← (I + Δt L) F,   σ ← material(σ, L, F)
+//! (13) V ← V det(I + Δt L)
 //! ```
 //!
 //! ## Allocation
@@ -56,7 +58,7 @@ use crate::mass::{mark_active, GridMass, MassScheme, Role, SolveOutcome, SolveRe
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
-use crate::transfer::VectorField;
+use crate::transfer::{deformation_increment, VectorField};
 
 /// Work arrays of the phases that are not grid or particle fields, kept between steps.
 #[derive(Debug, Default)]
@@ -333,22 +335,48 @@ impl Simulation {
     }
 
     fn phases(&mut self, max_dt: f64) -> Result<StepReport> {
-        self.prepare_grid()?; //                                                       (1)–(5), mass
+        self.prepare_grid()?; // (1)–(5), mass
         let stable = self.stable_time_step();
         let dt = self.next_time_step(stable)?.min(max_dt);
-        let velocity_solve = self.project_velocity()?; //                                   (6)
+        let velocity_solve = self.project_velocity()?; // (6)
         if self.options.update == UpdateScheme::Usf {
-            let field = self.stress_velocity(GridField::Projected);
-            self.gradient_of(field);
-            self.update_stress(dt)?;
-            let p = &self.particles;
-            kernels::add_internal_force(&self.ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut self.nodes.force);
-            // (5)
+            self.update_stress_first(dt)?; // USF: (11)–(13), (5)
         }
-        let acceleration_solve = self.solve_acceleration()?; //                             (7)
-        self.update_grid_velocity(dt); //                                                   (8)
-        self.extend_to_inactive_nodes(GridField::Updated); //                              (8b)
-        self.series_particle_velocity(); //                                          XPIC, FMPM
+        let acceleration_solve = self.solve_acceleration()?; // (7)
+        self.update_grid_velocity(dt); // (8)
+        self.extend_to_inactive_nodes(GridField::Updated); // (8b)
+        self.series_particle_velocity(); // XPIC, FMPM
+        self.grid_to_particles(dt); // (9)–(11)
+        match self.options.update {
+            UpdateScheme::Usl => self.update_stress(dt)?,              // (12)–(13)
+            UpdateScheme::Musl => self.update_stress_reprojected(dt)?, // (11)–(13)
+            UpdateScheme::Usf => {}
+        }
+        self.move_particles(); // (9)
+        self.time += dt;
+        self.steps += 1;
+        let mut report = self.report(dt, stable, velocity_solve, acceleration_solve)?;
+        let k = &self.particle_scratch.kinetic;
+        self.transfer_loss += k.before + (k.updated - k.projected) - report.kinetic_energy;
+        report.transfer_loss = self.transfer_loss;
+        Ok(report)
+    }
+
+    /// The APIC inertia of the shape functions, when the transfer is APIC.
+    /// USF: (11)–(13) from the projected velocity `v` of (6), then (5) again with the new
+    /// stress.
+    fn update_stress_first(&mut self, dt: f64) -> Result<()> {
+        let field = self.stress_velocity(GridField::Projected);
+        self.gradient_of(field);
+        self.update_stress(dt)?;
+        let p = &self.particles;
+        kernels::add_internal_force(&self.ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut self.nodes.force);
+        Ok(())
+    }
+
+    /// (9)–(11) in one pass: new particle velocities, position increments and (USL) the velocity
+    /// gradient of the updated grid velocity.
+    fn grid_to_particles(&mut self, dt: f64) {
         let rule = G2pRule {
             transfer: self.options.transfer,
             position: self.options.position_update,
@@ -362,29 +390,19 @@ impl Simulation {
             dt,
             &mut self.particles,
             &mut self.particle_scratch,
-        ); // (9)–(11)
-        match self.options.update {
-            UpdateScheme::Usl => self.update_stress(dt)?, //                                (12)
-            UpdateScheme::Musl => {
-                kernels::reproject_momentum(&self.ops, &self.particles, self.apic(), &mut self.nodes); // (11)
-                self.project_velocity()?;
-                let field = self.stress_velocity(GridField::Projected);
-                self.gradient_of(field);
-                self.update_stress(dt)?; //                                                 (12)
-            }
-            UpdateScheme::Usf => {}
-        }
-        self.move_particles(); //                                                           (10)
-        self.time += dt;
-        self.steps += 1;
-        let mut report = self.report(dt, stable, velocity_solve, acceleration_solve)?;
-        let k = &self.particle_scratch.kinetic;
-        self.transfer_loss += k.before + (k.updated - k.projected) - report.kinetic_energy;
-        report.transfer_loss = self.transfer_loss;
-        Ok(report)
+        );
     }
 
-    /// The APIC inertia of the shape functions, when the transfer is APIC.
+    /// MUSL: (11) `q' = N (m ∘ v_p)` (APIC term included), `v' = Π M_v⁻¹ q'`,
+    /// `L = [Gxᵀ v', Gyᵀ v']`, then (12)–(13).
+    fn update_stress_reprojected(&mut self, dt: f64) -> Result<()> {
+        kernels::reproject_momentum(&self.ops, &self.particles, self.apic(), &mut self.nodes);
+        self.project_velocity()?;
+        let field = self.stress_velocity(GridField::Projected);
+        self.gradient_of(field);
+        self.update_stress(dt)
+    }
+
     fn apic(&self) -> Option<ApicInertia> {
         (self.options.transfer == Transfer::Apic).then(|| ApicInertia::of(self.options.shape, &self.grid))
     }
@@ -577,7 +595,7 @@ impl Simulation {
         kernels::velocity_gradient_into(&self.ops, u, &mut self.particle_scratch.velocity_gradient);
     }
 
-    /// (10) `x_p ← x_p + Δx_p` with the increments of the grid-to-particle pass.
+    /// (9) `x_p ← x_p + Δx_p` with the increments of the grid-to-particle pass.
     fn move_particles(&mut self) {
         let (p, d) = (&mut self.particles, &self.particle_scratch.displacement);
         for k in 0..p.len() {
@@ -586,14 +604,13 @@ impl Simulation {
         }
     }
 
-    /// (12) `F ← (I + Δt L) F`, `V ← V det(I + Δt L)`, `σ ← material(σ, L, F)`.
+    /// (12) `F ← (I + Δt L) F`, `σ ← material(σ, L, F)`; (13) `V ← V det(I + Δt L)`.
     fn update_stress(&mut self, dt: f64) -> Result<()> {
         let (p, l) = (&mut self.particles, &self.particle_scratch.velocity_gradient);
         let mut energy = 0.0;
         for k in 0..p.len() {
             let l = [l[0][k], l[1][k], l[2][k], l[3][k]];
-            let g = [1.0 + dt * l[0], dt * l[1], dt * l[2], 1.0 + dt * l[3]];
-            let j_inc = g[0] * g[3] - g[1] * g[2];
+            let (g, j_inc) = deformation_increment(l, dt);
             let f = [
                 g[0] * p.fxx[k] + g[1] * p.fyx[k],
                 g[0] * p.fxy[k] + g[1] * p.fyy[k],
