@@ -366,8 +366,9 @@ pub struct G2pRule {
     pub transfer: Transfer,
     /// The position update (XPIC and FMPM use their own).
     pub position: PositionUpdate,
-    /// Whether the kernels are bilinear (APIC then stores `C_p` itself).
-    pub linear: bool,
+    /// How APIC keeps its moments (read only under [`Transfer::Apic`]; with bilinear kernels,
+    /// [`ApicInertia::StoredC`], the particle stores `C_p` itself).
+    pub inertia: ApicInertia,
     /// The grid velocity whose gradient to write into the scratch (USL), if any.
     pub gradient: Option<GridField>,
 }
@@ -404,7 +405,7 @@ pub fn g2p(
     );
     let transfer = rule.transfer;
     let apic = transfer == Transfer::Apic;
-    let linear_apic = apic && rule.linear;
+    let linear_apic = apic && rule.inertia == ApicInertia::StoredC;
     let with_gradient = rule.gradient.is_some();
     let need_l = with_gradient || linear_apic;
     let (w, v) = (&grid.updated, &grid.projected);

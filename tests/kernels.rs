@@ -167,7 +167,7 @@ fn g2p_equals_the_single_products_for_every_transfer_position_rule_and_update_sc
                     let rule = G2pRule {
                         transfer,
                         position,
-                        linear: shape == ShapeFunction::Linear,
+                        inertia: ApicInertia::of(shape, &grid),
                         gradient,
                     };
                     kernels::g2p(&ops, &state, &rule, dt, &mut p, &mut scratch);

@@ -57,7 +57,6 @@ use crate::kernels::{
 use crate::mass::{mark_active, GridMass, MassScheme, Role, SolveOutcome, SolveReport};
 use crate::operators::Operators;
 use crate::particles::Particles;
-use crate::shape::ShapeFunction;
 use crate::transfer::{deformation_increment, VectorField};
 
 /// Work arrays of the phases that are not grid or particle fields, kept between steps.
@@ -380,7 +379,7 @@ impl Simulation {
         let rule = G2pRule {
             transfer: self.options.transfer,
             position: self.options.position_update,
-            linear: self.options.shape == ShapeFunction::Linear,
+            inertia: ApicInertia::of(self.options.shape, &self.grid),
             gradient: (self.options.update == UpdateScheme::Usl).then(|| self.stress_field(GridField::Updated)),
         };
         kernels::g2p(
@@ -465,15 +464,18 @@ impl Simulation {
     /// (6) `v = Π M_v⁻¹ q`.
     fn project_velocity(&mut self) -> Result<SolveReport> {
         let g = &mut self.nodes;
-        let report = if self.options.mass.velocity == MassScheme::Lumped {
-            divide_by_lumped(&g.inverse_mass, &g.momentum, &mut g.projected)
-        } else {
-            let (v, report) =
-                self.grid_mass
-                    .solve(Role::Velocity, &g.momentum, Some(&self.prescribed_velocity), &self.ops)?;
-            g.projected = v;
-            report
+        let masses = Masses {
+            scheme: self.options.mass.velocity,
+            grid_mass: &self.grid_mass,
+            inverse_lumped: &g.inverse_mass,
         };
+        let report = masses.solve(
+            Role::Velocity,
+            &self.ops,
+            &g.momentum,
+            Some(&self.prescribed_velocity),
+            &mut g.projected,
+        )?;
         self.prescribed.apply_velocity(&mut g.projected.x, &mut g.projected.y);
         Ok(report)
     }
@@ -481,13 +483,12 @@ impl Simulation {
     /// (7) `a = Π₀ M_a⁻¹ f`.
     fn solve_acceleration(&mut self) -> Result<SolveReport> {
         let g = &mut self.nodes;
-        let report = if self.options.mass.acceleration == MassScheme::Lumped {
-            divide_by_lumped(&g.inverse_mass, &g.force, &mut g.acceleration)
-        } else {
-            let (a, report) = self.grid_mass.solve(Role::Acceleration, &g.force, None, &self.ops)?;
-            g.acceleration = a;
-            report
+        let masses = Masses {
+            scheme: self.options.mass.acceleration,
+            grid_mass: &self.grid_mass,
+            inverse_lumped: &g.inverse_mass,
         };
+        let report = masses.solve(Role::Acceleration, &self.ops, &g.force, None, &mut g.acceleration)?;
         self.prescribed.zero(&mut g.acceleration.x, &mut g.acceleration.y);
         Ok(report)
     }
@@ -646,17 +647,42 @@ impl Simulation {
     }
 }
 
-/// The lumped solve `u_I = r_I / m_L,I` on active nodes, 0 elsewhere, into `u` (`inv_m` holds
-/// `1 / m_L,I` on active nodes and 0 elsewhere); its report.
-fn divide_by_lumped(inv_m: &[f64], r: &VectorField, u: &mut VectorField) -> SolveReport {
-    for i in 0..inv_m.len() {
-        u.x[i] = r.x[i] * inv_m[i];
-        u.y[i] = r.y[i] * inv_m[i];
-    }
-    SolveReport {
-        scheme: MassScheme::Lumped,
-        outcome: SolveOutcome::Solved,
-        iterations: 0,
-        relative_residual: 0.0,
+/// The mass of one grid solve: the scheme, and what it solves with.
+struct Masses<'a> {
+    scheme: MassScheme,
+    /// The consistent mass and its factorizations (schemes other than lumped).
+    grid_mass: &'a GridMass,
+    /// `1 / m_L,I` on active nodes, 0 elsewhere (the lumped scheme).
+    inverse_lumped: &'a [f64],
+}
+
+impl Masses<'_> {
+    /// `u = M⁻¹ r` with this scheme, into `u`: for the lumped mass `u_I = r_I / m_L,I` on active
+    /// nodes and 0 elsewhere, without allocating; otherwise [`GridMass::solve`] of `role`, with
+    /// `prescribed` values on the prescribed components.
+    fn solve(
+        &self,
+        role: Role,
+        ops: &Operators,
+        r: &VectorField,
+        prescribed: Option<&VectorField>,
+        u: &mut VectorField,
+    ) -> Result<SolveReport> {
+        if self.scheme != MassScheme::Lumped {
+            let (solution, report) = self.grid_mass.solve(role, r, prescribed, ops)?;
+            *u = solution;
+            return Ok(report);
+        }
+        let inv_m = self.inverse_lumped;
+        for i in 0..inv_m.len() {
+            u.x[i] = r.x[i] * inv_m[i];
+            u.y[i] = r.y[i] * inv_m[i];
+        }
+        Ok(SolveReport {
+            scheme: MassScheme::Lumped,
+            outcome: SolveOutcome::Solved,
+            iterations: 0,
+            relative_residual: 0.0,
+        })
     }
 }
