@@ -108,6 +108,7 @@
 //! value at fault; user data never causes a panic.
 #![deny(missing_docs)]
 
+pub mod bench;
 pub mod boundary;
 pub mod error;
 mod fields;

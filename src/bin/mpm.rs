@@ -6,6 +6,8 @@
 //! mpm check SCENE.toml
 //! mpm homework [--json]
 //! mpm study [--out DIR] [--spec STUDY.toml] [--parts a,b] [--quick]
+//! mpm bench [--shape S] [--mass M] [--transfer T] [--update U] [--particles N[,N…]]
+//!           [--threads T] [--steps S] [--reps R]
 //! ```
 
 use std::io::{IsTerminal, Write};
@@ -13,6 +15,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
+use sparse_mpm::bench::names;
 use sparse_mpm::run::{run_scene, write_matrices, Progress, RunLimits};
 use sparse_mpm::scene::Scene;
 
@@ -43,6 +46,17 @@ USAGE:
         Parts: frequency, bar_energy, convergence, energy, time_step, cantilever,
         single_point (default: all). --quick: smaller grids, a few seconds.
         A STUDY.toml sets any of the study's keys (docs/verification.md).
+    mpm bench [--shape S] [--mass M] [--transfer T] [--update U] [--particles N[,N...]]
+              [--threads T] [--steps S] [--reps R]
+        Time the peers' benchmark problem (random block falling into a walled unit
+        box, neo-Hookean, about 4 particles per cell; docs/performance.md) over whole
+        explicit steps, set-up excluded. Defaults: quadratic, lumped, apic, usl,
+        8192,65536,262144,1048576 particles, 1 thread, max(20, min(2000, 2e7/N))
+        steps, 5 repetitions. Prints min/median/max per particle count, then
+        `particle-steps/s: <median>` and `peak bytes/particle: <value>`.
+        Shapes: linear, gimp[:half_width], quadratic, cubic. Masses: lumped,
+        consistent, blended:g, series:k, cg[:tol]. Transfers: pic, flip, apic,
+        blend:a, xpic:k, fmpm:k. Updates: usf, usl, musl.
     mpm help
         This text.
 ";
@@ -57,6 +71,7 @@ struct Args {
     spec: Option<PathBuf>,
     parts: Option<String>,
     quick: bool,
+    bench: sparse_mpm::bench::BenchSpec,
 }
 
 fn parse(args: &[String]) -> Result<Args, String> {
@@ -70,6 +85,7 @@ fn parse(args: &[String]) -> Result<Args, String> {
         spec: None,
         parts: None,
         quick: false,
+        bench: sparse_mpm::bench::BenchSpec::default(),
     };
     let mut it = args.iter();
     while let Some(arg) = it.next() {
@@ -94,6 +110,42 @@ fn parse(args: &[String]) -> Result<Args, String> {
             "--spec" => a.spec = Some(PathBuf::from(value("--spec")?)),
             "--parts" => a.parts = Some(value("--parts")?),
             "--quick" => a.quick = true,
+            "--shape" => a.bench.shape = names::shape(&value("--shape")?).map_err(|e| format!("--shape: {e}"))?,
+            "--mass" => a.bench.mass = names::mass(&value("--mass")?).map_err(|e| format!("--mass: {e}"))?,
+            "--transfer" => {
+                a.bench.transfer = names::transfer(&value("--transfer")?).map_err(|e| format!("--transfer: {e}"))?
+            }
+            "--update" => a.bench.update = names::update(&value("--update")?).map_err(|e| format!("--update: {e}"))?,
+            "--particles" => {
+                let v = value("--particles")?;
+                a.bench.particles = v
+                    .split(',')
+                    .map(|n| {
+                        let n = n.trim().replace('_', "");
+                        n.parse::<f64>()
+                            .ok()
+                            .filter(|x| x.fract() == 0.0 && *x >= 16.0 && *x <= 1e9)
+                            .map(|x| x as usize)
+                            .ok_or_else(|| format!("--particles {v}: `{n}` is not a count between 16 and 1e9"))
+                    })
+                    .collect::<Result<_, _>>()?;
+            }
+            "--threads" => {
+                let v = value("--threads")?;
+                a.bench.threads = v
+                    .parse()
+                    .ok()
+                    .filter(|t| *t >= 1)
+                    .ok_or_else(|| format!("--threads {v}: expected a whole number of at least 1"))?;
+            }
+            "--reps" => {
+                let v = value("--reps")?;
+                a.bench.reps = v
+                    .parse()
+                    .ok()
+                    .filter(|r| *r >= 1)
+                    .ok_or_else(|| format!("--reps {v}: expected a whole number of at least 1"))?;
+            }
             s if s.starts_with('-') => return Err(format!("unknown option `{s}`")),
             s => a.positional.push(s.to_string()),
         }
@@ -318,6 +370,50 @@ fn study(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+fn bench(args: &Args) -> Result<(), String> {
+    let mut spec = args.bench.clone();
+    spec.steps = args.steps;
+    if spec.steps == Some(0) {
+        return Err("--steps 0: time at least one step".into());
+    }
+    println!(
+        "# sparse-mpm {}: shape {}, mass {}, transfer {}, update {:?}, {} thread(s), f64",
+        env!("CARGO_PKG_VERSION"),
+        spec.shape.name(),
+        spec.mass.label(),
+        spec.transfer.name(),
+        spec.update,
+        spec.threads
+    );
+    println!("particles,n_grid,steps,reps,setup_s,min_psps,median_psps,max_psps,peak_bytes_per_particle");
+    let rows = sparse_mpm::bench::run(&spec, |row| {
+        let [min, med, max] = row.rate_summary();
+        println!(
+            "{},{},{},{},{:.3},{min:.4e},{med:.4e},{max:.4e},{}",
+            row.particles,
+            row.n_grid,
+            row.steps,
+            row.seconds.len(),
+            row.setup_seconds,
+            row.peak_bytes_per_particle.map_or("".into(), |b| format!("{b:.0}"))
+        );
+        let _ = std::io::stdout().flush();
+    })
+    .map_err(|e| e.to_string())?;
+    for row in &rows {
+        let [_, med, _] = row.rate_summary();
+        println!("N = {}: particle-steps/s: {med:.4e}", row.particles);
+        match row.peak_bytes_per_particle {
+            Some(b) => println!("N = {}: peak bytes/particle: {b:.0}", row.particles),
+            None => println!(
+                "N = {}: peak bytes/particle: not measured on this system",
+                row.particles
+            ),
+        }
+    }
+    Ok(())
+}
+
 fn homework(args: &Args) -> Result<(), String> {
     let answers = sparse_mpm::homework::solve().map_err(|e| e.to_string())?;
     let text = if args.json {
@@ -348,6 +444,7 @@ fn main() -> ExitCode {
         "check" => check(&args),
         "homework" => homework(&args),
         "study" => study(&args),
+        "bench" => bench(&args),
         "help" | "--help" | "-h" => {
             print!("{USAGE}");
             Ok(())

@@ -1,0 +1,386 @@
+//! `mpm bench`: the benchmark problem the fastest CPU MPM codes publish figures for, run by this
+//! library's engine, timed over whole explicit steps.
+//!
+//! The problem (the same as the Warp, Taichi and NumPy/SciPy scripts it is compared with, see
+//! docs/performance.md): the unit square with `n_grid = round(√N)` cells per side; `N` particles
+//! uniformly at random in `[0.25, 0.75]²` (about 4 per cell there), in random memory order, each
+//! with volume `(h/2)²` and density 1; initial velocity `(0, −1)`; gravity 9.8 downwards; slip
+//! walls holding the 3 outermost node lines of every side; neo-Hookean (plane strain) with
+//! `E = 400`, `ν = 0.2`; fixed `Δt = 2·10⁻⁴ · 128 / n_grid`.
+//!
+//! Timing: particle-steps per second (`N × steps / seconds`) over the timed steps of each
+//! repetition. Set-up — building the simulation (which assembles the operators and estimates
+//! the stable step) and one untimed warm-up step that grows every buffer to size — is excluded,
+//! as the peers exclude theirs.
+//!
+//! Memory: the peak resident set size of the process during the set-up and the timed steps,
+//! less the resident size before the set-up, per particle (Linux; `None` elsewhere). The peak is
+//! reset before each configuration (`/proc/self/clear_refs`).
+
+use std::time::Instant;
+
+use crate::boundary::{BoundaryCondition, Condition, Edge};
+use crate::error::{MpmError, Result};
+use crate::grid::Grid;
+use crate::mass::{MassOptions, MassScheme};
+use crate::material::{Material, NeoHookean};
+use crate::particles::Particles;
+use crate::shape::ShapeFunction;
+use crate::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
+
+/// Young's modulus of the benchmark material.
+pub const YOUNGS_MODULUS: f64 = 400.0;
+/// Poisson's ratio of the benchmark material.
+pub const POISSON_RATIO: f64 = 0.2;
+/// Density of the benchmark material.
+pub const DENSITY: f64 = 1.0;
+/// Gravity (downwards).
+pub const GRAVITY: f64 = 9.8;
+/// Node lines held by the slip walls on every side.
+pub const WALL_LAYERS: usize = 3;
+/// The particle counts the peers report.
+pub const PEER_SIZES: [usize; 4] = [8192, 65536, 262144, 1048576];
+
+/// One configuration of the benchmark.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchSpec {
+    /// Shape-function family.
+    pub shape: ShapeFunction,
+    /// Mass scheme of both solves.
+    pub mass: MassScheme,
+    /// Velocity transfer.
+    pub transfer: Transfer,
+    /// Update scheme.
+    pub update: UpdateScheme,
+    /// Particle counts to run.
+    pub particles: Vec<usize>,
+    /// Worker threads (1: serial).
+    pub threads: usize,
+    /// Timed steps per repetition (`None`: the peers' rule, `max(20, min(2000, 2·10⁷ / N))`).
+    pub steps: Option<usize>,
+    /// Repetitions (at least 1; the median is reported).
+    pub reps: usize,
+    /// Seed of the particle positions.
+    pub seed: u64,
+}
+
+impl Default for BenchSpec {
+    fn default() -> Self {
+        BenchSpec {
+            shape: ShapeFunction::QuadraticBSpline,
+            mass: MassScheme::Lumped,
+            transfer: Transfer::Apic,
+            update: UpdateScheme::Usl,
+            particles: PEER_SIZES.to_vec(),
+            threads: 1,
+            steps: None,
+            reps: 5,
+            seed: 1,
+        }
+    }
+}
+
+/// The timed steps of one particle count: the peers' rule `max(20, min(2000, 2·10⁷ / N))`.
+pub fn default_steps(particles: usize) -> usize {
+    (20_000_000 / particles.max(1)).clamp(20, 2000)
+}
+
+/// The figures of one particle count.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchRow {
+    /// Particles.
+    pub particles: usize,
+    /// Cells per side.
+    pub n_grid: usize,
+    /// Timed steps per repetition.
+    pub steps: usize,
+    /// Wall seconds of the timed steps of each repetition.
+    pub seconds: Vec<f64>,
+    /// Wall seconds of the first set-up (build and warm-up step).
+    pub setup_seconds: f64,
+    /// Peak resident bytes per particle over set-up and steps (Linux only).
+    pub peak_bytes_per_particle: Option<f64>,
+}
+
+impl BenchRow {
+    /// Particle-steps per second of each repetition, ascending.
+    pub fn rates(&self) -> Vec<f64> {
+        let mut r: Vec<f64> = self
+            .seconds
+            .iter()
+            .map(|s| (self.particles * self.steps) as f64 / s)
+            .collect();
+        r.sort_by(f64::total_cmp);
+        r
+    }
+
+    /// `[min, median, max]` particle-steps per second.
+    pub fn rate_summary(&self) -> [f64; 3] {
+        let r = self.rates();
+        [r[0], median(&r), r[r.len() - 1]]
+    }
+}
+
+fn median(sorted: &[f64]) -> f64 {
+    let n = sorted.len();
+    if n % 2 == 1 {
+        sorted[n / 2]
+    } else {
+        0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+    }
+}
+
+/// A deterministic generator of uniform numbers in [0, 1) (SplitMix64).
+struct SplitMix(u64);
+
+impl SplitMix {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// The benchmark problem with `n` particles under `spec`'s schemes, at time 0.
+///
+/// # Errors
+/// [`MpmError::InvalidParameter`] for fewer than 16 particles; the errors of
+/// [`Simulation::new`].
+pub fn problem(n: usize, spec: &BenchSpec) -> Result<Simulation> {
+    if n < 16 {
+        return Err(MpmError::InvalidParameter {
+            name: "particles",
+            value: n as f64,
+            reason: "the benchmark needs at least 16 particles",
+        });
+    }
+    let n_grid = ((n as f64).sqrt().round() as usize).max(2 * WALL_LAYERS + 4);
+    let h = 1.0 / n_grid as f64;
+    let grid = Grid::new([0.0, 0.0], [h, h], [n_grid, n_grid])?;
+    let mut rng = SplitMix(spec.seed);
+    let (mut x, mut y) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for _ in 0..n {
+        x.push(0.25 + 0.5 * rng.next());
+        y.push(0.25 + 0.5 * rng.next());
+    }
+    let volume = 0.25 * h * h;
+    let mut particles = Particles::new(x, y, vec![DENSITY * volume; n], vec![volume; n])?;
+    particles.vy.iter_mut().for_each(|v| *v = -1.0);
+    let bodies = vec![Body {
+        name: "block".into(),
+        material: Material::NeoHookean(NeoHookean {
+            youngs_modulus: YOUNGS_MODULUS,
+            poisson_ratio: POISSON_RATIO,
+        }),
+    }];
+    let boundaries = [Edge::Left, Edge::Right, Edge::Bottom, Edge::Top]
+        .into_iter()
+        .map(|edge| BoundaryCondition {
+            layers: Some(WALL_LAYERS),
+            ..BoundaryCondition::edge(edge, Condition::Slip)
+        })
+        .collect();
+    let options = Options {
+        shape: spec.shape,
+        update: spec.update,
+        transfer: spec.transfer,
+        mass: MassOptions::both(spec.mass),
+        time_step: TimeStep::Fixed {
+            dt: 2e-4 * 128.0 / n_grid as f64,
+        },
+        // The peers take the fixed step without a check; the estimate at the build is kept
+        // (set-up), none during the timed steps.
+        allow_unstable_time_step: true,
+        stability_interval: 0,
+        gravity: [0.0, -GRAVITY],
+        boundaries,
+        ..Options::default()
+    };
+    Simulation::new(grid, particles, bodies, options)
+}
+
+/// Runs `spec`, calling `observe` after each particle count.
+///
+/// # Errors
+/// [`MpmError::InvalidParameter`] for no repetitions or no particle counts; the errors of
+/// [`problem`] and of the steps.
+pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<BenchRow>> {
+    if spec.reps == 0 {
+        return Err(MpmError::InvalidParameter {
+            name: "reps",
+            value: 0.0,
+            reason: "at least one repetition is needed",
+        });
+    }
+    if spec.particles.is_empty() {
+        return Err(MpmError::InvalidParameter {
+            name: "particles",
+            value: 0.0,
+            reason: "give at least one particle count",
+        });
+    }
+    let mut rows = Vec::new();
+    for &n in &spec.particles {
+        let steps = spec.steps.unwrap_or_else(|| default_steps(n));
+        memory::reset_peak();
+        let before = memory::resident_bytes();
+        let mut seconds = Vec::with_capacity(spec.reps);
+        let mut setup_seconds = 0.0;
+        let mut n_grid = 0;
+        for rep in 0..spec.reps {
+            let start = Instant::now();
+            let mut sim = problem(n, spec)?;
+            sim.step()?;
+            if rep == 0 {
+                setup_seconds = start.elapsed().as_secs_f64();
+                n_grid = sim.grid().cells()[0];
+            }
+            let start = Instant::now();
+            for _ in 0..steps {
+                sim.step()?;
+            }
+            seconds.push(start.elapsed().as_secs_f64());
+        }
+        let peak = memory::peak_bytes();
+        let row = BenchRow {
+            particles: n,
+            n_grid,
+            steps,
+            seconds,
+            setup_seconds,
+            peak_bytes_per_particle: match (peak, before) {
+                (Some(p), Some(b)) => Some(p.saturating_sub(b) as f64 / n as f64),
+                _ => None,
+            },
+        };
+        observe(&row);
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// Resident memory of this process, from `/proc/self` (Linux).
+pub mod memory {
+    /// A field of `/proc/self/status` in bytes (`VmRSS`, `VmHWM` …).
+    fn status_bytes(field: &str) -> Option<u64> {
+        let text = std::fs::read_to_string("/proc/self/status").ok()?;
+        let line = text.lines().find(|l| l.starts_with(field))?;
+        let kib: u64 = line[field.len()..]
+            .trim_start_matches(':')
+            .trim()
+            .trim_end_matches("kB")
+            .trim()
+            .parse()
+            .ok()?;
+        Some(kib * 1024)
+    }
+
+    /// Resident set size now.
+    pub fn resident_bytes() -> Option<u64> {
+        status_bytes("VmRSS")
+    }
+
+    /// Peak resident set size since the process started or the last [`reset_peak`].
+    pub fn peak_bytes() -> Option<u64> {
+        status_bytes("VmHWM")
+    }
+
+    /// Resets the peak to the current resident size (writes 5 to `/proc/self/clear_refs`);
+    /// does nothing where that is not possible.
+    pub fn reset_peak() {
+        let _ = std::fs::write("/proc/self/clear_refs", "5");
+    }
+}
+
+/// Reading the command line's scheme names: `linear`, `gimp`, `quadratic`, `cubic`;
+/// `lumped`, `consistent`, `blended:γ`, `series:k`, `cg:tolerance`; `pic`, `flip`, `apic`,
+/// `blend:α`, `xpic:k`, `fmpm:k`; `usf`, `usl`, `musl`. A parameter may also be written in
+/// parentheses, as the reports print it (`blended(0.5)`).
+pub mod names {
+    use crate::mass::MassScheme;
+    use crate::shape::ShapeFunction;
+    use crate::simulation::{Transfer, UpdateScheme};
+
+    /// `name` and its parameter, from `name:p` or `name(p)`.
+    fn split(text: &str) -> (&str, Option<&str>) {
+        let text = text.trim();
+        if let Some((name, p)) = text.split_once(':') {
+            return (name, Some(p));
+        }
+        if let Some((name, rest)) = text.split_once('(') {
+            return (name, Some(rest.trim_end_matches(')')));
+        }
+        (text, None)
+    }
+
+    fn number<T: std::str::FromStr>(what: &str, p: Option<&str>) -> Result<T, String> {
+        let p = p.ok_or_else(|| format!("`{what}` needs a parameter (`{what}:value`)"))?;
+        p.trim()
+            .parse()
+            .map_err(|_| format!("`{what}:{p}`: `{p}` is not a valid parameter"))
+    }
+
+    /// A shape-function family (`gimp` takes a half-width, default 0.25).
+    pub fn shape(text: &str) -> Result<ShapeFunction, String> {
+        match split(text) {
+            ("linear", None) => Ok(ShapeFunction::Linear),
+            ("gimp", p) => Ok(ShapeFunction::Gimp {
+                half_width: p.map_or(Ok(0.25), |_| number("gimp", p))?,
+            }),
+            ("quadratic" | "quadratic_bspline", None) => Ok(ShapeFunction::QuadraticBSpline),
+            ("cubic" | "cubic_bspline", None) => Ok(ShapeFunction::CubicBSpline),
+            _ => Err(format!("unknown shape `{text}` (linear, gimp, quadratic, cubic)")),
+        }
+    }
+
+    /// A mass scheme.
+    pub fn mass(text: &str) -> Result<MassScheme, String> {
+        match split(text) {
+            ("lumped", None) => Ok(MassScheme::Lumped),
+            ("consistent", None) => Ok(MassScheme::Consistent),
+            ("blended", p) => Ok(MassScheme::Blended {
+                gamma: number("blended", p)?,
+            }),
+            ("series", p) => Ok(MassScheme::TruncatedSeries {
+                k: number("series", p)?,
+            }),
+            ("cg", p) => Ok(MassScheme::Iterative {
+                tolerance: p.map_or(Ok(1e-10), |_| number("cg", p))?,
+                max_iterations: 500,
+            }),
+            _ => Err(format!(
+                "unknown mass scheme `{text}` (lumped, consistent, blended:γ, series:k, cg[:tolerance])"
+            )),
+        }
+    }
+
+    /// A velocity transfer.
+    pub fn transfer(text: &str) -> Result<Transfer, String> {
+        match split(text) {
+            ("pic", None) => Ok(Transfer::Pic),
+            ("flip", None) => Ok(Transfer::Flip),
+            ("apic", None) => Ok(Transfer::Apic),
+            ("blend", p) => Ok(Transfer::Blend {
+                flip: number("blend", p)?,
+            }),
+            ("xpic", p) => Ok(Transfer::Xpic { k: number("xpic", p)? }),
+            ("fmpm", p) => Ok(Transfer::Fmpm { k: number("fmpm", p)? }),
+            _ => Err(format!(
+                "unknown transfer `{text}` (pic, flip, apic, blend:α, xpic:k, fmpm:k)"
+            )),
+        }
+    }
+
+    /// An update scheme.
+    pub fn update(text: &str) -> Result<UpdateScheme, String> {
+        match text.trim() {
+            "usf" => Ok(UpdateScheme::Usf),
+            "usl" => Ok(UpdateScheme::Usl),
+            "musl" => Ok(UpdateScheme::Musl),
+            _ => Err(format!("unknown update scheme `{text}` (usf, usl, musl)")),
+        }
+    }
+}
