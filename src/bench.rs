@@ -26,7 +26,7 @@ use crate::mass::{MassOptions, MassScheme};
 use crate::material::{Material, NeoHookean};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
-use crate::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
+use crate::simulation::{Body, Options, Profile, Simulation, TimeStep, Transfer, UpdateScheme};
 
 /// Young's modulus of the benchmark material.
 pub const YOUNGS_MODULUS: f64 = 400.0;
@@ -62,6 +62,8 @@ pub struct BenchSpec {
     pub reps: usize,
     /// Seed of the particle positions.
     pub seed: u64,
+    /// Time the phases of the timed steps ([`Simulation::set_profiling`]).
+    pub profile: bool,
 }
 
 impl Default for BenchSpec {
@@ -76,6 +78,7 @@ impl Default for BenchSpec {
             steps: None,
             reps: 5,
             seed: 1,
+            profile: false,
         }
     }
 }
@@ -100,6 +103,8 @@ pub struct BenchRow {
     pub setup_seconds: f64,
     /// Peak resident bytes per particle over set-up and steps (Linux only).
     pub peak_bytes_per_particle: Option<f64>,
+    /// Phase times summed over every repetition's timed steps, when profiled.
+    pub profile: Option<Profile>,
 }
 
 impl BenchRow {
@@ -230,6 +235,7 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
         let mut seconds = Vec::with_capacity(spec.reps);
         let mut setup_seconds = 0.0;
         let mut n_grid = 0;
+        let mut profile = spec.profile.then(Profile::default);
         for rep in 0..spec.reps {
             let start = Instant::now();
             let mut sim = problem(n, spec)?;
@@ -238,11 +244,15 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
                 setup_seconds = start.elapsed().as_secs_f64();
                 n_grid = sim.grid().cells()[0];
             }
+            sim.set_profiling(spec.profile);
             let start = Instant::now();
             for _ in 0..steps {
                 sim.step()?;
             }
             seconds.push(start.elapsed().as_secs_f64());
+            if let (Some(total), Some(p)) = (&mut profile, sim.profile()) {
+                total.merge(p);
+            }
         }
         let peak = memory::peak_bytes();
         let row = BenchRow {
@@ -255,6 +265,7 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
                 (Some(p), Some(b)) => Some(p.saturating_sub(b) as f64 / n as f64),
                 _ => None,
             },
+            profile,
         };
         observe(&row);
         rows.push(row);

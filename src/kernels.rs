@@ -66,6 +66,12 @@ pub struct GridState {
     pub node_y: Vec<f64>,
     /// `Σ_I x_I × q_I` of the last [`p2g`].
     pub angular_momentum: f64,
+    /// Nodes outside this range hold zero mass, momentum and force ([`Operators::node_span`]
+    /// at the last [`p2g`]).
+    pub span: std::ops::Range<usize>,
+    /// Per node of `span`, what [`p2g`] accumulates, `[m_L, q_x, q_y, f_x, f_y]`, interleaved so
+    /// that one particle's contributions to a node land in one cache line.
+    accumulator: Vec<[f64; 5]>,
 }
 
 impl GridState {
@@ -86,6 +92,10 @@ impl GridState {
             node_x: grid.node_x(),
             node_y: grid.node_y(),
             angular_momentum: 0.0,
+            span: 0..n,
+            // Reserved for the whole grid (address space only: pages are touched as the span
+            // needs them), so that a growing span never reallocates.
+            accumulator: Vec::with_capacity(n),
         }
     }
 
@@ -203,22 +213,29 @@ fn apic_affine(p: &Particles, k: usize, grid: &GridState, ops: &Operators, kind:
     let [dxx, dyy] = match kind {
         ApicInertia::StoredC => return Affine { c: b, at },
         ApicInertia::Constant(d) => d,
-        ApicInertia::Column => {
-            let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
-            let (mut dxx, mut dyy) = (0.0, 0.0);
-            for e in cp[k]..cp[k + 1] {
-                let (dx, dy) = (grid.node_x[ri[e]] - at[0], grid.node_y[ri[e]] - at[1]);
-                dxx += nv[e] * dx * dx;
-                dyy += nv[e] * dy * dy;
-            }
-            // D_p > 0 for GIMP: its weights always spread over more than one node.
-            [dxx, dyy]
-        }
+        ApicInertia::Column => crate::with_support!(ops, column_inertia::<S>(ops, k, grid, at)),
     };
     Affine {
         c: [b[0] / dxx, b[1] / dyy, b[2] / dxx, b[3] / dyy],
         at,
     }
+}
+
+/// `D_p = diag(Σ_I N_I dx², Σ_I N_I dy²)` over particle `k`'s column (GIMP), `dx = x_I − x_p`.
+fn column_inertia<const S: usize>(ops: &Operators, k: usize, grid: &GridState, at: [f64; 2]) -> [f64; 2] {
+    let st = ops.stencil::<S>(k);
+    let (mut dxx, mut dyy) = (0.0, 0.0);
+    for b in 0..S {
+        let (start, n) = st.n_row(b);
+        let (nx, ny) = (&grid.node_x[start..start + S], &grid.node_y[start..start + S]);
+        for a in 0..S {
+            let (dx, dy) = (nx[a] - at[0], ny[a] - at[1]);
+            dxx += n[a] * dx * dx;
+            dyy += n[a] * dy * dy;
+        }
+    }
+    // D_p > 0 for GIMP: its weights always spread over more than one node.
+    [dxx, dyy]
 }
 
 /// (2)–(5) in one pass over the shared pattern of N, Gx, Gy, into `grid.mass`,
@@ -241,18 +258,52 @@ pub fn p2g(
 ) {
     let n = ops.num_nodes();
     assert_eq!(grid.mass.len(), n, "grid state sized for the operators' nodes");
-    grid.mass.iter_mut().for_each(|v| *v = 0.0);
-    for field in [&mut grid.momentum, &mut grid.force] {
-        field.x.iter_mut().for_each(|v| *v = 0.0);
-        field.y.iter_mut().for_each(|v| *v = 0.0);
+    let span = ops.node_span();
+    // Zero what the last p2g left outside the new span.
+    let old = grid.span.clone();
+    let below = old.start..old.end.min(span.start);
+    let above = old.start.max(span.end)..old.end;
+    for range in [below, above].into_iter().filter(|r| r.start < r.end) {
+        grid.mass[range.clone()].fill(0.0);
+        for field in [&mut grid.momentum, &mut grid.force] {
+            field.x[range.clone()].fill(0.0);
+            field.y[range.clone()].fill(0.0);
+        }
     }
-    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-    let (nv, gxv, gyv) = (
-        ops.values(Operator::N),
-        ops.values(Operator::Gx),
-        ops.values(Operator::Gy),
-    );
+    let mut acc = std::mem::take(&mut grid.accumulator);
+    acc.clear();
+    acc.resize(span.len(), [0.0; 5]);
     let internal = if stress == Stress::Include { 1.0 } else { 0.0 };
+    crate::with_support!(
+        ops,
+        p2g_columns::<S>(ops, p, apic, internal, grid, &mut acc, span.start)
+    );
+    let [gx, gy] = gravity;
+    let mut angular = 0.0;
+    for (i, r) in span.clone().zip(&acc) {
+        grid.mass[i] = r[0];
+        grid.momentum.x[i] = r[1];
+        grid.momentum.y[i] = r[2];
+        grid.force.x[i] = r[3] + r[0] * gx;
+        grid.force.y[i] = r[4] + r[0] * gy;
+        angular += grid.node_x[i] * r[2] - grid.node_y[i] * r[1];
+    }
+    grid.angular_momentum = angular;
+    grid.accumulator = acc;
+    grid.span = span;
+}
+
+/// The particle loop of [`p2g`] for a support of `S` nodes per axis, into the interleaved
+/// accumulator of the nodes from `lo`.
+fn p2g_columns<const S: usize>(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    internal: f64,
+    grid: &GridState,
+    acc: &mut [[f64; 5]],
+    lo: usize,
+) {
     for k in 0..p.len() {
         let m = p.mass[k];
         let (mvx, mvy) = (m * p.vx[k], m * p.vy[k]);
@@ -260,24 +311,22 @@ pub fn p2g(
         let v = internal * p.volume[k];
         let (vsxx, vsyy, vsxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
         let affine = apic.map(|kind| apic_affine(p, k, grid, ops, kind));
-        for e in cp[k]..cp[k + 1] {
-            let (i, n) = (ri[e], nv[e]);
-            grid.mass[i] += n * m;
-            let [ax, ay] = affine.map_or([0.0, 0.0], |a| a.velocity(i, &grid.node_x, &grid.node_y, n));
-            grid.momentum.x[i] += n * mvx + m * ax;
-            grid.momentum.y[i] += n * mvy + m * ay;
-            grid.force.x[i] += n * mbx - (gxv[e] * vsxx + gyv[e] * vsxy);
-            grid.force.y[i] += n * mby - (gxv[e] * vsxy + gyv[e] * vsyy);
+        let st = ops.stencil::<S>(k);
+        for b in 0..S {
+            let (start, n, gx, gy) = st.row(b);
+            let (node_x, node_y) = (&grid.node_x[start..start + S], &grid.node_y[start..start + S]);
+            let r = &mut acc[start - lo..start - lo + S];
+            for a in 0..S {
+                let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(a, node_x, node_y, n[a]));
+                let r = &mut r[a];
+                r[0] += n[a] * m;
+                r[1] += n[a] * mvx + m * ax;
+                r[2] += n[a] * mvy + m * ay;
+                r[3] += n[a] * mbx - (gx[a] * vsxx + gy[a] * vsxy);
+                r[4] += n[a] * mby - (gx[a] * vsxy + gy[a] * vsyy);
+            }
         }
     }
-    let [gx, gy] = gravity;
-    let mut angular = 0.0;
-    for i in 0..n {
-        grid.force.x[i] += grid.mass[i] * gx;
-        grid.force.y[i] += grid.mass[i] * gy;
-        angular += grid.node_x[i] * grid.momentum.y[i] - grid.node_y[i] * grid.momentum.x[i];
-    }
-    grid.angular_momentum = angular;
 }
 
 /// (5) added to `f`:
@@ -294,14 +343,20 @@ pub fn add_internal_force(ops: &Operators, volume: &[f64], sxx: &[f64], syy: &[f
         assert_eq!(field.len(), np, "particle field length must equal the particle count");
     }
     assert_eq!(f.len(), ops.num_nodes(), "one force per node");
-    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-    let (gxv, gyv) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
-    for k in 0..np {
+    crate::with_support!(ops, internal_force_columns::<S>(ops, [volume, sxx, syy, sxy], f));
+}
+
+fn internal_force_columns<const S: usize>(ops: &Operators, [volume, sxx, syy, sxy]: [&[f64]; 4], f: &mut VectorField) {
+    for k in 0..ops.num_particles() {
         let (txx, tyy, txy) = (volume[k] * sxx[k], volume[k] * syy[k], volume[k] * sxy[k]);
-        for e in cp[k]..cp[k + 1] {
-            let i = ri[e];
-            f.x[i] -= gxv[e] * txx + gyv[e] * txy;
-            f.y[i] -= gxv[e] * txy + gyv[e] * tyy;
+        let st = ops.stencil::<S>(k);
+        for b in 0..S {
+            let (start, _, gx, gy) = st.row(b);
+            let (fx, fy) = (&mut f.x[start..start + S], &mut f.y[start..start + S]);
+            for a in 0..S {
+                fx[a] -= gx[a] * txx + gy[a] * txy;
+                fy[a] -= gx[a] * txy + gy[a] * tyy;
+            }
         }
     }
 }
@@ -313,17 +368,43 @@ pub fn add_internal_force(ops: &Operators, volume: &[f64], sxx: &[f64], syy: &[f
 /// q' = N (m ∘ v_p) [+ APIC: Σ_p N_Ip m_p C_p (x_I − x_p)]
 /// ```
 pub fn reproject_momentum(ops: &Operators, p: &Particles, apic: Option<ApicInertia>, grid: &mut GridState) {
-    grid.momentum.x.iter_mut().for_each(|v| *v = 0.0);
-    grid.momentum.y.iter_mut().for_each(|v| *v = 0.0);
-    let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
+    let span = ops.node_span();
+    assert!(
+        span.end <= grid.momentum.len() && grid.span == span,
+        "reproject_momentum follows a p2g with the same operators"
+    );
+    let mut acc = std::mem::take(&mut grid.accumulator);
+    acc.clear();
+    acc.resize(span.len(), [0.0; 5]);
+    crate::with_support!(ops, reproject_columns::<S>(ops, p, apic, grid, &mut acc, span.start));
+    for (i, r) in span.zip(&acc) {
+        grid.momentum.x[i] = r[1];
+        grid.momentum.y[i] = r[2];
+    }
+    grid.accumulator = acc;
+}
+
+fn reproject_columns<const S: usize>(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    grid: &GridState,
+    acc: &mut [[f64; 5]],
+    lo: usize,
+) {
     for k in 0..p.len() {
         let m = p.mass[k];
         let affine = apic.map(|kind| apic_affine(p, k, grid, ops, kind));
-        for e in cp[k]..cp[k + 1] {
-            let (i, n) = (ri[e], nv[e]);
-            let [ax, ay] = affine.map_or([0.0, 0.0], |a| a.velocity(i, &grid.node_x, &grid.node_y, n));
-            grid.momentum.x[i] += n * m * p.vx[k] + m * ax;
-            grid.momentum.y[i] += n * m * p.vy[k] + m * ay;
+        let st = ops.stencil::<S>(k);
+        for b in 0..S {
+            let (start, n) = st.n_row(b);
+            let (node_x, node_y) = (&grid.node_x[start..start + S], &grid.node_y[start..start + S]);
+            let r = &mut acc[start - lo..start - lo + S];
+            for a in 0..S {
+                let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(a, node_x, node_y, n[a]));
+                r[a][1] += n[a] * m * p.vx[k] + m * ax;
+                r[a][2] += n[a] * m * p.vy[k] + m * ay;
+            }
         }
     }
 }
@@ -342,16 +423,22 @@ pub fn velocity_gradient_into(ops: &Operators, u: &VectorField, l: &mut [Vec<f64
     for c in l.iter_mut() {
         c.resize(np, 0.0);
     }
-    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-    let (gxv, gyv) = (ops.values(Operator::Gx), ops.values(Operator::Gy));
-    for k in 0..np {
+    crate::with_support!(ops, gradient_columns::<S>(ops, u, l));
+}
+
+fn gradient_columns<const S: usize>(ops: &Operators, u: &VectorField, l: &mut [Vec<f64>; 4]) {
+    for k in 0..ops.num_particles() {
         let mut g = [0.0; 4];
-        for e in cp[k]..cp[k + 1] {
-            let (ux, uy) = (u.x[ri[e]], u.y[ri[e]]);
-            g[0] += gxv[e] * ux;
-            g[1] += gyv[e] * ux;
-            g[2] += gxv[e] * uy;
-            g[3] += gyv[e] * uy;
+        let st = ops.stencil::<S>(k);
+        for b in 0..S {
+            let (start, _, gx, gy) = st.row(b);
+            let (ux, uy) = (&u.x[start..start + S], &u.y[start..start + S]);
+            for a in 0..S {
+                g[0] += gx[a] * ux[a];
+                g[1] += gy[a] * ux[a];
+                g[2] += gx[a] * uy[a];
+                g[3] += gy[a] * uy[a];
+            }
         }
         for c in 0..4 {
             l[c][k] = g[c];
@@ -395,14 +482,19 @@ pub fn g2p(
     p: &mut Particles,
     scratch: &mut ParticleScratch,
 ) {
-    let np = p.len();
-    scratch.resize(np);
-    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-    let (nv, gxv, gyv) = (
-        ops.values(Operator::N),
-        ops.values(Operator::Gx),
-        ops.values(Operator::Gy),
-    );
+    scratch.resize(p.len());
+    crate::with_support!(ops, g2p_columns::<S>(ops, grid, rule, dt, p, scratch));
+}
+
+/// The particle loop of [`g2p`] for a support of `S` nodes per axis.
+fn g2p_columns<const S: usize>(
+    ops: &Operators,
+    grid: &GridState,
+    rule: &G2pRule,
+    dt: f64,
+    p: &mut Particles,
+    scratch: &mut ParticleScratch,
+) {
     let transfer = rule.transfer;
     let apic = transfer == Transfer::Apic;
     let linear_apic = apic && rule.inertia == ApicInertia::StoredC;
@@ -417,37 +509,46 @@ pub fn g2p(
     let gradient = grid.field(rule.gradient.unwrap_or(GridField::Updated));
     let trapezoidal = rule.position == PositionUpdate::Trapezoidal;
     let mut kinetic = KineticEnergies::default();
-    for k in 0..np {
+    for k in 0..p.len() {
         let (mut vx, mut vy, mut tx, mut ty, mut rx, mut ry) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         let mut l = [0.0; 4];
         let mut lw = [0.0; 4];
         let mut b = [0.0; 4];
-        for e in cp[k]..cp[k + 1] {
-            let (i, n) = (ri[e], nv[e]);
-            let (wx, wy) = (w.x[i], w.y[i]);
-            vx += n * wx;
-            vy += n * wy;
-            tx += n * target.x[i];
-            ty += n * target.y[i];
-            rx += n * v.x[i];
-            ry += n * v.y[i];
-            if need_l {
-                let (gx, gy) = (gradient.x[i], gradient.y[i]);
-                l[0] += gxv[e] * gx;
-                l[1] += gyv[e] * gx;
-                l[2] += gxv[e] * gy;
-                l[3] += gyv[e] * gy;
-            }
-            if apic {
-                lw[0] += gxv[e] * wx;
-                lw[1] += gyv[e] * wx;
-                lw[2] += gxv[e] * wy;
-                lw[3] += gyv[e] * wy;
-                let (dx, dy) = (grid.node_x[i] - p.x[k], grid.node_y[i] - p.y[k]);
-                b[0] += n * wx * dx;
-                b[1] += n * wx * dy;
-                b[2] += n * wy * dx;
-                b[3] += n * wy * dy;
+        let st = ops.stencil::<S>(k);
+        for row in 0..S {
+            let (start, n, gxv, gyv) = st.row(row);
+            let run = start..start + S;
+            let (w_x, w_y) = (&w.x[run.clone()], &w.y[run.clone()]);
+            let (t_x, t_y) = (&target.x[run.clone()], &target.y[run.clone()]);
+            let (v_x, v_y) = (&v.x[run.clone()], &v.y[run.clone()]);
+            let (g_x, g_y) = (&gradient.x[run.clone()], &gradient.y[run.clone()]);
+            let (node_x, node_y) = (&grid.node_x[run.clone()], &grid.node_y[run]);
+            for a in 0..S {
+                let (wx, wy) = (w_x[a], w_y[a]);
+                vx += n[a] * wx;
+                vy += n[a] * wy;
+                tx += n[a] * t_x[a];
+                ty += n[a] * t_y[a];
+                rx += n[a] * v_x[a];
+                ry += n[a] * v_y[a];
+                if need_l {
+                    let (gx, gy) = (g_x[a], g_y[a]);
+                    l[0] += gxv[a] * gx;
+                    l[1] += gyv[a] * gx;
+                    l[2] += gxv[a] * gy;
+                    l[3] += gyv[a] * gy;
+                }
+                if apic {
+                    lw[0] += gxv[a] * wx;
+                    lw[1] += gyv[a] * wx;
+                    lw[2] += gxv[a] * wy;
+                    lw[3] += gyv[a] * wy;
+                    let (dx, dy) = (node_x[a] - p.x[k], node_y[a] - p.y[k]);
+                    b[0] += n[a] * wx * dx;
+                    b[1] += n[a] * wx * dy;
+                    b[2] += n[a] * wy * dx;
+                    b[3] += n[a] * wy * dy;
+                }
             }
         }
         if with_gradient {
@@ -533,11 +634,36 @@ pub fn extend_to_inactive_nodes(
         v.len() == n && is_active.len() == n,
         "one velocity and one flag per node"
     );
-    let (cp, ri, nv) = (ops.col_offsets(), ops.row_indices(), ops.values(Operator::N));
+    let any = crate::with_support!(ops, extend_columns::<S>(ops, is_active, v, scratch));
+    if any {
+        for i in 0..n {
+            if scratch.count[i] > 0 {
+                let c = scratch.count[i] as f64;
+                v.x[i] = scratch.sum.x[i] / c;
+                v.y[i] = scratch.sum.y[i] / c;
+            }
+        }
+    }
+    any
+}
+
+/// The particle loop of [`extend_to_inactive_nodes`]: sums and counts into the scratch; whether
+/// any particle touches an inactive node.
+fn extend_columns<const S: usize>(
+    ops: &Operators,
+    is_active: &[bool],
+    v: &VectorField,
+    scratch: &mut ExtensionScratch,
+) -> bool {
+    let n = ops.num_nodes();
     let mut any = false;
     for p in 0..ops.num_particles() {
-        let column = cp[p]..cp[p + 1];
-        if ri[column.clone()].iter().all(|&i| is_active[i]) {
+        let st = ops.stencil::<S>(p);
+        let all_active = (0..S).all(|b| {
+            let (start, _) = st.n_row(b);
+            is_active[start..start + S].iter().all(|&x| x)
+        });
+        if all_active {
             continue;
         }
         if !any {
@@ -550,25 +676,22 @@ pub fn extend_to_inactive_nodes(
             any = true;
         }
         let (mut vx, mut vy) = (0.0, 0.0);
-        for e in column.clone() {
-            vx += nv[e] * v.x[ri[e]];
-            vy += nv[e] * v.y[ri[e]];
-        }
-        for e in column {
-            let i = ri[e];
-            if !is_active[i] {
-                scratch.sum.x[i] += vx;
-                scratch.sum.y[i] += vy;
-                scratch.count[i] += 1;
+        for b in 0..S {
+            let (start, nv) = st.n_row(b);
+            for a in 0..S {
+                vx += nv[a] * v.x[start + a];
+                vy += nv[a] * v.y[start + a];
             }
         }
-    }
-    if any {
-        for i in 0..n {
-            if scratch.count[i] > 0 {
-                let c = scratch.count[i] as f64;
-                v.x[i] = scratch.sum.x[i] / c;
-                v.y[i] = scratch.sum.y[i] / c;
+        for b in 0..S {
+            let (start, _) = st.n_row(b);
+            for a in 0..S {
+                let i = start + a;
+                if !is_active[i] {
+                    scratch.sum.x[i] += vx;
+                    scratch.sum.y[i] += vy;
+                    scratch.count[i] += 1;
+                }
             }
         }
     }

@@ -10,23 +10,42 @@
 //! stored entries, even where a weight is exactly zero (a particle on a grid line, or at a
 //! kernel's breakpoint), so the pattern depends only on where each particle's stencil starts.
 //!
-//! The arrays are compressed sparse column (CSC) data, assembled directly into buffers that are
-//! reused from one assembly to the next: no triplets, no sorting, no allocation once the
-//! buffers have grown to size. This module is the one place with index arithmetic.
+//! ## Storage: factored columns
+//! Every shape function here is a tensor product, `S_I(x) = S_i(x) S_j(y)`, so column `p` of
+//! each operator is an outer product of two short vectors — the 1D weights and derivatives of
+//! the particle along x and along y:
+//!
+//! ```text
+//! N[:, p] = wy_p ⊗ wx_p,    Gx[:, p] = wy_p ⊗ w′x_p,    Gy[:, p] = w′y_p ⊗ wx_p
+//! ```
+//!
+//! on the `support × support` nodes from the stencil's first node. [`Operators::reassemble`]
+//! stores exactly that: per particle the first node and `4 · support` numbers (100 bytes per
+//! particle for quadratic B-splines, against 296 for the three CSC value arrays and their row
+//! indices). The products ([`Operators::scatter`], [`Operators::gather`] and the kernels of
+//! [`crate::kernels`]) form the entries `wx[a] · wy[b]` as they go, the same products in the
+//! same order as the CSC values, so results are identical to the last bit.
+//!
+//! The compressed sparse column (CSC) arrays ([`Operators::col_offsets`],
+//! [`Operators::row_indices`], [`Operators::values`], the matrix views) are built from the
+//! factors the first time they are asked for after an assembly and kept until the next one.
+//! This module and [`crate::kernels`] are the only places with index arithmetic.
 //!
 //! Two tiers, as in faer:
 //! - matrices for users' own algebra: [`Operators::n_matrix`] (a nalgebra-sparse
 //!   [`CscMatrix`]) and [`Operators::n_faer`] (a borrowed faer view), likewise for Gx, Gy;
 //! - the kernels the time step uses: [`Operators::scatter`] (`op · X`, particle → grid) and
-//!   [`Operators::gather`] (`opᵀ · Y`, grid → particle), moving `K` fields in one pass.
+//!   [`Operators::gather`] (`opᵀ · Y`, grid → particle), moving `K` fields in one pass, and the
+//!   fused kernels of [`crate::kernels`], all over [`Stencil`]s.
 
 use std::path::Path;
+use std::sync::OnceLock;
 
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use nalgebra_sparse::CscMatrix;
 
 use crate::error::{MpmError, Result};
-use crate::grid::{Grid, NodeOrder};
+use crate::grid::Grid;
 use crate::particles::Particles;
 use crate::shape::{AxisFrame, ShapeFunction};
 
@@ -73,17 +92,116 @@ pub enum Operator {
     Gy,
 }
 
-/// N, Gx, Gy for one particle configuration, in compressed-column form with a shared pattern.
+/// N, Gx, Gy for one particle configuration: factored columns, and the compressed-column form
+/// with a shared pattern on demand.
 #[derive(Debug, Clone, Default)]
 pub struct Operators {
     num_nodes: usize,
     grid: Option<Grid>,
     shape: ShapeFunction,
+    num_particles: usize,
+    support: usize,
+    /// Node strides along x and y.
+    strides: [usize; 2],
+    /// First node of each particle's stencil (the node of its lowest x and y indices).
+    first: Vec<u32>,
+    /// Per particle `[wx; S], [w′x; S], [wy; S], [w′y; S]`.
+    factors: Vec<f64>,
+    /// Node numbers from the lowest to one past the highest node any stencil touches.
+    span: std::ops::Range<usize>,
+    /// The CSC arrays, built from the factors on first use after an assembly.
+    csc: OnceLock<Csc>,
+}
+
+/// The compressed sparse column arrays of N, Gx, Gy (shared pattern).
+#[derive(Debug, Clone, Default)]
+struct Csc {
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     n: Vec<f64>,
     gx: Vec<f64>,
     gy: Vec<f64>,
+}
+
+/// One particle's column of N, Gx, Gy in factored form, for a support of `S` nodes per axis.
+///
+/// The stencil's nodes come in runs of `S` consecutive node numbers (along the axis with node
+/// stride 1); [`Stencil::row`] gives run `b` with its values, in the order of the CSC entries.
+#[derive(Debug, Clone, Copy)]
+pub struct Stencil<const S: usize> {
+    /// Node number of the first node of the first run.
+    pub first: usize,
+    /// Distance in node numbers between runs.
+    pub run_stride: usize,
+    /// Whether runs go along x (node order x-fastest).
+    pub runs_along_x: bool,
+    /// 1D weights along x.
+    pub wx: [f64; S],
+    /// 1D derivatives along x, per unit length.
+    pub dwx: [f64; S],
+    /// 1D weights along y.
+    pub wy: [f64; S],
+    /// 1D derivatives along y, per unit length.
+    pub dwy: [f64; S],
+}
+
+impl<const S: usize> Stencil<S> {
+    /// Run `b` (`0 ≤ b < S`): its first node and the values of N, Gx, Gy at its `S` nodes,
+    ///
+    /// ```text
+    /// N = wx[a] wy[b],  Gx = w′x[a] wy[b],  Gy = wx[a] w′y[b]     (runs along x; a along the run)
+    /// N = wx[b] wy[a],  Gx = w′x[b] wy[a],  Gy = wx[b] w′y[a]     (runs along y)
+    /// ```
+    #[inline(always)]
+    pub fn row(&self, b: usize) -> (usize, [f64; S], [f64; S], [f64; S]) {
+        let start = self.first + b * self.run_stride;
+        if self.runs_along_x {
+            let (y, dy) = (self.wy[b], self.dwy[b]);
+            (
+                start,
+                std::array::from_fn(|a| self.wx[a] * y),
+                std::array::from_fn(|a| self.dwx[a] * y),
+                std::array::from_fn(|a| self.wx[a] * dy),
+            )
+        } else {
+            let (x, dx) = (self.wx[b], self.dwx[b]);
+            (
+                start,
+                std::array::from_fn(|a| x * self.wy[a]),
+                std::array::from_fn(|a| dx * self.wy[a]),
+                std::array::from_fn(|a| x * self.dwy[a]),
+            )
+        }
+    }
+
+    /// Run `b`: its first node and the values of N only.
+    #[inline(always)]
+    pub fn n_row(&self, b: usize) -> (usize, [f64; S]) {
+        let start = self.first + b * self.run_stride;
+        if self.runs_along_x {
+            let y = self.wy[b];
+            (start, std::array::from_fn(|a| self.wx[a] * y))
+        } else {
+            let x = self.wx[b];
+            (start, std::array::from_fn(|a| x * self.wy[a]))
+        }
+    }
+}
+
+/// Calls `$body` with `S` bound to the operators' support as a constant (2, 3 or 4), so that
+/// the loops over a stencil unroll.
+#[macro_export]
+#[doc(hidden)]
+macro_rules! with_support {
+    ($ops:expr, $f:ident :: <S $(, $g:tt)*> ( $($arg:expr),* $(,)? )) => {
+        match $ops.support() {
+            2 => $f::<2 $(, $g)*>($($arg),*),
+            3 => $f::<3 $(, $g)*>($($arg),*),
+            4 => $f::<4 $(, $g)*>($($arg),*),
+            0 => $f::<2 $(, $g)*>($($arg),*),
+            other => unreachable!("no kernel has a support of {other} nodes"),
+        }
+    };
 }
 
 impl Operators {
@@ -98,7 +216,8 @@ impl Operators {
     }
 
     /// Reassembles in place for particles at `(x[p], y[p])`, reusing the buffers: after the
-    /// first call with a given particle count this allocates nothing.
+    /// first call with a given particle count this allocates nothing (the CSC arrays, when
+    /// asked for later, are built anew).
     ///
     /// # Errors
     /// The operators are left as they were, and the error is
@@ -108,7 +227,8 @@ impl Operators {
     /// - [`MpmError::SupportOutsideGrid`] naming the first particle inside the grid but closer
     ///   to its edge than [`ShapeFunction::margin`], whose support would need nodes outside it;
     /// - [`MpmError::InvalidGrid`] when there are particles but the grid has fewer cells along
-    ///   an axis than the kernel's support needs ([`ShapeFunction::min_cells`]).
+    ///   an axis than the kernel's support needs ([`ShapeFunction::min_cells`]), or more than
+    ///   2³² nodes.
     ///
     /// # Panics
     /// If `x` and `y` differ in length.
@@ -127,57 +247,104 @@ impl Operators {
                 .expect("some particle was rejected");
             return Err(rejection(grid, shape, p, [x[p], y[p]]));
         }
+        if u32::try_from(grid.num_nodes()).is_err() {
+            return Err(MpmError::InvalidGrid {
+                reason: format!("{} nodes: the operators number at most 2^32 nodes", grid.num_nodes()),
+            });
+        }
         let num_particles = x.len();
-        let k = shape.nodes_per_particle();
+        let support = shape.support();
         self.num_nodes = grid.num_nodes();
         if self.grid.as_ref() != Some(grid) {
             self.grid = Some(grid.clone());
         }
         self.shape = shape;
-        self.col_ptr.clear();
-        self.col_ptr.extend((0..=num_particles).map(|p| p * k));
-        let nnz = num_particles * k;
-        self.row_idx.resize(nnz, 0);
-        self.n.resize(nnz, 0.0);
-        self.gx.resize(nnz, 0.0);
-        self.gy.resize(nnz, 0.0);
-        // A fixed stencil size per call lets the compiler unroll the column loops.
-        match shape.support() {
-            2 => self.fill_columns::<2>(grid, (fx, fy), x, y),
-            3 => self.fill_columns::<3>(grid, (fx, fy), x, y),
-            4 => self.fill_columns::<4>(grid, (fx, fy), x, y),
+        self.num_particles = num_particles;
+        self.support = support;
+        self.strides = grid.strides();
+        self.csc.take();
+        self.first.resize(num_particles, 0);
+        self.factors.resize(num_particles * 4 * support, 0.0);
+        // A fixed stencil size per call lets the compiler unroll the loops.
+        match support {
+            2 => self.fill_factors::<2>((fx, fy), x, y),
+            3 => self.fill_factors::<3>((fx, fy), x, y),
+            4 => self.fill_factors::<4>((fx, fy), x, y),
             other => unreachable!("no kernel has a support of {other} nodes"),
         }
         Ok(())
     }
 
-    /// Writes the `S × S` entries of every column; every particle must have been accepted.
-    fn fill_columns<const S: usize>(&mut self, grid: &Grid, (fx, fy): (AxisFrame, AxisFrame), x: &[f64], y: &[f64]) {
-        let [sx, sy] = grid.strides();
-        // Outer loop over the axis with the larger stride, so row indices come out ascending.
-        let y_outer = grid.node_order() == NodeOrder::XFastest;
+    /// Writes every particle's first node and factors; every particle must have been accepted.
+    fn fill_factors<const S: usize>(&mut self, (fx, fy): (AxisFrame, AxisFrame), x: &[f64], y: &[f64]) {
+        let [sx, sy] = self.strides;
         let accepted = "position checked against the allowed region above";
-        let columns = self
-            .row_idx
-            .chunks_exact_mut(S * S)
-            .zip(self.n.chunks_exact_mut(S * S))
-            .zip(self.gx.chunks_exact_mut(S * S))
-            .zip(self.gy.chunks_exact_mut(S * S));
-        for (p, (((rows, n), gx), gy)) in columns.enumerate() {
+        let (mut lo, mut hi) = (usize::MAX, 0);
+        for (p, (first, f)) in self
+            .first
+            .iter_mut()
+            .zip(self.factors.chunks_exact_mut(4 * S))
+            .enumerate()
+        {
             let wx = fx.weights(fx.accept(x[p]).expect(accepted));
             let wy = fy.weights(fy.accept(y[p]).expect(accepted));
-            let mut e = 0;
-            for outer in 0..S {
-                for inner in 0..S {
-                    let (a, b) = if y_outer { (inner, outer) } else { (outer, inner) };
-                    rows[e] = (wx.first + a) * sx + (wy.first + b) * sy;
-                    n[e] = wx.value[a] * wy.value[b];
-                    gx[e] = wx.derivative[a] * wy.value[b];
-                    gy[e] = wx.value[a] * wy.derivative[b];
-                    e += 1;
-                }
-            }
+            let node = wx.first * sx + wy.first * sy;
+            lo = lo.min(node);
+            hi = hi.max(node);
+            *first = node as u32;
+            f[..S].copy_from_slice(&wx.value[..S]);
+            f[S..2 * S].copy_from_slice(&wx.derivative[..S]);
+            f[2 * S..3 * S].copy_from_slice(&wy.value[..S]);
+            f[3 * S..].copy_from_slice(&wy.derivative[..S]);
         }
+        // The last node of a stencil is (S − 1)(sx + sy) after its first.
+        self.span = if x.is_empty() {
+            0..0
+        } else {
+            lo..hi + (S - 1) * (sx + sy) + 1
+        };
+    }
+
+    /// The node numbers from the lowest to one past the highest node in any particle's support:
+    /// every row of N, Gx, Gy outside this range is empty. (Empty before the first assembly.)
+    pub fn node_span(&self) -> std::ops::Range<usize> {
+        self.span.clone()
+    }
+
+    /// Nodes per axis in each particle's support (2 linear, 3 uGIMP and quadratic, 4 cubic; 0
+    /// before the first assembly).
+    pub fn support(&self) -> usize {
+        self.support
+    }
+
+    /// Particle `p`'s column in factored form, for `S` equal to [`Operators::support`].
+    ///
+    /// # Panics
+    /// If `p >= num_particles()` or `S` is not the support.
+    #[inline(always)]
+    pub fn stencil<const S: usize>(&self, p: usize) -> Stencil<S> {
+        assert_eq!(S, self.support, "stencil size must equal the support");
+        let f = &self.factors[4 * S * p..4 * S * (p + 1)];
+        let [sx, sy] = self.strides;
+        let runs_along_x = sx == 1;
+        Stencil {
+            first: self.first[p] as usize,
+            run_stride: if runs_along_x { sy } else { sx },
+            runs_along_x,
+            wx: std::array::from_fn(|a| f[a]),
+            dwx: std::array::from_fn(|a| f[S + a]),
+            wy: std::array::from_fn(|a| f[2 * S + a]),
+            dwy: std::array::from_fn(|a| f[3 * S + a]),
+        }
+    }
+
+    /// The CSC arrays, built from the factors on first use after an assembly.
+    fn csc(&self) -> &Csc {
+        self.csc.get_or_init(|| {
+            let mut csc = Csc::default();
+            with_support!(self, fill_csc::<S>(self, &mut csc));
+            csc
+        })
     }
 
     /// Number of rows (grid nodes) `n`.
@@ -186,11 +353,11 @@ impl Operators {
     }
     /// Number of columns (particles) `P`.
     pub fn num_particles(&self) -> usize {
-        self.col_ptr.len().saturating_sub(1)
+        self.num_particles
     }
     /// Stored entries per operator: `P · support²`.
     pub fn nnz(&self) -> usize {
-        self.row_idx.len()
+        self.num_particles * self.support * self.support
     }
     /// The grid the operators were assembled on (`None` before the first assembly).
     pub fn grid(&self) -> Option<&Grid> {
@@ -200,36 +367,41 @@ impl Operators {
     pub fn shape_function(&self) -> ShapeFunction {
         self.shape
     }
-    /// CSC column offsets (length `P + 1`), shared by N, Gx, Gy.
+    /// CSC column offsets (length `P + 1`), shared by N, Gx, Gy (built on first use).
     pub fn col_offsets(&self) -> &[usize] {
-        &self.col_ptr
+        &self.csc().col_ptr
     }
-    /// CSC row indices (node numbers, ascending within each column), shared by N, Gx, Gy.
+    /// CSC row indices (node numbers, ascending within each column), shared by N, Gx, Gy
+    /// (built on first use).
     pub fn row_indices(&self) -> &[usize] {
-        &self.row_idx
+        &self.csc().row_idx
     }
-    /// CSC values of `op`, aligned with [`Operators::row_indices`].
+    /// CSC values of `op`, aligned with [`Operators::row_indices`] (built on first use).
     pub fn values(&self, op: Operator) -> &[f64] {
+        let csc = self.csc();
         match op {
-            Operator::N => &self.n,
-            Operator::Gx => &self.gx,
-            Operator::Gy => &self.gy,
+            Operator::N => &csc.n,
+            Operator::Gx => &csc.gx,
+            Operator::Gy => &csc.gy,
         }
     }
 
-    /// The nodes in particle `p`'s support and `(N, Gx, Gy)` there.
+    /// The nodes in particle `p`'s support and `(N, Gx, Gy)` there, in CSC order.
     ///
     /// # Panics
     /// If `p >= num_particles()`.
     pub fn column(&self, p: usize) -> impl Iterator<Item = (usize, f64, f64, f64)> + '_ {
-        (self.col_ptr[p]..self.col_ptr[p + 1]).map(|e| (self.row_idx[e], self.n[e], self.gx[e], self.gy[e]))
+        assert!(p < self.num_particles, "particle {p} of {}", self.num_particles);
+        let mut entries = Vec::with_capacity(self.support * self.support);
+        with_support!(self, column_entries::<S>(self, p, &mut entries));
+        entries.into_iter()
     }
 
     /// The particles whose support contains `node` (the non-zero pattern of row `node`),
     /// ascending. Costs one pass over the pattern.
     pub fn particles_touching(&self, node: usize) -> Vec<usize> {
         (0..self.num_particles())
-            .filter(|&p| self.row_idx[self.col_ptr[p]..self.col_ptr[p + 1]].contains(&node))
+            .filter(|&p| self.column(p).any(|(i, ..)| i == node))
             .collect()
     }
 
@@ -238,8 +410,8 @@ impl Operators {
         CscMatrix::try_from_csc_data(
             self.num_nodes,
             self.num_particles(),
-            self.col_ptr.clone(),
-            self.row_idx.clone(),
+            self.col_offsets().to_vec(),
+            self.row_indices().to_vec(),
             self.values(op).to_vec(),
         )
         .expect("assembled columns are sorted and in range")
@@ -262,9 +434,9 @@ impl Operators {
         let symbolic = SymbolicSparseColMatRef::new_checked(
             self.num_nodes,
             self.num_particles(),
-            &self.col_ptr,
+            self.col_offsets(),
             None,
-            &self.row_idx,
+            self.row_indices(),
         );
         SparseColMatRef::new(symbolic, self.values(op))
     }
@@ -324,17 +496,7 @@ impl Operators {
             assert_eq!(o.len(), self.num_nodes, "grid output length must equal the node count");
             o.fill(0.0);
         }
-        let values = self.values(op);
-        for p in 0..np {
-            let scale = w.map_or(1.0, |w| w[p]);
-            let xp: [f64; K] = std::array::from_fn(|k| scale * x[k][p]);
-            for e in self.col_ptr[p]..self.col_ptr[p + 1] {
-                let (i, v) = (self.row_idx[e], values[e]);
-                for k in 0..K {
-                    out[k][i] += v * xp[k];
-                }
-            }
-        }
+        with_support!(self, scatter_columns::<S, K>(self, op, w, &x, &mut out));
     }
 
     /// Grid → particle product of `K` grid fields in one pass over `op`:
@@ -347,7 +509,7 @@ impl Operators {
     ///
     /// # Panics
     /// If a field's length is not `n` or an output's length is not `P`.
-    pub fn gather<const K: usize>(&self, op: Operator, y: [&[f64]; K], out: [&mut [f64]; K]) {
+    pub fn gather<const K: usize>(&self, op: Operator, y: [&[f64]; K], mut out: [&mut [f64]; K]) {
         let np = self.num_particles();
         for f in &y {
             assert_eq!(f.len(), self.num_nodes, "grid field length must equal the node count");
@@ -355,19 +517,7 @@ impl Operators {
         for o in &out {
             assert_eq!(o.len(), np, "particle output length must equal the particle count");
         }
-        let values = self.values(op);
-        for p in 0..np {
-            let mut acc = [0.0; K];
-            for e in self.col_ptr[p]..self.col_ptr[p + 1] {
-                let (i, v) = (self.row_idx[e], values[e]);
-                for k in 0..K {
-                    acc[k] += v * y[k][i];
-                }
-            }
-            for k in 0..K {
-                out[k][p] = acc[k];
-            }
-        }
+        with_support!(self, gather_columns::<S, K>(self, op, &y, &mut out));
     }
 
     /// Writes N, Gx and Gy to `dir/N.mtx`, `dir/Gx.mtx`, `dir/Gy.mtx` (Matrix Market coordinate
@@ -384,5 +534,98 @@ impl Operators {
             crate::io::write_matrix_market(&self.matrix(op), &dir.join(format!("{name}.mtx")))?;
         }
         Ok(())
+    }
+}
+
+/// The values of `op` along one run.
+#[inline(always)]
+fn run_values<const S: usize>(st: &Stencil<S>, op: Operator, b: usize) -> (usize, [f64; S]) {
+    match op {
+        Operator::N => st.n_row(b),
+        Operator::Gx => {
+            let (start, _, gx, _) = st.row(b);
+            (start, gx)
+        }
+        Operator::Gy => {
+            let (start, _, _, gy) = st.row(b);
+            (start, gy)
+        }
+    }
+}
+
+fn scatter_columns<const S: usize, const K: usize>(
+    ops: &Operators,
+    op: Operator,
+    w: Option<&[f64]>,
+    x: &[&[f64]; K],
+    out: &mut [&mut [f64]; K],
+) {
+    for p in 0..ops.num_particles {
+        let scale = w.map_or(1.0, |w| w[p]);
+        let xp: [f64; K] = std::array::from_fn(|k| scale * x[k][p]);
+        let st = ops.stencil::<S>(p);
+        for b in 0..S {
+            let (start, v) = run_values(&st, op, b);
+            for k in 0..K {
+                let o = &mut out[k][start..start + S];
+                for a in 0..S {
+                    o[a] += v[a] * xp[k];
+                }
+            }
+        }
+    }
+}
+
+fn gather_columns<const S: usize, const K: usize>(
+    ops: &Operators,
+    op: Operator,
+    y: &[&[f64]; K],
+    out: &mut [&mut [f64]; K],
+) {
+    for p in 0..ops.num_particles {
+        let mut acc = [0.0; K];
+        let st = ops.stencil::<S>(p);
+        for b in 0..S {
+            let (start, v) = run_values(&st, op, b);
+            for k in 0..K {
+                let yk = &y[k][start..start + S];
+                for a in 0..S {
+                    acc[k] += v[a] * yk[a];
+                }
+            }
+        }
+        for k in 0..K {
+            out[k][p] = acc[k];
+        }
+    }
+}
+
+fn column_entries<const S: usize>(ops: &Operators, p: usize, entries: &mut Vec<(usize, f64, f64, f64)>) {
+    let st = ops.stencil::<S>(p);
+    for b in 0..S {
+        let (start, n, gx, gy) = st.row(b);
+        for a in 0..S {
+            entries.push((start + a, n[a], gx[a], gy[a]));
+        }
+    }
+}
+
+fn fill_csc<const S: usize>(ops: &Operators, csc: &mut Csc) {
+    let np = ops.num_particles;
+    let k = S * S;
+    csc.col_ptr = (0..=np).map(|p| p * k).collect();
+    csc.row_idx = Vec::with_capacity(np * k);
+    csc.n = Vec::with_capacity(np * k);
+    csc.gx = Vec::with_capacity(np * k);
+    csc.gy = Vec::with_capacity(np * k);
+    for p in 0..np {
+        let st = ops.stencil::<S>(p);
+        for b in 0..S {
+            let (start, n, gx, gy) = st.row(b);
+            csc.row_idx.extend((0..S).map(|a| start + a));
+            csc.n.extend_from_slice(&n);
+            csc.gx.extend_from_slice(&gx);
+            csc.gy.extend_from_slice(&gy);
+        }
     }
 }

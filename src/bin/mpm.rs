@@ -7,7 +7,7 @@
 //! mpm homework [--json]
 //! mpm study [--out DIR] [--spec STUDY.toml] [--parts a,b] [--quick]
 //! mpm bench [--shape S] [--mass M] [--transfer T] [--update U] [--particles N[,N…]]
-//!           [--threads T] [--steps S] [--reps R]
+//!           [--threads T] [--steps S] [--reps R] [--profile]
 //! ```
 
 use std::io::{IsTerminal, Write};
@@ -47,7 +47,7 @@ USAGE:
         single_point (default: all). --quick: smaller grids, a few seconds.
         A STUDY.toml sets any of the study's keys (docs/verification.md).
     mpm bench [--shape S] [--mass M] [--transfer T] [--update U] [--particles N[,N...]]
-              [--threads T] [--steps S] [--reps R]
+              [--threads T] [--steps S] [--reps R] [--profile]
         Time the peers' benchmark problem (random block falling into a walled unit
         box, neo-Hookean, about 4 particles per cell; docs/performance.md) over whole
         explicit steps, set-up excluded. Defaults: quadratic, lumped, apic, usl,
@@ -56,7 +56,8 @@ USAGE:
         `particle-steps/s: <median>` and `peak bytes/particle: <value>`.
         Shapes: linear, gimp[:half_width], quadratic, cubic. Masses: lumped,
         consistent, blended:g, series:k, cg[:tol]. Transfers: pic, flip, apic,
-        blend:a, xpic:k, fmpm:k. Updates: usf, usl, musl.
+        blend:a, xpic:k, fmpm:k. Updates: usf, usl, musl. --profile: the share of
+        each phase of the step.
     mpm help
         This text.
 ";
@@ -110,6 +111,7 @@ fn parse(args: &[String]) -> Result<Args, String> {
             "--spec" => a.spec = Some(PathBuf::from(value("--spec")?)),
             "--parts" => a.parts = Some(value("--parts")?),
             "--quick" => a.quick = true,
+            "--profile" => a.bench.profile = true,
             "--shape" => a.bench.shape = names::shape(&value("--shape")?).map_err(|e| format!("--shape: {e}"))?,
             "--mass" => a.bench.mass = names::mass(&value("--mass")?).map_err(|e| format!("--mass: {e}"))?,
             "--transfer" => {
@@ -409,6 +411,24 @@ fn bench(args: &Args) -> Result<(), String> {
                 "N = {}: peak bytes/particle: not measured on this system",
                 row.particles
             ),
+        }
+        if let Some(profile) = &row.profile {
+            let total = profile.total();
+            let steps = profile.steps().max(1) as f64;
+            println!(
+                "N = {}: profile over {} steps ({:.3} ms per step):",
+                row.particles,
+                profile.steps(),
+                1e3 * total / steps
+            );
+            for (phase, seconds) in profile.rows() {
+                println!(
+                    "    {:<42} {:>8.3} ms  {:>5.1}%",
+                    phase.label(),
+                    1e3 * seconds / steps,
+                    100.0 * seconds / total
+                );
+            }
         }
     }
     Ok(())

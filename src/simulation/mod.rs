@@ -40,10 +40,12 @@
 //! [`GridMass`], which reuses its factorization buffers but allocates its vectors.
 
 mod options;
+mod profile;
 mod report;
 mod stability;
 
 pub use options::{Body, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
+pub use profile::{Phase, Profile};
 pub use report::StepReport;
 use stability::Stability;
 
@@ -102,6 +104,8 @@ pub struct Simulation {
     /// Strain energy after the last stress update.
     strain_energy: f64,
     scratch: Scratch,
+    /// Phase times, when profiling.
+    profile: Option<Profile>,
 }
 
 impl Simulation {
@@ -180,6 +184,7 @@ impl Simulation {
             prescribed_velocity,
             strain_energy: 0.0,
             scratch,
+            profile: None,
         };
         // The stable step before the first step, so that a fixed step above it is refused now.
         sim.prepare_grid()?;
@@ -300,26 +305,22 @@ impl Simulation {
     fn prepare_grid(&mut self) -> Result<()> {
         let interval = self.options.sort_interval;
         if interval > 0 && self.steps.is_multiple_of(interval) {
-            self.sort_particles();
+            self.timed(Phase::Sort, Self::sort_particles);
         }
-        let shape = self.options.shape;
-        self.ops
-            .reassemble(&self.grid, shape, &self.particles.x, &self.particles.y)?; //         (1)
+        self.timed(Phase::Assemble, |s| {
+            s.ops
+                .reassemble(&s.grid, s.options.shape, &s.particles.x, &s.particles.y)
+        })?; // (1)
         let stress = if self.options.update == UpdateScheme::Usf {
             Stress::Omit
         } else {
             Stress::Include
         };
         let apic = self.apic();
-        kernels::p2g(
-            &self.ops,
-            &self.particles,
-            apic,
-            self.options.gravity,
-            stress,
-            &mut self.nodes,
-        ); // (2)–(5)
-        self.prepare_mass()?;
+        self.timed(Phase::P2g, |s| {
+            kernels::p2g(&s.ops, &s.particles, apic, s.options.gravity, stress, &mut s.nodes)
+        }); // (2)–(5)
+        self.timed(Phase::Mass, Self::prepare_mass)?;
         let due = match self.stability {
             None => true,
             Some(s) => {
@@ -328,36 +329,39 @@ impl Simulation {
             }
         };
         if due {
-            self.estimate_stability()?;
+            self.timed(Phase::StableStep, Self::estimate_stability)?;
         }
         Ok(())
     }
 
     fn phases(&mut self, max_dt: f64) -> Result<StepReport> {
         self.prepare_grid()?; // (1)–(5), mass
-        let stable = self.stable_time_step();
+        let stable = self.timed(Phase::StableStep, |s| s.stable_time_step());
         let dt = self.next_time_step(stable)?.min(max_dt);
-        let velocity_solve = self.project_velocity()?; // (6)
+        let velocity_solve = self.timed(Phase::Project, Self::project_velocity)?; // (6)
         if self.options.update == UpdateScheme::Usf {
-            self.update_stress_first(dt)?; // USF: (11)–(13), (5)
+            self.timed(Phase::StressFirst, |s| s.update_stress_first(dt))?; // USF: (11)–(13), (5)
         }
-        let acceleration_solve = self.solve_acceleration()?; // (7)
-        self.update_grid_velocity(dt); // (8)
-        self.extend_to_inactive_nodes(GridField::Updated); // (8b)
-        self.series_particle_velocity(); // XPIC, FMPM
-        self.grid_to_particles(dt); // (9)–(11)
+        let acceleration_solve = self.timed(Phase::Accelerate, Self::solve_acceleration)?; // (7)
+        self.timed(Phase::GridVelocity, |s| s.update_grid_velocity(dt)); // (8)
+        self.timed(Phase::Extend, |s| s.extend_to_inactive_nodes(GridField::Updated)); // (8b)
+        self.timed(Phase::Series, Self::series_particle_velocity); // XPIC, FMPM
+        self.timed(Phase::G2p, |s| s.grid_to_particles(dt)); // (9)–(11)
         match self.options.update {
-            UpdateScheme::Usl => self.update_stress(dt)?,              // (12)–(13)
-            UpdateScheme::Musl => self.update_stress_reprojected(dt)?, // (11)–(13)
+            UpdateScheme::Usl => self.timed(Phase::Stress, |s| s.update_stress(dt))?, // (12)–(13)
+            UpdateScheme::Musl => self.timed(Phase::Stress, |s| s.update_stress_reprojected(dt))?, // (11)–(13)
             UpdateScheme::Usf => {}
         }
-        self.move_particles(); // (9)
+        self.timed(Phase::Move, Self::move_particles); // (9)
         self.time += dt;
         self.steps += 1;
-        let mut report = self.report(dt, stable, velocity_solve, acceleration_solve)?;
+        let mut report = self.timed(Phase::Report, |s| {
+            s.report(dt, stable, velocity_solve, acceleration_solve)
+        })?;
         let k = &self.particle_scratch.kinetic;
         self.transfer_loss += k.before + (k.updated - k.projected) - report.kinetic_energy;
         report.transfer_loss = self.transfer_loss;
+        self.count_profiled_step();
         Ok(report)
     }
 
