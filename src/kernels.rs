@@ -139,6 +139,9 @@ pub struct ParticleScratch {
     pub displacement: VectorField,
     /// Kinetic energies of the last [`g2p`].
     pub kinetic: KineticEnergies,
+    /// The grid velocities [`g2p`] reads, packed node by node over the operators' node span:
+    /// `[w, v, target, gradient field]`, two components each.
+    packed: Vec<[f64; 8]>,
 }
 
 impl ParticleScratch {
@@ -184,18 +187,16 @@ pub enum Stress {
     Omit,
 }
 
-/// The APIC affine velocity matrix of one particle, `C_p` with its position.
+/// The APIC affine velocity matrix of one particle, `C_p`.
 #[derive(Clone, Copy)]
 struct Affine {
     c: [f64; 4],
-    at: [f64; 2],
 }
 
 impl Affine {
-    /// `C_p (x_I − x_p)` at node `i`, weighted by `n`.
-    #[inline]
-    fn velocity(&self, i: usize, node_x: &[f64], node_y: &[f64], n: f64) -> [f64; 2] {
-        let (dx, dy) = (node_x[i] - self.at[0], node_y[i] - self.at[1]);
+    /// `C_p (x_I − x_p)` at a node `(dx, dy) = x_I − x_p` away, weighted by `n`.
+    #[inline(always)]
+    fn velocity(&self, dx: f64, dy: f64, n: f64) -> [f64; 2] {
         [
             n * (self.c[0] * dx + self.c[1] * dy),
             n * (self.c[2] * dx + self.c[3] * dy),
@@ -207,29 +208,30 @@ impl Affine {
 /// `D_p = diag(Σ_I N_I dx², Σ_I N_I dy²)` (the off-diagonal part vanishes for tensor-product
 /// kernels). Linear kernels store `C_p = Σ_I w_I ∇N_Iᵀ` itself (`∇N_I = D_p⁻¹ N_I (x_I − x_p)` at
 /// the old position).
-fn apic_affine(p: &Particles, k: usize, grid: &GridState, ops: &Operators, kind: ApicInertia) -> Affine {
+#[inline(always)]
+fn apic_affine(p: &Particles, k: usize, ops: &Operators, kind: ApicInertia) -> Affine {
     let b = [p.affine_xx[k], p.affine_xy[k], p.affine_yx[k], p.affine_yy[k]];
     let at = [p.x[k], p.y[k]];
     let [dxx, dyy] = match kind {
-        ApicInertia::StoredC => return Affine { c: b, at },
+        ApicInertia::StoredC => return Affine { c: b },
         ApicInertia::Constant(d) => d,
-        ApicInertia::Column => crate::with_support!(ops, column_inertia::<S>(ops, k, grid, at)),
+        ApicInertia::Column => crate::with_support!(ops, column_inertia::<S>(ops, k, at)),
     };
     Affine {
         c: [b[0] / dxx, b[1] / dyy, b[2] / dxx, b[3] / dyy],
-        at,
     }
 }
 
 /// `D_p = diag(Σ_I N_I dx², Σ_I N_I dy²)` over particle `k`'s column (GIMP), `dx = x_I − x_p`.
-fn column_inertia<const S: usize>(ops: &Operators, k: usize, grid: &GridState, at: [f64; 2]) -> [f64; 2] {
+fn column_inertia<const S: usize>(ops: &Operators, k: usize, at: [f64; 2]) -> [f64; 2] {
     let st = ops.stencil::<S>(k);
+    let offsets = st.offsets(at[0], at[1]);
     let (mut dxx, mut dyy) = (0.0, 0.0);
     for b in 0..S {
-        let (start, n) = st.n_row(b);
-        let (nx, ny) = (&grid.node_x[start..start + S], &grid.node_y[start..start + S]);
+        let (_, n) = st.n_row(b);
+        let (dxs, dys) = st.run_offsets(&offsets, b);
         for a in 0..S {
-            let (dx, dy) = (nx[a] - at[0], ny[a] - at[1]);
+            let (dx, dy) = (dxs[a], dys[a]);
             dxx += n[a] * dx * dx;
             dyy += n[a] * dy * dy;
         }
@@ -274,10 +276,7 @@ pub fn p2g(
     acc.clear();
     acc.resize(span.len(), [0.0; 5]);
     let internal = if stress == Stress::Include { 1.0 } else { 0.0 };
-    crate::with_support!(
-        ops,
-        p2g_columns::<S>(ops, p, apic, internal, grid, &mut acc, span.start)
-    );
+    crate::with_support!(ops, p2g_columns::<S>(ops, p, apic, internal, &mut acc, span.start));
     let [gx, gy] = gravity;
     let mut angular = 0.0;
     for (i, r) in span.clone().zip(&acc) {
@@ -300,7 +299,6 @@ fn p2g_columns<const S: usize>(
     p: &Particles,
     apic: Option<ApicInertia>,
     internal: f64,
-    grid: &GridState,
     acc: &mut [[f64; 5]],
     lo: usize,
 ) {
@@ -310,14 +308,15 @@ fn p2g_columns<const S: usize>(
         let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
         let v = internal * p.volume[k];
         let (vsxx, vsyy, vsxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
-        let affine = apic.map(|kind| apic_affine(p, k, grid, ops, kind));
+        let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
         let st = ops.stencil::<S>(k);
+        let offsets = st.offsets(p.x[k], p.y[k]);
         for b in 0..S {
             let (start, n, gx, gy) = st.row(b);
-            let (node_x, node_y) = (&grid.node_x[start..start + S], &grid.node_y[start..start + S]);
+            let (dx, dy) = st.run_offsets(&offsets, b);
             let r = &mut acc[start - lo..start - lo + S];
             for a in 0..S {
-                let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(a, node_x, node_y, n[a]));
+                let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(dx[a], dy[a], n[a]));
                 let r = &mut r[a];
                 r[0] += n[a] * m;
                 r[1] += n[a] * mvx + m * ax;
@@ -376,7 +375,7 @@ pub fn reproject_momentum(ops: &Operators, p: &Particles, apic: Option<ApicInert
     let mut acc = std::mem::take(&mut grid.accumulator);
     acc.clear();
     acc.resize(span.len(), [0.0; 5]);
-    crate::with_support!(ops, reproject_columns::<S>(ops, p, apic, grid, &mut acc, span.start));
+    crate::with_support!(ops, reproject_columns::<S>(ops, p, apic, &mut acc, span.start));
     for (i, r) in span.zip(&acc) {
         grid.momentum.x[i] = r[1];
         grid.momentum.y[i] = r[2];
@@ -388,20 +387,20 @@ fn reproject_columns<const S: usize>(
     ops: &Operators,
     p: &Particles,
     apic: Option<ApicInertia>,
-    grid: &GridState,
     acc: &mut [[f64; 5]],
     lo: usize,
 ) {
     for k in 0..p.len() {
         let m = p.mass[k];
-        let affine = apic.map(|kind| apic_affine(p, k, grid, ops, kind));
+        let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
         let st = ops.stencil::<S>(k);
+        let offsets = st.offsets(p.x[k], p.y[k]);
         for b in 0..S {
             let (start, n) = st.n_row(b);
-            let (node_x, node_y) = (&grid.node_x[start..start + S], &grid.node_y[start..start + S]);
+            let (dx, dy) = st.run_offsets(&offsets, b);
             let r = &mut acc[start - lo..start - lo + S];
             for a in 0..S {
-                let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(a, node_x, node_y, n[a]));
+                let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(dx[a], dy[a], n[a]));
                 r[a][1] += n[a] * m * p.vx[k] + m * ax;
                 r[a][2] += n[a] * m * p.vy[k] + m * ay;
             }
@@ -483,13 +482,44 @@ pub fn g2p(
     scratch: &mut ParticleScratch,
 ) {
     scratch.resize(p.len());
-    crate::with_support!(ops, g2p_columns::<S>(ops, grid, rule, dt, p, scratch));
+    let span = ops.node_span();
+    let transfer = rule.transfer;
+    let (w, v) = (&grid.updated, &grid.projected);
+    let target = if transfer.series_terms().is_some() {
+        &grid.series
+    } else {
+        w
+    };
+    let gradient = grid.field(rule.gradient.unwrap_or(GridField::Updated));
+    let mut packed = std::mem::take(&mut scratch.packed);
+    if packed.capacity() < grid.mass.len() {
+        // Address space for the whole grid, so that a growing span never reallocates.
+        packed.reserve_exact(grid.mass.len() - packed.len());
+    }
+    packed.clear();
+    packed.extend(span.clone().map(|i| {
+        [
+            w.x[i],
+            w.y[i],
+            v.x[i],
+            v.y[i],
+            target.x[i],
+            target.y[i],
+            gradient.x[i],
+            gradient.y[i],
+        ]
+    }));
+    crate::with_support!(ops, g2p_columns::<S>(ops, &packed, span.start, rule, dt, p, scratch));
+    scratch.packed = packed;
 }
 
-/// The particle loop of [`g2p`] for a support of `S` nodes per axis.
+/// The particle loop of [`g2p`] for a support of `S` nodes per axis, reading the packed grid
+/// velocities of the nodes from `lo`.
+#[allow(clippy::too_many_arguments)]
 fn g2p_columns<const S: usize>(
     ops: &Operators,
-    grid: &GridState,
+    packed: &[[f64; 8]],
+    lo: usize,
     rule: &G2pRule,
     dt: f64,
     p: &mut Particles,
@@ -500,13 +530,6 @@ fn g2p_columns<const S: usize>(
     let linear_apic = apic && rule.inertia == ApicInertia::StoredC;
     let with_gradient = rule.gradient.is_some();
     let need_l = with_gradient || linear_apic;
-    let (w, v) = (&grid.updated, &grid.projected);
-    let target = if transfer.series_terms().is_some() {
-        &grid.series
-    } else {
-        w
-    };
-    let gradient = grid.field(rule.gradient.unwrap_or(GridField::Updated));
     let trapezoidal = rule.position == PositionUpdate::Trapezoidal;
     let mut kinetic = KineticEnergies::default();
     for k in 0..p.len() {
@@ -515,24 +538,20 @@ fn g2p_columns<const S: usize>(
         let mut lw = [0.0; 4];
         let mut b = [0.0; 4];
         let st = ops.stencil::<S>(k);
+        let offsets = st.offsets(p.x[k], p.y[k]);
         for row in 0..S {
             let (start, n, gxv, gyv) = st.row(row);
-            let run = start..start + S;
-            let (w_x, w_y) = (&w.x[run.clone()], &w.y[run.clone()]);
-            let (t_x, t_y) = (&target.x[run.clone()], &target.y[run.clone()]);
-            let (v_x, v_y) = (&v.x[run.clone()], &v.y[run.clone()]);
-            let (g_x, g_y) = (&gradient.x[run.clone()], &gradient.y[run.clone()]);
-            let (node_x, node_y) = (&grid.node_x[run.clone()], &grid.node_y[run]);
+            let nodes = &packed[start - lo..start - lo + S];
+            let (dxs, dys) = st.run_offsets(&offsets, row);
             for a in 0..S {
-                let (wx, wy) = (w_x[a], w_y[a]);
+                let [wx, wy, v_x, v_y, t_x, t_y, gx, gy] = nodes[a];
                 vx += n[a] * wx;
                 vy += n[a] * wy;
-                tx += n[a] * t_x[a];
-                ty += n[a] * t_y[a];
-                rx += n[a] * v_x[a];
-                ry += n[a] * v_y[a];
+                tx += n[a] * t_x;
+                ty += n[a] * t_y;
+                rx += n[a] * v_x;
+                ry += n[a] * v_y;
                 if need_l {
-                    let (gx, gy) = (g_x[a], g_y[a]);
                     l[0] += gxv[a] * gx;
                     l[1] += gyv[a] * gx;
                     l[2] += gxv[a] * gy;
@@ -543,7 +562,7 @@ fn g2p_columns<const S: usize>(
                     lw[1] += gyv[a] * wx;
                     lw[2] += gxv[a] * wy;
                     lw[3] += gyv[a] * wy;
-                    let (dx, dy) = (node_x[a] - p.x[k], node_y[a] - p.y[k]);
+                    let (dx, dy) = (dxs[a], dys[a]);
                     b[0] += n[a] * wx * dx;
                     b[1] += n[a] * wx * dy;
                     b[2] += n[a] * wy * dx;

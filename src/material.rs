@@ -222,6 +222,58 @@ impl NeoHookean {
     }
 }
 
+/// A material's constants (stiffness, Lamé parameters) computed once, for the per-particle
+/// update of the time loop: the same arithmetic as [`Material::update`] and
+/// [`Material::tangent`], without recomputing the constants for every particle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Prepared {
+    /// Linear elasticity: `C11`, `C12` and the shear modulus.
+    Linear { c11: f64, c12: f64, shear: f64 },
+    /// Neo-Hookean: the Lamé parameters.
+    NeoHookean { mu: f64, lambda: f64 },
+}
+
+impl Prepared {
+    /// `(σ, strain energy, C11)` after the update ([`Material::update_with_modulus`]).
+    #[inline]
+    pub(crate) fn update_with_modulus(
+        &self,
+        sigma: [f64; 3],
+        l: [f64; 4],
+        f: [f64; 4],
+        dt: f64,
+        volume: f64,
+    ) -> ([f64; 3], f64, f64) {
+        match *self {
+            Prepared::Linear { c11, c12, shear } => {
+                let (dexx, deyy, dexy) = (l[0] * dt, l[3] * dt, 0.5 * (l[1] + l[2]) * dt);
+                let d = [c11 * dexx + c12 * deyy, c12 * dexx + c11 * deyy, 2.0 * shear * dexy];
+                let s = [sigma[0] + d[0], sigma[1] + d[1], sigma[2] + d[2]];
+                let det = c11 * c11 - c12 * c12;
+                let exx = (c11 * s[0] - c12 * s[1]) / det;
+                let eyy = (c11 * s[1] - c12 * s[0]) / det;
+                let w = 0.5 * (s[0] * exx + s[1] * eyy) + s[2] * s[2] / (2.0 * shear);
+                (s, volume * w, c11)
+            }
+            Prepared::NeoHookean { mu, lambda } => {
+                let [fxx, fxy, fyx, fyy] = f;
+                let j = fxx * fyy - fxy * fyx;
+                let ln_j = j.ln();
+                let (a, b) = (mu / j, lambda * ln_j / j);
+                let stress = [
+                    a * (fxx * fxx + fxy * fxy - 1.0) + b,
+                    a * (fyx * fyx + fyy * fyy - 1.0) + b,
+                    a * (fxx * fyx + fxy * fyy),
+                ];
+                let w = 0.5 * mu * (fxx * fxx + fxy * fxy + fyx * fyx + fyy * fyy - 2.0) - mu * ln_j
+                    + 0.5 * lambda * ln_j * ln_j;
+                let mu_j = mu - lambda * ln_j;
+                (stress, volume / j * w, (lambda + 2.0 * mu_j) / j)
+            }
+        }
+    }
+}
+
 /// The constitutive model of a body.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "snake_case")]
@@ -316,6 +368,37 @@ impl Material {
             Material::NeoHookean(m) => {
                 let (s, w) = m.stress_and_energy_density(f);
                 (s, volume / (f[0] * f[3] - f[1] * f[2]) * w)
+            }
+        }
+    }
+
+    /// [`Material::update`] and the tangent's `C11` at the updated `F` ([`Material::tangent`]),
+    /// sharing `ln J`: `(σ, strain energy, C11)`.
+    pub fn update_with_modulus(
+        &self,
+        sigma: [f64; 3],
+        l: [f64; 4],
+        f: [f64; 4],
+        dt: f64,
+        volume: f64,
+    ) -> ([f64; 3], f64, f64) {
+        self.prepared().update_with_modulus(sigma, l, f, dt, volume)
+    }
+
+    /// The material's constants, computed once for a loop over many particles.
+    pub(crate) fn prepared(&self) -> Prepared {
+        match self {
+            Material::LinearElastic(m) => {
+                let (c11, c12) = m.normal_stiffness();
+                Prepared::Linear {
+                    c11,
+                    c12,
+                    shear: m.shear_modulus(),
+                }
+            }
+            Material::NeoHookean(m) => {
+                let (mu, lambda) = m.lame();
+                Prepared::NeoHookean { mu, lambda }
             }
         }
     }

@@ -103,8 +103,12 @@ pub struct Operators {
     support: usize,
     /// Node strides along x and y.
     strides: [usize; 2],
-    /// First node of each particle's stencil (the node of its lowest x and y indices).
-    first: Vec<u32>,
+    /// Grid indices `(i, j)` of the first node of each particle's stencil (its lowest x and y
+    /// indices).
+    first: Vec<[u32; 2]>,
+    /// Grid origin and cell size, for node coordinates.
+    origin: [f64; 2],
+    cell_size: [f64; 2],
     /// Per particle `[wx; S], [w′x; S], [wy; S], [w′y; S]`.
     factors: Vec<f64>,
     /// Node numbers from the lowest to one past the highest node any stencil touches.
@@ -143,6 +147,12 @@ pub struct Stencil<const S: usize> {
     pub wy: [f64; S],
     /// 1D derivatives along y, per unit length.
     pub dwy: [f64; S],
+    /// Grid indices of the first node.
+    pub first_ij: [usize; 2],
+    /// Grid origin and cell size.
+    pub origin: [f64; 2],
+    /// Grid cell size.
+    pub cell_size: [f64; 2],
 }
 
 impl<const S: usize> Stencil<S> {
@@ -171,6 +181,27 @@ impl<const S: usize> Stencil<S> {
                 std::array::from_fn(|a| dx * self.wy[a]),
                 std::array::from_fn(|a| x * self.dwy[a]),
             )
+        }
+    }
+
+    /// Offsets from `(xp, yp)` to the stencil's node coordinates along each axis,
+    /// `x_{i0+a} − xp` and `y_{j0+a} − yp` with `x_i = x₀ + i·hx` (as [`Grid::node_position`]).
+    #[inline(always)]
+    pub fn offsets(&self, xp: f64, yp: f64) -> ([f64; S], [f64; S]) {
+        let ([i0, j0], [ox, oy], [hx, hy]) = (self.first_ij, self.origin, self.cell_size);
+        (
+            std::array::from_fn(|a| (ox + (i0 + a) as f64 * hx) - xp),
+            std::array::from_fn(|a| (oy + (j0 + a) as f64 * hy) - yp),
+        )
+    }
+
+    /// The `(x_I − xp, y_I − yp)` of the nodes of run `b`, from [`Stencil::offsets`].
+    #[inline(always)]
+    pub fn run_offsets(&self, (dx, dy): &([f64; S], [f64; S]), b: usize) -> ([f64; S], [f64; S]) {
+        if self.runs_along_x {
+            (*dx, [dy[b]; S])
+        } else {
+            ([dx[b]; S], *dy)
         }
     }
 
@@ -262,8 +293,10 @@ impl Operators {
         self.num_particles = num_particles;
         self.support = support;
         self.strides = grid.strides();
+        self.origin = grid.origin();
+        self.cell_size = grid.cell_size();
         self.csc.take();
-        self.first.resize(num_particles, 0);
+        self.first.resize(num_particles, [0, 0]);
         self.factors.resize(num_particles * 4 * support, 0.0);
         // A fixed stencil size per call lets the compiler unroll the loops.
         match support {
@@ -291,7 +324,7 @@ impl Operators {
             let node = wx.first * sx + wy.first * sy;
             lo = lo.min(node);
             hi = hi.max(node);
-            *first = node as u32;
+            *first = [wx.first as u32, wy.first as u32];
             f[..S].copy_from_slice(&wx.value[..S]);
             f[S..2 * S].copy_from_slice(&wx.derivative[..S]);
             f[2 * S..3 * S].copy_from_slice(&wy.value[..S]);
@@ -327,14 +360,19 @@ impl Operators {
         let f = &self.factors[4 * S * p..4 * S * (p + 1)];
         let [sx, sy] = self.strides;
         let runs_along_x = sx == 1;
+        let [i0, j0] = self.first[p];
+        let first_ij = [i0 as usize, j0 as usize];
         Stencil {
-            first: self.first[p] as usize,
+            first: first_ij[0] * sx + first_ij[1] * sy,
             run_stride: if runs_along_x { sy } else { sx },
             runs_along_x,
             wx: std::array::from_fn(|a| f[a]),
             dwx: std::array::from_fn(|a| f[S + a]),
             wy: std::array::from_fn(|a| f[2 * S + a]),
             dwy: std::array::from_fn(|a| f[3 * S + a]),
+            first_ij,
+            origin: self.origin,
+            cell_size: self.cell_size,
         }
     }
 

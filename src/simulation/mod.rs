@@ -57,6 +57,7 @@ use crate::kernels::{
     ParticleScratch, SeriesScratch, Stress,
 };
 use crate::mass::{mark_active, GridMass, MassScheme, Role, SolveOutcome, SolveReport};
+use crate::material::Prepared;
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::transfer::{deformation_increment, VectorField};
@@ -106,6 +107,11 @@ pub struct Simulation {
     scratch: Scratch,
     /// Phase times, when profiling.
     profile: Option<Profile>,
+    /// Largest particle speed and tangent wave speed of the current state, kept by the stress
+    /// update and the report so that the stable step needs no pass of its own.
+    speeds: stability::Speeds,
+    /// Each body's material constants, computed once.
+    materials: Vec<Prepared>,
 }
 
 impl Simulation {
@@ -185,7 +191,11 @@ impl Simulation {
             strain_energy: 0.0,
             scratch,
             profile: None,
+            speeds: stability::Speeds::default(),
+            materials: Vec::new(),
         };
+        sim.materials = sim.bodies.iter().map(|b| b.material.prepared()).collect();
+        sim.speeds = sim.measure_speeds();
         // The stable step before the first step, so that a fixed step above it is refused now.
         sim.prepare_grid()?;
         sim.next_time_step(sim.stable_time_step())?;
@@ -358,6 +368,7 @@ impl Simulation {
         let mut report = self.timed(Phase::Report, |s| {
             s.report(dt, stable, velocity_solve, acceleration_solve)
         })?;
+        self.speeds.particle = report.max_speed;
         let k = &self.particle_scratch.kinetic;
         self.transfer_loss += k.before + (k.updated - k.projected) - report.kinetic_energy;
         report.transfer_loss = self.transfer_loss;
@@ -612,7 +623,10 @@ impl Simulation {
     /// (12) `F ← (I + Δt L) F`, `σ ← material(σ, L, F)`; (13) `V ← V det(I + Δt L)`.
     fn update_stress(&mut self, dt: f64) -> Result<()> {
         let (p, l) = (&mut self.particles, &self.particle_scratch.velocity_gradient);
+        let materials = &self.materials;
         let mut energy = 0.0;
+        // max √x = √(max x): one square root instead of one per particle.
+        let mut wave_squared = 0.0f64;
         for k in 0..p.len() {
             let l = [l[0][k], l[1][k], l[2][k], l[3][k]];
             let (g, j_inc) = deformation_increment(l, dt);
@@ -633,10 +647,11 @@ impl Simulation {
                     det_f: j,
                 });
             }
-            let material = &self.bodies[p.body[k]].material;
             let volume = p.volume[k] * j_inc;
-            let (s, e) = material.update([p.sxx[k], p.syy[k], p.sxy[k]], l, f, dt, volume);
+            let (s, e, c11) =
+                materials[p.body[k]].update_with_modulus([p.sxx[k], p.syy[k], p.sxy[k]], l, f, dt, volume);
             energy += e;
+            wave_squared = wave_squared.max(c11 * volume / p.mass[k]);
             p.fxx[k] = f[0];
             p.fxy[k] = f[1];
             p.fyx[k] = f[2];
@@ -647,6 +662,7 @@ impl Simulation {
             p.sxy[k] = s[2];
         }
         self.strain_energy = energy;
+        self.speeds.wave = stability::wave_speed(wave_squared, 1.0, 1.0);
         Ok(())
     }
 }

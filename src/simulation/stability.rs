@@ -20,6 +20,21 @@ pub(super) struct Stability {
     estimate: FrequencyEstimate,
 }
 
+/// The largest particle speed and tangent P-wave speed of a state.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct Speeds {
+    /// `max_p |v_p|`.
+    pub(super) particle: f64,
+    /// `max_p √(C11_p V_p / m_p)`.
+    pub(super) wave: f64,
+}
+
+/// A particle's tangent P-wave speed `√(C11 / ρ)`, `ρ = m / V` (0 for a non-positive modulus).
+#[inline]
+pub(super) fn wave_speed(c11: f64, volume: f64, mass: f64) -> f64 {
+    (c11 * volume / mass).max(0.0).sqrt()
+}
+
 impl Simulation {
     /// The stable time step for the current state:
     ///
@@ -40,11 +55,7 @@ impl Simulation {
         let Some(s) = self.stability else {
             return f64::INFINITY;
         };
-        let p = &self.particles;
-        let max_speed = (0..p.len())
-            .map(|k| (p.vx[k] * p.vx[k] + p.vy[k] * p.vy[k]).sqrt())
-            .fold(0.0, f64::max);
-        let c_now = self.max_wave_speed();
+        let (max_speed, c_now) = (self.speeds.particle, self.speeds.wave);
         let wave = if c_now > s.wave_speed {
             s.wave_step * s.wave_speed / c_now
         } else {
@@ -60,16 +71,18 @@ impl Simulation {
         self.stability.map(|s| (s.estimate, s.at_step))
     }
 
-    /// Largest tangent P-wave speed `√(C11_p / ρ_p)` over the particles, `ρ_p = m_p / V_p`.
-    fn max_wave_speed(&self) -> f64 {
+    /// The largest particle speed and tangent P-wave speed `√(C11_p / ρ_p)`, `ρ_p = m_p / V_p`,
+    /// over the particles, by a pass over them (the time loop keeps them up to date as it goes).
+    pub(super) fn measure_speeds(&self) -> Speeds {
         let p = &self.particles;
-        (0..p.len())
-            .map(|k| {
-                let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
-                let c11 = self.bodies[p.body[k]].material.tangent(f)[0];
-                (c11 * p.volume[k] / p.mass[k]).max(0.0).sqrt()
-            })
-            .fold(0.0, f64::max)
+        let mut speeds = Speeds::default();
+        for k in 0..p.len() {
+            let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
+            let c11 = self.bodies[p.body[k]].material.tangent(f)[0];
+            speeds.wave = speeds.wave.max(wave_speed(c11, p.volume[k], p.mass[k]));
+            speeds.particle = speeds.particle.max((p.vx[k] * p.vx[k] + p.vy[k] * p.vy[k]).sqrt());
+        }
+        speeds
     }
 
     /// Estimates `ω²_max` of the update with the grid prepared for the current configuration
@@ -146,7 +159,7 @@ impl Simulation {
             &mut velocity,
             if same { None } else { Some(&mut acceleration) },
         )?;
-        let wave_speed = self.max_wave_speed();
+        let wave_speed = self.speeds.wave;
 
         self.stability = Some(Stability {
             wave_step: stiffness::mpm_critical_time_step(&estimate, self.options.transfer.flip_weight()),
