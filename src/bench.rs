@@ -200,6 +200,7 @@ pub fn problem(n: usize, spec: &BenchSpec) -> Result<Simulation> {
         // (set-up), none during the timed steps.
         allow_unstable_time_step: true,
         stability_interval: 0,
+        threads: spec.threads,
         gravity: [0.0, -GRAVITY],
         boundaries,
         ..Options::default()

@@ -23,6 +23,7 @@ use nalgebra_sparse::CscMatrix;
 use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::operators::{Operator, Operators};
+use crate::parallel::Workers;
 use crate::particles::Particles;
 use crate::schemes::PositionUpdate;
 use crate::schemes::Transfer;
@@ -142,6 +143,8 @@ pub struct ParticleScratch {
     /// The grid velocities [`g2p`] reads, packed node by node over the operators' node span:
     /// `[w, v, target, gradient field]`, two components each.
     packed: Vec<[f64; 8]>,
+    /// Kinetic energies of each block of particles of the last [`g2p`].
+    kinetic_blocks: Vec<KineticEnergies>,
 }
 
 impl ParticleScratch {
@@ -257,6 +260,7 @@ pub fn p2g(
     gravity: [f64; 2],
     stress: Stress,
     grid: &mut GridState,
+    workers: &Workers,
 ) {
     let n = ops.num_nodes();
     assert_eq!(grid.mass.len(), n, "grid state sized for the operators' nodes");
@@ -272,14 +276,14 @@ pub fn p2g(
             field.y[range.clone()].fill(0.0);
         }
     }
-    let mut acc = std::mem::take(&mut grid.accumulator);
-    acc.clear();
-    acc.resize(span.len(), [0.0; 5]);
     let internal = if stress == Stress::Include { 1.0 } else { 0.0 };
-    crate::with_support!(ops, p2g_columns::<S>(ops, p, apic, internal, &mut acc, span.start));
+    let (acc, base) = scatter_bands(ops, &mut grid.accumulator, workers, |acc, base, lines| {
+        crate::with_support!(ops, p2g_columns::<S>(ops, p, apic, internal, acc, base, lines))
+    });
     let [gx, gy] = gravity;
     let mut angular = 0.0;
-    for (i, r) in span.clone().zip(&acc) {
+    for i in span.clone() {
+        let r = acc[i - base];
         grid.mass[i] = r[0];
         grid.momentum.x[i] = r[1];
         grid.momentum.y[i] = r[2];
@@ -288,8 +292,28 @@ pub fn p2g(
         angular += grid.node_x[i] * r[2] - grid.node_y[i] * r[1];
     }
     grid.angular_momentum = angular;
-    grid.accumulator = acc;
     grid.span = span;
+}
+
+/// A deterministic scatter into the interleaved accumulator: zeroes it over the operators'
+/// whole lines ([`Operators::line_span`]), cuts it into one band of lines per worker and runs
+/// `fill(band, first node of the band, lines of the band)` on each (see [`crate::parallel`]).
+/// Returns the accumulator and the node number of its first entry.
+fn scatter_bands<'a>(
+    ops: &Operators,
+    acc: &'a mut Vec<[f64; 5]>,
+    workers: &Workers,
+    fill: impl Fn(&mut [[f64; 5]], usize, std::ops::Range<usize>) + Sync,
+) -> (&'a [[f64; 5]], usize) {
+    let (line_len, lines) = (ops.line_length(), ops.line_span());
+    acc.clear();
+    acc.resize(lines.len() * line_len, [0.0; 5]);
+    let per_band = lines.len().div_ceil(workers.threads()).max(1);
+    workers.chunks(acc, per_band * line_len, |t, band| {
+        let first = lines.start + t * per_band;
+        fill(band, first * line_len, first..(first + per_band).min(lines.end));
+    });
+    (acc, lines.start * line_len)
 }
 
 /// The particle loop of [`p2g`] for a support of `S` nodes per axis, into the interleaved
@@ -300,9 +324,14 @@ fn p2g_columns<const S: usize>(
     apic: Option<ApicInertia>,
     internal: f64,
     acc: &mut [[f64; 5]],
-    lo: usize,
+    base: usize,
+    lines: std::ops::Range<usize>,
 ) {
     for k in 0..p.len() {
+        let l0 = ops.first_line(k);
+        if l0 + S <= lines.start || l0 >= lines.end {
+            continue;
+        }
         let m = p.mass[k];
         let (mvx, mvy) = (m * p.vx[k], m * p.vy[k]);
         let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
@@ -312,9 +341,12 @@ fn p2g_columns<const S: usize>(
         let st = ops.stencil::<S>(k);
         let offsets = st.offsets(p.x[k], p.y[k]);
         for b in 0..S {
+            if !lines.contains(&(l0 + b)) {
+                continue;
+            }
             let (start, n, gx, gy) = st.row(b);
             let (dx, dy) = st.run_offsets(&offsets, b);
-            let r = &mut acc[start - lo..start - lo + S];
+            let r = &mut acc[start - base..start - base + S];
             for a in 0..S {
                 let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(dx[a], dy[a], n[a]));
                 let r = &mut r[a];
@@ -366,21 +398,25 @@ fn internal_force_columns<const S: usize>(ops: &Operators, [volume, sxx, syy, sx
 /// ```text
 /// q' = N (m ∘ v_p) [+ APIC: Σ_p N_Ip m_p C_p (x_I − x_p)]
 /// ```
-pub fn reproject_momentum(ops: &Operators, p: &Particles, apic: Option<ApicInertia>, grid: &mut GridState) {
+pub fn reproject_momentum(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    grid: &mut GridState,
+    workers: &Workers,
+) {
     let span = ops.node_span();
     assert!(
         span.end <= grid.momentum.len() && grid.span == span,
         "reproject_momentum follows a p2g with the same operators"
     );
-    let mut acc = std::mem::take(&mut grid.accumulator);
-    acc.clear();
-    acc.resize(span.len(), [0.0; 5]);
-    crate::with_support!(ops, reproject_columns::<S>(ops, p, apic, &mut acc, span.start));
-    for (i, r) in span.zip(&acc) {
-        grid.momentum.x[i] = r[1];
-        grid.momentum.y[i] = r[2];
+    let (acc, base) = scatter_bands(ops, &mut grid.accumulator, workers, |acc, base, lines| {
+        crate::with_support!(ops, reproject_columns::<S>(ops, p, apic, acc, base, lines))
+    });
+    for i in span {
+        grid.momentum.x[i] = acc[i - base][1];
+        grid.momentum.y[i] = acc[i - base][2];
     }
-    grid.accumulator = acc;
 }
 
 fn reproject_columns<const S: usize>(
@@ -388,17 +424,25 @@ fn reproject_columns<const S: usize>(
     p: &Particles,
     apic: Option<ApicInertia>,
     acc: &mut [[f64; 5]],
-    lo: usize,
+    base: usize,
+    lines: std::ops::Range<usize>,
 ) {
     for k in 0..p.len() {
+        let l0 = ops.first_line(k);
+        if l0 + S <= lines.start || l0 >= lines.end {
+            continue;
+        }
         let m = p.mass[k];
         let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
         let st = ops.stencil::<S>(k);
         let offsets = st.offsets(p.x[k], p.y[k]);
         for b in 0..S {
+            if !lines.contains(&(l0 + b)) {
+                continue;
+            }
             let (start, n) = st.n_row(b);
             let (dx, dy) = st.run_offsets(&offsets, b);
-            let r = &mut acc[start - lo..start - lo + S];
+            let r = &mut acc[start - base..start - base + S];
             for a in 0..S {
                 let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(dx[a], dy[a], n[a]));
                 r[a][1] += n[a] * m * p.vx[k] + m * ax;
@@ -416,19 +460,22 @@ fn reproject_columns<const S: usize>(
 ///
 /// # Panics
 /// If `u` does not have one entry per node.
-pub fn velocity_gradient_into(ops: &Operators, u: &VectorField, l: &mut [Vec<f64>; 4]) {
+pub fn velocity_gradient_into(ops: &Operators, u: &VectorField, l: &mut [Vec<f64>; 4], workers: &Workers) {
     let np = ops.num_particles();
     assert_eq!(u.len(), ops.num_nodes(), "one velocity per node");
     for c in l.iter_mut() {
         c.resize(np, 0.0);
     }
-    crate::with_support!(ops, gradient_columns::<S>(ops, u, l));
+    let mut none: Vec<()> = Vec::new();
+    workers.split_blocks(l.each_mut().map(|c| &mut c[..]), &mut none, |first, out| {
+        crate::with_support!(ops, gradient_block::<S>(ops, u, first, out))
+    });
 }
 
-fn gradient_columns<const S: usize>(ops: &Operators, u: &VectorField, l: &mut [Vec<f64>; 4]) {
-    for k in 0..ops.num_particles() {
+fn gradient_block<const S: usize>(ops: &Operators, u: &VectorField, first: usize, l: [&mut [f64]; 4]) {
+    for j in 0..l[0].len() {
         let mut g = [0.0; 4];
-        let st = ops.stencil::<S>(k);
+        let st = ops.stencil::<S>(first + j);
         for b in 0..S {
             let (start, _, gx, gy) = st.row(b);
             let (ux, uy) = (&u.x[start..start + S], &u.y[start..start + S]);
@@ -440,7 +487,7 @@ fn gradient_columns<const S: usize>(ops: &Operators, u: &VectorField, l: &mut [V
             }
         }
         for c in 0..4 {
-            l[c][k] = g[c];
+            l[c][j] = g[c];
         }
     }
 }
@@ -480,6 +527,7 @@ pub fn g2p(
     dt: f64,
     p: &mut Particles,
     scratch: &mut ParticleScratch,
+    workers: &Workers,
 ) {
     scratch.resize(p.len());
     let span = ops.node_span();
@@ -509,22 +557,78 @@ pub fn g2p(
             gradient.y[i],
         ]
     }));
-    crate::with_support!(ops, g2p_columns::<S>(ops, &packed, span.start, rule, dt, p, scratch));
+    let input = G2pInput {
+        ops,
+        packed: &packed,
+        lo: span.start,
+        rule,
+        dt,
+        x: &p.x,
+        y: &p.y,
+        mass: &p.mass,
+    };
+    let out = (
+        [&mut p.vx[..], &mut p.vy[..]],
+        (
+            [
+                &mut p.affine_xx[..],
+                &mut p.affine_xy[..],
+                &mut p.affine_yx[..],
+                &mut p.affine_yy[..],
+            ],
+            (
+                scratch.velocity_gradient.each_mut().map(|v| &mut v[..]),
+                [&mut scratch.displacement.x[..], &mut scratch.displacement.y[..]],
+            ),
+        ),
+    );
+    let mut blocks = std::mem::take(&mut scratch.kinetic_blocks);
+    workers.split_blocks(out, &mut blocks, |first, out| {
+        crate::with_support!(ops, g2p_block::<S>(&input, first, out))
+    });
+    let mut kinetic = KineticEnergies::default();
+    for b in &blocks {
+        kinetic.before += b.before;
+        kinetic.projected += b.projected;
+        kinetic.updated += b.updated;
+    }
+    scratch.kinetic = kinetic;
+    scratch.kinetic_blocks = blocks;
     scratch.packed = packed;
 }
 
-/// The particle loop of [`g2p`] for a support of `S` nodes per axis, reading the packed grid
-/// velocities of the nodes from `lo`.
-#[allow(clippy::too_many_arguments)]
-fn g2p_columns<const S: usize>(
-    ops: &Operators,
-    packed: &[[f64; 8]],
+/// What every block of [`g2p`] reads.
+struct G2pInput<'a> {
+    ops: &'a Operators,
+    /// Grid velocities packed per node from node `lo`.
+    packed: &'a [[f64; 8]],
     lo: usize,
-    rule: &G2pRule,
+    rule: &'a G2pRule,
     dt: f64,
-    p: &mut Particles,
-    scratch: &mut ParticleScratch,
-) {
+    x: &'a [f64],
+    y: &'a [f64],
+    mass: &'a [f64],
+}
+
+/// What a block of [`g2p`] writes, for its particles: velocities, APIC moments, velocity
+/// gradients, position increments.
+type G2pOutput<'a> = (
+    [&'a mut [f64]; 2],
+    ([&'a mut [f64]; 4], ([&'a mut [f64]; 4], [&'a mut [f64]; 2])),
+);
+
+/// The particle loop of [`g2p`] for the particles from `first` (a block), for a support of
+/// `S` nodes per axis; the block's kinetic energies.
+fn g2p_block<const S: usize>(input: &G2pInput, first: usize, out: G2pOutput) -> KineticEnergies {
+    let ([vel_x, vel_y], (affine, (grad, [disp_x, disp_y]))) = out;
+    let G2pInput {
+        ops,
+        packed,
+        lo,
+        rule,
+        dt,
+        ..
+    } = *input;
     let transfer = rule.transfer;
     let apic = transfer == Transfer::Apic;
     let linear_apic = apic && rule.inertia == ApicInertia::StoredC;
@@ -532,13 +636,14 @@ fn g2p_columns<const S: usize>(
     let need_l = with_gradient || linear_apic;
     let trapezoidal = rule.position == PositionUpdate::Trapezoidal;
     let mut kinetic = KineticEnergies::default();
-    for k in 0..p.len() {
+    for j in 0..vel_x.len() {
+        let k = first + j;
         let (mut vx, mut vy, mut tx, mut ty, mut rx, mut ry) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         let mut l = [0.0; 4];
         let mut lw = [0.0; 4];
         let mut b = [0.0; 4];
         let st = ops.stencil::<S>(k);
-        let offsets = st.offsets(p.x[k], p.y[k]);
+        let offsets = st.offsets(input.x[k], input.y[k]);
         for row in 0..S {
             let (start, n, gxv, gyv) = st.row(row);
             let nodes = &packed[start - lo..start - lo + S];
@@ -572,11 +677,11 @@ fn g2p_columns<const S: usize>(
         }
         if with_gradient {
             for c in 0..4 {
-                scratch.velocity_gradient[c][k] = l[c];
+                grad[c][j] = l[c];
             }
         }
-        let (old_x, old_y) = (p.vx[k], p.vy[k]);
-        let half_m = 0.5 * p.mass[k];
+        let (old_x, old_y) = (vel_x[j], vel_y[j]);
+        let half_m = 0.5 * input.mass[k];
         kinetic.before += half_m * (old_x * old_x + old_y * old_y);
         kinetic.projected += half_m * (rx * rx + ry * ry);
         kinetic.updated += half_m * (vx * vx + vy * vy);
@@ -590,14 +695,13 @@ fn g2p_columns<const S: usize>(
                 flip * (old_y + dvy) + (1.0 - flip) * vy,
             ),
         };
-        p.vx[k] = new_x;
-        p.vy[k] = new_y;
+        vel_x[j] = new_x;
+        vel_y[j] = new_y;
         if apic {
             let b = if linear_apic { lw } else { b };
-            p.affine_xx[k] = b[0];
-            p.affine_xy[k] = b[1];
-            p.affine_yx[k] = b[2];
-            p.affine_yy[k] = b[3];
+            for c in 0..4 {
+                affine[c][j] = b[c];
+            }
         }
         let (ux, uy) = match transfer {
             Transfer::Xpic { .. } => (rx + 0.5 * (new_x - old_x), ry + 0.5 * (new_y - old_y)),
@@ -605,10 +709,10 @@ fn g2p_columns<const S: usize>(
             _ if trapezoidal => (0.5 * (old_x + vx), 0.5 * (old_y + vy)),
             _ => (vx, vy),
         };
-        scratch.displacement.x[k] = dt * ux;
-        scratch.displacement.y[k] = dt * uy;
+        disp_x[j] = dt * ux;
+        disp_y[j] = dt * uy;
     }
-    scratch.kinetic = kinetic;
+    kinetic
 }
 
 /// Work arrays of [`extend_to_inactive_nodes`], kept between calls so that it allocates

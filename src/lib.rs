@@ -119,6 +119,7 @@ pub mod kernels;
 pub mod mass;
 pub mod material;
 pub mod operators;
+pub mod parallel;
 pub mod particles;
 pub mod run;
 pub mod scene;

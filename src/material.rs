@@ -235,7 +235,7 @@ pub(crate) enum Prepared {
 
 impl Prepared {
     /// `(σ, strain energy, C11)` after the update ([`Material::update_with_modulus`]).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn update_with_modulus(
         &self,
         sigma: [f64; 3],

@@ -46,6 +46,7 @@ use nalgebra_sparse::CscMatrix;
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
+use crate::parallel::{Strided, Workers};
 use crate::particles::Particles;
 use crate::shape::{AxisFrame, ShapeFunction};
 
@@ -115,6 +116,10 @@ pub struct Operators {
     span: std::ops::Range<usize>,
     /// The CSC arrays, built from the factors on first use after an assembly.
     csc: OnceLock<Csc>,
+    /// Per block of particles, whether all were accepted and their lowest and highest first
+    /// nodes (work arrays of the assembly).
+    block_flags: Vec<bool>,
+    block_spans: Vec<(usize, usize)>,
 }
 
 /// The compressed sparse column arrays of N, Gx, Gy (shared pattern).
@@ -264,14 +269,37 @@ impl Operators {
     /// # Panics
     /// If `x` and `y` differ in length.
     pub fn reassemble(&mut self, grid: &Grid, shape: ShapeFunction, x: &[f64], y: &[f64]) -> Result<()> {
+        self.reassemble_with(grid, shape, x, y, &Workers::default())
+    }
+
+    /// [`Operators::reassemble`] on `workers`' threads (the result does not depend on them).
+    ///
+    /// # Errors
+    /// As [`Operators::reassemble`].
+    ///
+    /// # Panics
+    /// If `x` and `y` differ in length.
+    pub fn reassemble_with(
+        &mut self,
+        grid: &Grid,
+        shape: ShapeFunction,
+        x: &[f64],
+        y: &[f64],
+        workers: &Workers,
+    ) -> Result<()> {
         assert_eq!(x.len(), y.len(), "x and y must have one entry per particle");
         shape.validate()?;
         let (fx, fy) = (shape.axis_frame(grid, 0), shape.axis_frame(grid, 1));
-        // One branch-free pass (it vectorises); the offender is looked for only on failure.
-        let all_accepted = x
-            .iter()
-            .zip(y)
-            .fold(true, |ok, (&xp, &yp)| ok & fx.accepts(xp) & fy.accepts(yp));
+        // Branch-free passes (they vectorise); the offender is looked for only on failure.
+        let mut accepted = std::mem::take(&mut self.block_flags);
+        workers.blocks(x.len(), &mut accepted, |range| {
+            x[range.clone()]
+                .iter()
+                .zip(&y[range])
+                .fold(true, |ok, (&xp, &yp)| ok & fx.accepts(xp) & fy.accepts(yp))
+        });
+        let all_accepted = accepted.iter().all(|&a| a);
+        self.block_flags = accepted;
         if !all_accepted {
             let p = (0..x.len())
                 .find(|&p| !(fx.accepts(x[p]) && fy.accepts(y[p])))
@@ -300,42 +328,86 @@ impl Operators {
         self.factors.resize(num_particles * 4 * support, 0.0);
         // A fixed stencil size per call lets the compiler unroll the loops.
         match support {
-            2 => self.fill_factors::<2>((fx, fy), x, y),
-            3 => self.fill_factors::<3>((fx, fy), x, y),
-            4 => self.fill_factors::<4>((fx, fy), x, y),
+            2 => self.fill_factors::<2>((fx, fy), x, y, workers),
+            3 => self.fill_factors::<3>((fx, fy), x, y, workers),
+            4 => self.fill_factors::<4>((fx, fy), x, y, workers),
             other => unreachable!("no kernel has a support of {other} nodes"),
         }
         Ok(())
     }
 
     /// Writes every particle's first node and factors; every particle must have been accepted.
-    fn fill_factors<const S: usize>(&mut self, (fx, fy): (AxisFrame, AxisFrame), x: &[f64], y: &[f64]) {
+    fn fill_factors<const S: usize>(
+        &mut self,
+        (fx, fy): (AxisFrame, AxisFrame),
+        x: &[f64],
+        y: &[f64],
+        workers: &Workers,
+    ) {
         let [sx, sy] = self.strides;
         let accepted = "position checked against the allowed region above";
-        let (mut lo, mut hi) = (usize::MAX, 0);
-        for (p, (first, f)) in self
-            .first
-            .iter_mut()
-            .zip(self.factors.chunks_exact_mut(4 * S))
-            .enumerate()
-        {
-            let wx = fx.weights(fx.accept(x[p]).expect(accepted));
-            let wy = fy.weights(fy.accept(y[p]).expect(accepted));
-            let node = wx.first * sx + wy.first * sy;
-            lo = lo.min(node);
-            hi = hi.max(node);
-            *first = [wx.first as u32, wy.first as u32];
-            f[..S].copy_from_slice(&wx.value[..S]);
-            f[S..2 * S].copy_from_slice(&wx.derivative[..S]);
-            f[2 * S..3 * S].copy_from_slice(&wy.value[..S]);
-            f[3 * S..].copy_from_slice(&wy.derivative[..S]);
-        }
+        let mut spans = std::mem::take(&mut self.block_spans);
+        let out = (&mut self.first[..], Strided(&mut self.factors[..], 4 * S));
+        workers.split_blocks(out, &mut spans, |start, (firsts, Strided(factors, _))| {
+            let (mut lo, mut hi) = (usize::MAX, 0);
+            for (j, (first, f)) in firsts.iter_mut().zip(factors.chunks_exact_mut(4 * S)).enumerate() {
+                let p = start + j;
+                let wx = fx.weights(fx.accept(x[p]).expect(accepted));
+                let wy = fy.weights(fy.accept(y[p]).expect(accepted));
+                let node = wx.first * sx + wy.first * sy;
+                lo = lo.min(node);
+                hi = hi.max(node);
+                *first = [wx.first as u32, wy.first as u32];
+                f[..S].copy_from_slice(&wx.value[..S]);
+                f[S..2 * S].copy_from_slice(&wx.derivative[..S]);
+                f[2 * S..3 * S].copy_from_slice(&wy.value[..S]);
+                f[3 * S..].copy_from_slice(&wy.derivative[..S]);
+            }
+            (lo, hi)
+        });
+        let (lo, hi) = spans
+            .iter()
+            .fold((usize::MAX, 0), |(lo, hi), &(l, h)| (lo.min(l), hi.max(h)));
+        self.block_spans = spans;
         // The last node of a stencil is (S − 1)(sx + sy) after its first.
         self.span = if x.is_empty() {
             0..0
         } else {
             lo..hi + (S - 1) * (sx + sy) + 1
         };
+    }
+
+    /// Nodes per grid line, a line being the nodes that share the index along the axis with
+    /// the larger node stride (for x-fastest numbering, a row of constant `j`): the runs of a
+    /// [`Stencil`] lie within lines, one run per line.
+    pub fn line_length(&self) -> usize {
+        let [sx, sy] = self.strides;
+        sx.max(sy).max(1)
+    }
+
+    /// The lines (see [`Operators::line_length`]) any particle's support touches.
+    pub fn line_span(&self) -> std::ops::Range<usize> {
+        let len = self.line_length();
+        if self.span.is_empty() {
+            0..0
+        } else {
+            self.span.start / len..(self.span.end - 1) / len + 1
+        }
+    }
+
+    /// The first line of particle `p`'s stencil; its runs lie on this line and the next
+    /// `support − 1`.
+    ///
+    /// # Panics
+    /// If `p >= num_particles()`.
+    #[inline(always)]
+    pub fn first_line(&self, p: usize) -> usize {
+        let [i0, j0] = self.first[p];
+        if self.strides[0] == 1 {
+            j0 as usize
+        } else {
+            i0 as usize
+        }
     }
 
     /// The node numbers from the lowest to one past the highest node in any particle's support:

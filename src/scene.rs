@@ -428,6 +428,7 @@ impl Scene {
                 .time
                 .stability_interval
                 .unwrap_or(crate::simulation::DEFAULT_STABILITY_INTERVAL),
+            threads: 1,
         }
     }
 

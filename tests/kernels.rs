@@ -6,6 +6,7 @@ mod common;
 
 use sparse_mpm::kernels::{self, ApicInertia, G2pRule, GridField, GridState, ParticleScratch, Stress};
 use sparse_mpm::mass::lumped_mass;
+use sparse_mpm::parallel::Workers;
 use sparse_mpm::simulation::Transfer;
 use sparse_mpm::step::PositionUpdate;
 use sparse_mpm::transfer::{external_force, internal_force, interpolate, momentum, velocity_gradient, VectorField};
@@ -100,7 +101,15 @@ fn p2g_equals_the_single_products_for_every_shape_function_with_and_without_apic
         };
         for apic in [None, Some(ApicInertia::of(shape, &grid))] {
             let mut state = GridState::new(&grid);
-            kernels::p2g(&ops, &p, apic, gravity, Stress::Include, &mut state);
+            kernels::p2g(
+                &ops,
+                &p,
+                apic,
+                gravity,
+                Stress::Include,
+                &mut state,
+                &Workers::default(),
+            );
             close(&state.mass, &m_l, "m_L");
             let expected_q = match apic {
                 None => q.clone(),
@@ -108,7 +117,7 @@ fn p2g_equals_the_single_products_for_every_shape_function_with_and_without_apic
             };
             close_field(&state.momentum, &expected_q, &format!("{} q", shape.name()));
             close_field(&state.force, &with_gravity(&f_ext.add_scaled(1.0, &f_int)), "f");
-            kernels::p2g(&ops, &p, apic, gravity, Stress::Omit, &mut state);
+            kernels::p2g(&ops, &p, apic, gravity, Stress::Omit, &mut state, &Workers::default());
             close_field(&state.force, &with_gravity(&f_ext), "f without stress");
             // USF adds the internal force afterwards.
             kernels::add_internal_force(&ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut state.force);
@@ -118,7 +127,7 @@ fn p2g_equals_the_single_products_for_every_shape_function_with_and_without_apic
                 "f after USF",
             );
             // MUSL's re-projection is the momentum again.
-            kernels::reproject_momentum(&ops, &p, apic, &mut state);
+            kernels::reproject_momentum(&ops, &p, apic, &mut state, &Workers::default());
             close_field(&state.momentum, &expected_q, "q'");
         }
     }
@@ -170,7 +179,7 @@ fn g2p_equals_the_single_products_for_every_transfer_position_rule_and_update_sc
                         inertia: ApicInertia::of(shape, &grid),
                         gradient,
                     };
-                    kernels::g2p(&ops, &state, &rule, dt, &mut p, &mut scratch);
+                    kernels::g2p(&ops, &state, &rule, dt, &mut p, &mut scratch, &Workers::default());
                     let what = format!("{} {transfer:?} {position:?} {gradient:?}", shape.name());
                     let expected: (Vec<f64>, Vec<f64>) = (0..p.len())
                         .map(|k| {
@@ -249,7 +258,7 @@ fn the_velocity_gradient_kernel_equals_the_single_products() {
         let (grid, ops, _) = setup(shape, 51 + s as u64);
         let state = random_grid(&grid, 3);
         let mut l = [Vec::new(), Vec::new(), Vec::new(), Vec::new()];
-        kernels::velocity_gradient_into(&ops, &state.updated, &mut l);
+        kernels::velocity_gradient_into(&ops, &state.updated, &mut l, &Workers::default());
         let want = velocity_gradient(&ops, &state.updated);
         for (c, w) in [&want.xx, &want.xy, &want.yx, &want.yy].into_iter().enumerate() {
             close(&l[c], w, &format!("{} L[{c}]", shape.name()));

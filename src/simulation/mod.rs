@@ -59,6 +59,7 @@ use crate::kernels::{
 use crate::mass::{mark_active, GridMass, MassScheme, Role, SolveOutcome, SolveReport};
 use crate::material::Prepared;
 use crate::operators::Operators;
+use crate::parallel::Workers;
 use crate::particles::Particles;
 use crate::transfer::{deformation_increment, VectorField};
 
@@ -68,6 +69,17 @@ struct Scratch {
     extension: ExtensionScratch,
     series: SeriesScratch,
     sorting: Sorting,
+    stress_blocks: Vec<StressBlock>,
+    report_blocks: Vec<report::Sums>,
+}
+
+/// What one block of particles of the stress update returns: its strain energy, the largest
+/// `C11 V / m`, and the first inverted particle (index, `det(I + Δt L)`, `det F`).
+#[derive(Debug, Clone, Copy, Default)]
+struct StressBlock {
+    energy: f64,
+    wave_squared: f64,
+    inverted: Option<(usize, f64, f64)>,
 }
 
 /// The counting sort's arrays.
@@ -112,6 +124,8 @@ pub struct Simulation {
     speeds: stability::Speeds,
     /// Each body's material constants, computed once.
     materials: Vec<Prepared>,
+    /// The worker threads ([`Options::threads`]).
+    workers: Workers,
 }
 
 impl Simulation {
@@ -139,6 +153,7 @@ impl Simulation {
             });
         }
         let prescribed = boundary::resolve(&grid, options.shape, &options.boundaries)?;
+        let workers = Workers::new(options.threads)?;
         // Reference density of each body: the largest m / V₀ among its particles.
         let mut density = vec![0.0f64; bodies.len()];
         for p in 0..particles.len() {
@@ -193,6 +208,7 @@ impl Simulation {
             profile: None,
             speeds: stability::Speeds::default(),
             materials: Vec::new(),
+            workers,
         };
         sim.materials = sim.bodies.iter().map(|b| b.material.prepared()).collect();
         sim.speeds = sim.measure_speeds();
@@ -328,7 +344,15 @@ impl Simulation {
         };
         let apic = self.apic();
         self.timed(Phase::P2g, |s| {
-            kernels::p2g(&s.ops, &s.particles, apic, s.options.gravity, stress, &mut s.nodes)
+            kernels::p2g(
+                &s.ops,
+                &s.particles,
+                apic,
+                s.options.gravity,
+                stress,
+                &mut s.nodes,
+                &s.workers,
+            )
         }); // (2)–(5)
         self.timed(Phase::Mass, Self::prepare_mass)?;
         let due = match self.stability {
@@ -404,13 +428,14 @@ impl Simulation {
             dt,
             &mut self.particles,
             &mut self.particle_scratch,
+            &self.workers,
         );
     }
 
     /// MUSL: (11) `q' = N (m ∘ v_p)` (APIC term included), `v' = Π M_v⁻¹ q'`,
     /// `L = [Gxᵀ v', Gyᵀ v']`, then (12)–(13).
     fn update_stress_reprojected(&mut self, dt: f64) -> Result<()> {
-        kernels::reproject_momentum(&self.ops, &self.particles, self.apic(), &mut self.nodes);
+        kernels::reproject_momentum(&self.ops, &self.particles, self.apic(), &mut self.nodes, &self.workers);
         self.project_velocity()?;
         let field = self.stress_velocity(GridField::Projected);
         self.gradient_of(field);
@@ -608,7 +633,12 @@ impl Simulation {
     fn gradient_of(&mut self, field: GridField) {
         self.extend_to_inactive_nodes(field);
         let u = self.nodes.field(field);
-        kernels::velocity_gradient_into(&self.ops, u, &mut self.particle_scratch.velocity_gradient);
+        kernels::velocity_gradient_into(
+            &self.ops,
+            u,
+            &mut self.particle_scratch.velocity_gradient,
+            &self.workers,
+        );
     }
 
     /// (9) `x_p ← x_p + Δx_p` with the increments of the grid-to-particle pass.
@@ -622,44 +652,61 @@ impl Simulation {
 
     /// (12) `F ← (I + Δt L) F`, `σ ← material(σ, L, F)`; (13) `V ← V det(I + Δt L)`.
     fn update_stress(&mut self, dt: f64) -> Result<()> {
-        let (p, l) = (&mut self.particles, &self.particle_scratch.velocity_gradient);
-        let materials = &self.materials;
+        let p = &mut self.particles;
+        let l = &self.particle_scratch.velocity_gradient;
+        let (materials, body, mass) = (&self.materials, &p.body, &p.mass);
+        let out = (
+            [&mut p.fxx[..], &mut p.fxy[..], &mut p.fyx[..], &mut p.fyy[..]],
+            ([&mut p.sxx[..], &mut p.syy[..], &mut p.sxy[..]], &mut p.volume[..]),
+        );
+        let mut blocks = std::mem::take(&mut self.scratch.stress_blocks);
+        self.workers.split_blocks(out, &mut blocks, |first, out| {
+            let ([fxx, fxy, fyx, fyy], ([sxx, syy, sxy], volumes)) = out;
+            let mut block = StressBlock::default();
+            for j in 0..fxx.len() {
+                let k = first + j;
+                let l = [l[0][k], l[1][k], l[2][k], l[3][k]];
+                let (g, j_inc) = deformation_increment(l, dt);
+                let f = [
+                    g[0] * fxx[j] + g[1] * fyx[j],
+                    g[0] * fxy[j] + g[1] * fyy[j],
+                    g[2] * fxx[j] + g[3] * fyx[j],
+                    g[2] * fxy[j] + g[3] * fyy[j],
+                ];
+                let det_f = f[0] * f[3] - f[1] * f[2];
+                if !(j_inc > 0.0 && det_f > 0.0 && det_f.is_finite()) {
+                    block.inverted = Some((k, j_inc, det_f));
+                    return block;
+                }
+                let volume = volumes[j] * j_inc;
+                let (s, e, c11) = materials[body[k]].update_with_modulus([sxx[j], syy[j], sxy[j]], l, f, dt, volume);
+                block.energy += e;
+                block.wave_squared = block.wave_squared.max(c11 * volume / mass[k]);
+                [fxx[j], fxy[j], fyx[j], fyy[j]] = f;
+                volumes[j] = volume;
+                [sxx[j], syy[j], sxy[j]] = s;
+            }
+            block
+        });
         let mut energy = 0.0;
         // max √x = √(max x): one square root instead of one per particle.
         let mut wave_squared = 0.0f64;
-        for k in 0..p.len() {
-            let l = [l[0][k], l[1][k], l[2][k], l[3][k]];
-            let (g, j_inc) = deformation_increment(l, dt);
-            let f = [
-                g[0] * p.fxx[k] + g[1] * p.fyx[k],
-                g[0] * p.fxy[k] + g[1] * p.fyy[k],
-                g[2] * p.fxx[k] + g[3] * p.fyx[k],
-                g[2] * p.fxy[k] + g[3] * p.fyy[k],
-            ];
-            let j = f[0] * f[3] - f[1] * f[2];
-            if !(j_inc > 0.0 && j > 0.0 && j.is_finite()) {
-                return Err(MpmError::InvertedParticle {
-                    step: self.steps,
-                    particle: k,
-                    id: p.id[k],
-                    body: self.bodies[p.body[k]].name.clone(),
-                    det_increment: j_inc,
-                    det_f: j,
-                });
-            }
-            let volume = p.volume[k] * j_inc;
-            let (s, e, c11) =
-                materials[p.body[k]].update_with_modulus([p.sxx[k], p.syy[k], p.sxy[k]], l, f, dt, volume);
-            energy += e;
-            wave_squared = wave_squared.max(c11 * volume / p.mass[k]);
-            p.fxx[k] = f[0];
-            p.fxy[k] = f[1];
-            p.fyx[k] = f[2];
-            p.fyy[k] = f[3];
-            p.volume[k] = volume;
-            p.sxx[k] = s[0];
-            p.syy[k] = s[1];
-            p.sxy[k] = s[2];
+        let mut inverted = None;
+        for b in &blocks {
+            energy += b.energy;
+            wave_squared = wave_squared.max(b.wave_squared);
+            inverted = inverted.or(b.inverted);
+        }
+        self.scratch.stress_blocks = blocks;
+        if let Some((k, det_increment, det_f)) = inverted {
+            return Err(MpmError::InvertedParticle {
+                step: self.steps,
+                particle: k,
+                id: p.id[k],
+                body: self.bodies[p.body[k]].name.clone(),
+                det_increment,
+                det_f,
+            });
         }
         self.strain_energy = energy;
         self.speeds.wave = stability::wave_speed(wave_squared, 1.0, 1.0);

@@ -66,6 +66,9 @@ pub struct Options {
     /// Re-estimate the stable time step every this many steps (it is always estimated before
     /// the first step; 0: never again). See [`Simulation::stable_time_step`](super::Simulation::stable_time_step).
     pub stability_interval: usize,
+    /// Worker threads (1: serial). Results do not depend on it, to the last bit
+    /// ([`crate::parallel`]).
+    pub threads: usize,
 }
 
 impl Default for Options {
@@ -82,6 +85,7 @@ impl Default for Options {
             boundaries: Vec::new(),
             sort_interval: 50,
             stability_interval: DEFAULT_STABILITY_INTERVAL,
+            threads: 1,
         }
     }
 }
@@ -142,6 +146,12 @@ impl Options {
                     ),
                 });
             }
+        }
+        if self.threads == 0 {
+            return Err(MpmError::InvalidOption {
+                option: "threads",
+                reason: "at least one thread is needed (1 runs serially)".into(),
+            });
         }
         if !self.gravity.iter().all(|g| g.is_finite()) {
             return Err(MpmError::InvalidOption {

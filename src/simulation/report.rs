@@ -127,46 +127,87 @@ impl StepReport {
     }
 }
 
+/// Sums over one block of particles for the report.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Sums {
+    kinetic: f64,
+    potential: f64,
+    angular: f64,
+    mass: f64,
+    max_speed: f64,
+    momentum: [f64; 2],
+    /// The first particle with a non-finite velocity.
+    non_finite: Option<usize>,
+}
+
 impl Simulation {
     /// The report of the step just taken: energies, momenta and mass summed over the particles and
     /// the grid, after checking every particle velocity is finite.
     pub(super) fn report(
-        &self,
+        &mut self,
         dt: f64,
         stable_time_step: f64,
         velocity_solve: SolveReport,
         acceleration_solve: SolveReport,
     ) -> Result<StepReport> {
+        let mut blocks = std::mem::take(&mut self.scratch.report_blocks);
         let (p, g, kinetic) = (&self.particles, &self.nodes, &self.particle_scratch.kinetic);
         let [gx, gy] = self.options.gravity;
         let strain = self.strain_energy;
-        let (mut ke, mut potential, mut ang, mut mass, mut max_speed) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
-        let (mut px, mut py) = (0.0, 0.0);
-        for k in 0..p.len() {
-            let m = p.mass[k];
-            let (vx, vy) = (p.vx[k], p.vy[k]);
-            let speed = (vx * vx + vy * vy).sqrt();
-            if !speed.is_finite() {
-                return Err(MpmError::NonFinite {
-                    step: self.steps,
-                    stage: "particle velocity",
-                    particle: k,
-                    id: p.id[k],
-                    value: [vx, vy],
-                });
+        // Sums in fixed blocks of particles, so that they do not depend on the threads.
+        self.workers.blocks(p.len(), &mut blocks, |range| {
+            let mut s = Sums::default();
+            for k in range {
+                let m = p.mass[k];
+                let (vx, vy) = (p.vx[k], p.vy[k]);
+                let speed = (vx * vx + vy * vy).sqrt();
+                if !speed.is_finite() {
+                    s.non_finite.get_or_insert(k);
+                    continue;
+                }
+                s.max_speed = s.max_speed.max(speed);
+                s.mass += m;
+                s.kinetic += 0.5 * m * (vx * vx + vy * vy);
+                s.momentum[0] += m * vx;
+                s.momentum[1] += m * vy;
+                s.angular += m * (p.x[k] * vy - p.y[k] * vx);
+                s.potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
             }
-            max_speed = max_speed.max(speed);
-            mass += m;
-            ke += 0.5 * m * (vx * vx + vy * vy);
-            px += m * vx;
-            py += m * vy;
-            ang += m * (p.x[k] * vy - p.y[k] * vx);
-            potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
+            s
+        });
+        let mut t = Sums::default();
+        for b in &blocks {
+            t.non_finite = t.non_finite.or(b.non_finite);
+            t.max_speed = t.max_speed.max(b.max_speed);
+            t.mass += b.mass;
+            t.kinetic += b.kinetic;
+            t.momentum[0] += b.momentum[0];
+            t.momentum[1] += b.momentum[1];
+            t.angular += b.angular;
+            t.potential += b.potential;
         }
+        if let Some(k) = t.non_finite {
+            return Err(MpmError::NonFinite {
+                step: self.steps,
+                stage: "particle velocity",
+                particle: k,
+                id: p.id[k],
+                value: [p.vx[k], p.vy[k]],
+            });
+        }
+        let Sums {
+            kinetic: ke,
+            potential,
+            angular: ang,
+            mass,
+            max_speed,
+            momentum: [px, py],
+            ..
+        } = t;
         let ke_l: f64 = (0..g.mass.len())
             .map(|i| 0.5 * g.mass[i] * (g.updated.x[i].powi(2) + g.updated.y[i].powi(2)))
             .sum();
-        Ok(StepReport {
+        let report = StepReport {
             step: self.steps,
             time: self.time,
             dt,
@@ -186,6 +227,8 @@ impl Simulation {
             max_speed,
             velocity_solve,
             acceleration_solve,
-        })
+        };
+        self.scratch.report_blocks = blocks;
+        Ok(report)
     }
 }
