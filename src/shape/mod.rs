@@ -335,7 +335,7 @@ impl AxisFrame {
     }
 
     /// The weights at an accepted, clamped cell coordinate `s` (from [`AxisFrame::accept`]).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn weights(&self, s: f64) -> AxisWeights {
         let (cells, inv_h) = (self.cells, self.inv_h);
         // `s ∈ [margin, cells − margin]`, and `cells ≥ min_cells()`, so every `first` below

@@ -334,8 +334,8 @@ impl Simulation {
             self.timed(Phase::Sort, Self::sort_particles);
         }
         self.timed(Phase::Assemble, |s| {
-            s.ops
-                .reassemble(&s.grid, s.options.shape, &s.particles.x, &s.particles.y)
+            let p = &s.particles;
+            s.ops.reassemble_with(&s.grid, s.options.shape, &p.x, &p.y, &s.workers)
         })?; // (1)
         let stress = if self.options.update == UpdateScheme::Usf {
             Stress::Omit
