@@ -416,6 +416,11 @@ impl Operators {
         self.span.clone()
     }
 
+    /// Node-number strides along x and y.
+    pub(crate) fn strides(&self) -> [usize; 2] {
+        self.strides
+    }
+
     /// Nodes per axis in each particle's support (2 linear, 3 uGIMP and quadratic, 4 cubic; 0
     /// before the first assembly).
     pub fn support(&self) -> usize {

@@ -140,6 +140,15 @@ fn parse(args: &[String]) -> Result<Args, String> {
                     .filter(|t| *t >= 1)
                     .ok_or_else(|| format!("--threads {v}: expected a whole number of at least 1"))?;
             }
+            "--dt" => {
+                let v = value("--dt")?;
+                a.bench.dt = Some(
+                    v.parse()
+                        .ok()
+                        .filter(|d: &f64| d.is_finite() && *d > 0.0)
+                        .ok_or_else(|| format!("--dt {v}: expected a positive number"))?,
+                );
+            }
             "--reps" => {
                 let v = value("--reps")?;
                 a.bench.reps = v
@@ -387,14 +396,15 @@ fn bench(args: &Args) -> Result<(), String> {
         spec.update,
         spec.threads
     );
-    println!("particles,n_grid,steps,reps,setup_s,min_psps,median_psps,max_psps,peak_bytes_per_particle");
+    println!("particles,n_grid,steps,dt,reps,setup_s,min_psps,median_psps,max_psps,peak_bytes_per_particle");
     let rows = sparse_mpm::bench::run(&spec, |row| {
         let [min, med, max] = row.rate_summary();
         println!(
-            "{},{},{},{},{:.3},{min:.4e},{med:.4e},{max:.4e},{}",
+            "{},{},{},{:.4e},{},{:.3},{min:.4e},{med:.4e},{max:.4e},{}",
             row.particles,
             row.n_grid,
             row.steps,
+            row.dt,
             row.seconds.len(),
             row.setup_seconds,
             row.peak_bytes_per_particle.map_or("".into(), |b| format!("{b:.0}"))

@@ -71,8 +71,8 @@ impl LinOp<f64> for Diagonal {
 
 impl Precond<f64> for Diagonal {}
 
-/// Solves `A x = b` from the initial guess `x0` with the preconditioner `diag(d)⁻¹`, to a
-/// relative residual `tolerance`. Returns the solution and the iteration count, or the reason
+/// Solves `A x = b` from the initial guess `x0` with the preconditioner `diag(d)⁻¹`, to the
+/// residual `‖b − A x‖ ≤ tolerance · max(scale, ‖b‖)`. Returns the solution and the iteration count, or the reason
 /// for failure.
 pub(crate) fn solve(
     apply: impl Fn(&[f64]) -> Vec<f64> + Sync,
@@ -80,6 +80,7 @@ pub(crate) fn solve(
     b: &[f64],
     x0: Vec<f64>,
     tolerance: f64,
+    scale: f64,
     max_iterations: usize,
 ) -> Result<(Vec<f64>, usize), String> {
     let n = b.len();
@@ -93,7 +94,7 @@ pub(crate) fn solve(
     let params = CgParams {
         // faer 0.24 reads uninitialised scratch with `Zero`: always pass MaybeNonZero.
         initial_guess: InitialGuessStatus::MaybeNonZero,
-        abs_tolerance: 0.0,
+        abs_tolerance: tolerance * scale,
         rel_tolerance: tolerance,
         max_iters: max_iterations,
         ..Default::default()

@@ -29,6 +29,7 @@ mod diagnostics;
 mod options;
 mod schemes;
 pub mod stabilization;
+mod stencil;
 
 pub(crate) use cholesky::SparseCholesky;
 pub use diagnostics::{solve_condition_number, MassDiagnostics, TINY_MASS_FRACTION};
@@ -36,6 +37,7 @@ pub use options::{Constraints, MassOptions, MassScheme, SingularityPolicy, Solve
 pub(crate) use schemes::spmv;
 pub use schemes::{GridMass, Role};
 pub use stabilization::Stabilization;
+pub use stencil::StencilMass;
 
 /// Default relative mass below which a node is inactive: `m_L,I ≤ 1e-12 · max m_L`. A node
 /// that light carries less than a trillionth of the heaviest node's mass; its velocity is set

@@ -28,9 +28,13 @@ pub enum MassScheme {
         k: usize,
     },
     /// Conjugate gradient on `M u = r` preconditioned by the lumped mass, started from the
-    /// lumped solution.
+    /// previous step's solution (the lumped solution on nodes that were not free then). With
+    /// no or partial-lumping stabilisation it runs on `M` in stencil form
+    /// ([`super::StencilMass`]), without assembling the compressed-column matrix.
     Iterative {
-        /// Relative residual `‖M u − r‖ / ‖r‖` at which to stop.
+        /// Relative residual at which to stop: each component's `‖M u − r‖` at most
+        /// `tolerance · ‖r‖`, with `‖r‖` the norm of the whole vector right-hand side (both
+        /// components), so that the criterion does not depend on the orientation of the axes.
         tolerance: f64,
         /// Iteration limit; reaching it is a failure handled by the [`SingularityPolicy`].
         max_iterations: usize,

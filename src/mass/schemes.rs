@@ -16,6 +16,8 @@
 use nalgebra_sparse::CscMatrix;
 
 use super::options::{Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome, SolveReport};
+use super::stabilization::Stabilization;
+use super::stencil::{CgWork, StencilMass};
 use super::{consistent_mass, local_index, lumped_mass, mark_active, singular_error, SparseCholesky};
 
 use crate::error::{MpmError, Result};
@@ -67,11 +69,22 @@ pub struct GridMass {
     pub lumped: Vec<f64>,
     /// Active nodes (ascending).
     pub active: Vec<usize>,
-    /// The consistent mass matrix `M = N diag(m) Nᵀ`, when a scheme needs it.
+    /// The consistent mass matrix `M = N diag(m) Nᵀ` in compressed-column form, when a
+    /// factorized scheme (consistent, blended) or the ghost penalty needs it. The conjugate
+    /// gradient and the truncated series apply `M` in stencil form instead
+    /// ([`GridMass::stencil`]); [`GridMass::consistent_matrix`] gives `M` in either case.
     pub matrix: Option<CscMatrix<f64>>,
     /// The stabilised consistent mass the factorized and iterative schemes solve with, when
-    /// [`MassOptions::stabilization`] is not [`Stabilization::None`](super::Stabilization::None).
+    /// [`MassOptions::stabilization`] is not [`Stabilization::None`](super::Stabilization::None)
+    /// and `matrix` is assembled.
     pub stabilized: Option<CscMatrix<f64>>,
+    /// `M` in stencil form, when only the conjugate gradient and the series need it.
+    stencil: Option<StencilMass>,
+    /// The partially lumped `M` in stencil form, for the conjugate gradient.
+    stencil_stabilized: Option<StencilMass>,
+    /// The conjugate gradient's last solution per (role, component) over all nodes (NaN where
+    /// a node was not free): the next solve starts from it.
+    cg: std::sync::Mutex<CgState>,
     options: Option<MassOptions>,
     is_active: Vec<bool>,
     dofs_x: Dofs,
@@ -167,16 +180,68 @@ impl GridMass {
         let needs_matrix = options.velocity.needs_consistent_matrix()
             || options.acceleration.needs_consistent_matrix()
             || options.singularity != SingularityPolicy::Error;
-        self.matrix = needs_matrix.then(|| consistent_mass(ops, m));
-        self.stabilized = match &self.matrix {
-            Some(matrix) => options.stabilization.apply(ops, matrix, &self.lumped, &self.is_active),
-            None => None,
+        let factorized = |s: MassScheme| match s {
+            MassScheme::Consistent => true,
+            MassScheme::Blended { gamma } => gamma > 0.0,
+            _ => false,
         };
+        let stencil_form = needs_matrix
+            && !factorized(options.velocity)
+            && !factorized(options.acceleration)
+            && options.singularity == SingularityPolicy::Error
+            && matches!(
+                options.stabilization,
+                Stabilization::None | Stabilization::PartialLumping { .. }
+            );
+        if stencil_form {
+            self.matrix = None;
+            self.stabilized = None;
+            let mut stencil = self.stencil.take().unwrap_or_default();
+            stencil.reassemble(ops, m);
+            let iterative = |s: MassScheme| matches!(s, MassScheme::Iterative { .. });
+            self.stencil_stabilized = match options.stabilization {
+                Stabilization::PartialLumping { threshold }
+                    if iterative(options.velocity) || iterative(options.acceleration) =>
+                {
+                    let mut lumped = self.stencil_stabilized.take().unwrap_or_default();
+                    lumped.clone_from(&stencil);
+                    lumped.partially_lump(&self.lumped, threshold);
+                    Some(lumped)
+                }
+                _ => None,
+            };
+            self.stencil = Some(stencil);
+        } else {
+            self.stencil = None;
+            self.stencil_stabilized = None;
+            self.matrix = needs_matrix.then(|| consistent_mass(ops, m));
+            self.stabilized = match &self.matrix {
+                Some(matrix) => options.stabilization.apply(ops, matrix, &self.lumped, &self.is_active),
+                None => None,
+            };
+        }
         self.prepare(Role::Velocity, ops)?;
         if !self.shares_solver() {
             self.prepare(Role::Acceleration, ops)?;
         }
         Ok(())
+    }
+
+    /// The plain consistent mass `M = N diag(m) Nᵀ` in compressed-column form, from whichever
+    /// form was assembled (built on each call from the stencil form); `None` when no scheme
+    /// needed it.
+    pub fn consistent_matrix(&self) -> Option<std::borrow::Cow<'_, CscMatrix<f64>>> {
+        match (&self.matrix, &self.stencil) {
+            (Some(m), _) => Some(std::borrow::Cow::Borrowed(m)),
+            (None, Some(s)) => Some(std::borrow::Cow::Owned(s.to_csc())),
+            _ => None,
+        }
+    }
+
+    /// The consistent mass in stencil form, when the schemes in use apply it that way (the
+    /// conjugate gradient and the truncated series with no or partial-lumping stabilisation).
+    pub fn stencil(&self) -> Option<&StencilMass> {
+        self.stencil.as_ref()
     }
 
     /// The options in force.
@@ -318,6 +383,13 @@ impl GridMass {
         let mut u = VectorField::zeros(n);
         let mut iterations = 0;
         let mut residual = 0.0;
+        // The conjugate gradient's residuals are relative to the whole vector right-hand side
+        // (both components): a criterion that does not depend on the orientation of the axes,
+        // and that does not ask a component carrying only noise for digits the other has.
+        let norm_r = {
+            let sq = |v: &[f64], dofs: &Dofs| dofs.free.iter().map(|&i| v[i] * v[i]).sum::<f64>();
+            (sq(&r.x, &self.dofs_x) + sq(&r.y, &self.dofs_y)).sqrt()
+        };
         for (c, dofs) in [(0usize, &self.dofs_x), (1, &self.dofs_y)] {
             let (rc, pc) = if c == 0 { (&r.x, &u_d.x) } else { (&r.y, &u_d.y) };
             // Prescribed values on D, zero on F, for the coupling term.
@@ -332,11 +404,12 @@ impl GridMass {
                 _ => 1.0,
             };
             let mut rhs: Vec<f64> = dofs.free.iter().map(|&i| rc[i]).collect();
-            if prescribed.is_some() && coupling_gamma > 0.0 {
+            // (Prescribed zeros, such as walls at rest, couple nothing.)
+            if prescribed.is_some() && coupling_gamma > 0.0 && ud_full.iter().any(|&v| v != 0.0) {
                 let m = self
                     .solve_matrix(scheme)
                     .expect("matrix assembled when coupling is needed");
-                let mud = spmv(m, &ud_full);
+                let mud = m.mul(&ud_full);
                 for (k, &i) in dofs.free.iter().enumerate() {
                     rhs[k] -= coupling_gamma * mud[i];
                 }
@@ -371,9 +444,9 @@ impl GridMass {
                         tolerance,
                         max_iterations,
                     },
-                ) => match self.cg_solve(dofs, &rhs, tolerance, max_iterations) {
-                    Ok((x, its)) => {
-                        let res = self.relative_residual(scheme, dofs, 1.0, &x, &rhs);
+                ) => match self.cg_solve(dofs, &rhs, tolerance, max_iterations, 2 * (role as usize) + c, norm_r) {
+                    Ok((x, its, res)) => {
+                        let res = res.unwrap_or_else(|| self.relative_residual(scheme, dofs, 1.0, &x, &rhs));
                         (x, its, res)
                     }
                     Err(reason) => {
@@ -398,8 +471,8 @@ impl GridMass {
                                     epsilon,
                                 };
                                 let mut f = SparseCholesky::default();
-                                let m = self.solve_matrix(scheme).expect("assembled");
-                                f.factor(m, &self.lumped, 1.0 - epsilon, &dofs.free, &dofs.local, 0.0)
+                                let m = self.solve_matrix(scheme).expect("assembled").csc();
+                                f.factor(&m, &self.lumped, 1.0 - epsilon, &dofs.free, &dofs.local, 0.0)
                                     .map_err(|b| singular_error(dofs.free[b.local], b.pivot, ops))?;
                                 let mut sol = vec![rhs.clone()];
                                 f.solve_in_place(&mut sol);
@@ -438,11 +511,16 @@ impl GridMass {
 
     /// The matrix `scheme` solves with: the plain consistent mass for the truncated series
     /// (which is defined with it), the stabilised one otherwise.
-    fn solve_matrix(&self, scheme: MassScheme) -> Option<&CscMatrix<f64>> {
-        match scheme {
+    fn solve_matrix(&self, scheme: MassScheme) -> Option<MassOperator<'_>> {
+        let csc = match scheme {
             MassScheme::TruncatedSeries { .. } => self.matrix.as_ref(),
             _ => self.stabilized.as_ref().or(self.matrix.as_ref()),
-        }
+        };
+        let stencil = match scheme {
+            MassScheme::TruncatedSeries { .. } => self.stencil.as_ref(),
+            _ => self.stencil_stabilized.as_ref().or(self.stencil.as_ref()),
+        };
+        csc.map(MassOperator::Csc).or(stencil.map(MassOperator::Stencil))
     }
 
     /// `(γ M + (1 − γ) M_L)_FF x`, for `x` on F, with `M` the matrix of `scheme`.
@@ -453,7 +531,7 @@ impl GridMass {
             full[i] = x[k];
         }
         let mx = match (self.solve_matrix(scheme), gamma > 0.0) {
-            (Some(m), true) => spmv(m, &full),
+            (Some(m), true) => m.mul(&full),
             _ => vec![0.0; n],
         };
         dofs.free
@@ -488,30 +566,69 @@ impl GridMass {
         u
     }
 
-    /// Preconditioned conjugate gradient on `M_FF x = rhs`, started from the lumped solution.
+    /// Preconditioned conjugate gradient on `M_FF x = rhs` to `‖rhs − M_FF x‖ ≤ tolerance ·
+    /// max(norm_r, ‖rhs‖)`: on the stencil form started from the last solution of `slot` (the
+    /// lumped solution on nodes that were not free then), otherwise through faer from the
+    /// lumped solution.
     fn cg_solve(
         &self,
         dofs: &Dofs,
         rhs: &[f64],
         tolerance: f64,
         max_iterations: usize,
-    ) -> std::result::Result<(Vec<f64>, usize), String> {
-        super::cg::solve(
+        slot: usize,
+        norm_r: f64,
+    ) -> std::result::Result<(Vec<f64>, usize, Option<f64>), String> {
+        // With prescribed values the right-hand side is r − M_FD u_D: never below its own norm.
+        let own = rhs.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let scale = norm_r.max(own);
+        if let Some(MassOperator::Stencil(m)) = self.solve_matrix(MassScheme::Consistent) {
+            let mut x = self.lumped_solve(dofs, rhs);
+            let mut state = self.cg.lock().expect("no solve panics holding it");
+            let CgState { warm, work } = &mut *state;
+            let last = &mut warm[slot];
+            if last.len() == self.lumped.len() {
+                for (x, &i) in x.iter_mut().zip(&dofs.free) {
+                    if last[i].is_finite() {
+                        *x = last[i];
+                    }
+                }
+            }
+            let (its, residual) = m.pcg(
+                &dofs.free,
+                &self.lumped,
+                rhs,
+                &mut x,
+                tolerance,
+                max_iterations,
+                scale,
+                work,
+            )?;
+            last.clear();
+            last.resize(self.lumped.len(), f64::NAN);
+            for (&x, &i) in x.iter().zip(&dofs.free) {
+                last[i] = x;
+            }
+            return Ok((x, its, Some(residual)));
+        }
+        let (x, its) = super::cg::solve(
             |x| self.apply(MassScheme::Consistent, dofs, 1.0, x),
             dofs.free.iter().map(|&i| self.lumped[i]).collect(),
             rhs,
             self.lumped_solve(dofs, rhs),
             tolerance,
+            scale,
             max_iterations,
-        )
+        )?;
+        Ok((x, its, None))
     }
 
     /// Runs the Cholesky check on `M_FF` to name a singular node, if there is one.
     fn locate_singularity(&self, dofs: &Dofs) -> Option<(usize, f64)> {
-        let m = self.solve_matrix(MassScheme::Consistent)?;
+        let m = self.solve_matrix(MassScheme::Consistent)?.csc();
         let mut f = SparseCholesky::default();
         f.factor(
-            m,
+            &m,
             &self.lumped,
             1.0,
             &dofs.free,
@@ -535,4 +652,37 @@ pub(crate) fn spmv(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
         }
     }
     y
+}
+
+/// What the conjugate gradient keeps between solves.
+#[derive(Debug, Default)]
+struct CgState {
+    /// The last solution per (role, component) over all nodes (NaN where a node was not free).
+    warm: [Vec<f64>; 4],
+    work: CgWork,
+}
+
+/// The matrix a scheme solves with, in whichever form it was assembled.
+#[derive(Debug, Clone, Copy)]
+enum MassOperator<'a> {
+    Csc(&'a CscMatrix<f64>),
+    Stencil(&'a StencilMass),
+}
+
+impl<'a> MassOperator<'a> {
+    /// `y = M x` over all nodes.
+    fn mul(&self, x: &[f64]) -> Vec<f64> {
+        match self {
+            MassOperator::Csc(m) => spmv(m, x),
+            MassOperator::Stencil(m) => m.mul(x),
+        }
+    }
+
+    /// The matrix in compressed-column form.
+    fn csc(self) -> std::borrow::Cow<'a, CscMatrix<f64>> {
+        match self {
+            MassOperator::Csc(m) => std::borrow::Cow::Borrowed(m),
+            MassOperator::Stencil(m) => std::borrow::Cow::Owned(m.to_csc()),
+        }
+    }
 }

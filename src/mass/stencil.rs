@@ -1,0 +1,439 @@
+//! The consistent mass in stencil form: for each node in the operators' node span, its
+//! couplings to the `(2S − 1)²` nodes within `S − 1` grid lines of it (`S` the support per
+//! axis), assembled straight from the operators' factored columns:
+//!
+//! ```text
+//! M_IJ = Σ_p m_p N_Ip N_Jp,   N_Ip = w_x,a(p) w_y,b(p)
+//!      ⇒ M[I][(c − a, d − b)] += m_p w_x,a w_x,c · w_y,b w_y,d       (I = (i₀+a, j₀+b), J = (i₀+c, j₀+d))
+//! ```
+//!
+//! This is the same matrix as [`super::consistent_mass`] (up to the order of the sums), but it
+//! costs `S⁴` multiply-adds per particle with no index search, and a product `M x` reads one
+//! dense row of `(2S − 1)²` values per node. The conjugate-gradient and truncated-series
+//! schemes work on it; [`StencilMass::to_csc`] gives the compressed-column form.
+
+use nalgebra_sparse::{CooMatrix, CscMatrix};
+
+use crate::operators::Operators;
+use crate::with_support;
+
+/// The consistent mass (optionally partially lumped) stored per node over the node span.
+#[derive(Debug, Clone, Default)]
+pub struct StencilMass {
+    num_nodes: usize,
+    /// First node of the span and its length.
+    start: usize,
+    len: usize,
+    /// `(2S − 1)²` offsets in node numbers, `dx·sx + dy·sy`, `dx` fastest.
+    offsets: Vec<isize>,
+    /// Largest `|offset|`: the padding of work vectors.
+    pad: usize,
+    /// The upper half of the couplings (offsets `o ≥ K/2`; `M` is symmetric), one padded array
+    /// per offset: offset `o` of node `start + r` at `(o − K/2)·(len + 2 pad) + pad + r`, so that
+    /// a product runs along grid lines in SIMD lanes and reads each coupling once.
+    values: Vec<f64>,
+    /// Per node, a bit per offset: whether some particle touches both nodes (the structural
+    /// pattern of `N diag(m) Nᵀ`).
+    pattern: Vec<u64>,
+    /// Runs `[lo, hi)` of span rows (`I − start`) with at least one coupling, ascending.
+    segments: Vec<(usize, usize)>,
+}
+
+impl StencilMass {
+    /// Assembles `M = N diag(m) Nᵀ` from the operators' factored columns.
+    ///
+    /// # Panics
+    /// If `m.len()` is not the particle count.
+    pub fn assemble(ops: &Operators, m: &[f64]) -> StencilMass {
+        let mut s = StencilMass::default();
+        s.reassemble(ops, m);
+        s
+    }
+
+    /// [`StencilMass::assemble`] into the existing buffers.
+    ///
+    /// # Panics
+    /// If `m.len()` is not the particle count.
+    pub fn reassemble(&mut self, ops: &Operators, m: &[f64]) {
+        assert_eq!(m.len(), ops.num_particles(), "one mass per particle");
+        with_support!(ops, assemble_into::<S>(self, ops, m));
+        self.segments.clear();
+        let line = ops.line_length().max(1);
+        let mut r = 0;
+        while r < self.len {
+            if self.pattern[r] == 0 {
+                r += 1;
+                continue;
+            }
+            let lo = r;
+            // Runs end at a line's end, so that a gap in a line is not crossed.
+            let line_end = ((self.start + r) / line + 1) * line - self.start;
+            while r < self.len.min(line_end) && self.pattern[r] != 0 {
+                r += 1;
+            }
+            self.segments.push((lo, r));
+        }
+    }
+
+    /// Number of grid nodes (rows and columns of `M`).
+    pub fn num_nodes(&self) -> usize {
+        self.num_nodes
+    }
+
+    /// Offsets per node, `(2S − 1)²`.
+    fn width(&self) -> usize {
+        self.offsets.len()
+    }
+
+    /// Stored couplings (structural nonzeros of `M`).
+    pub fn nnz(&self) -> usize {
+        self.pattern.iter().map(|b| b.count_ones() as usize).sum()
+    }
+
+    /// Where the value of row `r` (span-local) at offset `o` is stored (the mirror entry of the
+    /// neighbour for the lower half).
+    fn slot(&self, r: usize, o: usize) -> usize {
+        let (k, plen) = (self.width(), self.len + 2 * self.pad);
+        let centre = k / 2;
+        if o >= centre {
+            (o - centre) * plen + self.pad + r
+        } else {
+            let j = (r as isize + self.offsets[o]) as usize;
+            (k - 1 - o - centre) * plen + self.pad + j
+        }
+    }
+
+    /// The stored value of row `r` (span-local) at offset `o`.
+    fn value(&self, r: usize, o: usize) -> f64 {
+        self.values[self.slot(r, o)]
+    }
+
+    /// Calls `f(i, j, M_ij)` for every structural entry.
+    fn for_each(&self, mut f: impl FnMut(usize, usize, f64)) {
+        for r in 0..self.len {
+            let bits = self.pattern[r];
+            let i = self.start + r;
+            for (o, &off) in self.offsets.iter().enumerate() {
+                if bits >> o & 1 == 1 {
+                    f(i, (i as isize + off) as usize, self.value(r, o));
+                }
+            }
+        }
+    }
+
+    /// The matrix in compressed-column form (structural entries only).
+    pub fn to_csc(&self) -> CscMatrix<f64> {
+        let n = self.num_nodes;
+        let mut coo = CooMatrix::new(n, n);
+        self.for_each(|i, j, v| coo.push(i, j, v));
+        CscMatrix::from(&coo)
+    }
+
+    /// A zero vector in the padded span layout of the work vectors.
+    fn padded(&self) -> Vec<f64> {
+        vec![0.0; self.len + 2 * self.pad]
+    }
+
+    /// `y = M x` over all nodes (`x` finite).
+    ///
+    /// # Panics
+    /// If `x` does not have one entry per node.
+    pub fn mul(&self, x: &[f64]) -> Vec<f64> {
+        assert_eq!(x.len(), self.num_nodes, "one value per node");
+        let mut padded = self.padded();
+        padded[self.pad..self.pad + self.len].copy_from_slice(&x[self.start..self.start + self.len]);
+        let mut out = self.padded();
+        let ones = vec![1.0; padded.len()];
+        self.apply_padded(&padded, &mut out, &ones);
+        let mut y = vec![0.0; self.num_nodes];
+        y[self.start..self.start + self.len].copy_from_slice(&out[self.pad..self.pad + self.len]);
+        y
+    }
+
+    /// `out = mask ∘ M x` on the padded layout over the segments (elsewhere left as it was),
+    /// with `mask` zero where the product is to be dropped; returns `x · out`.
+    fn apply_padded(&self, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
+        match self.width() {
+            9 => apply_segments::<9>(self, x, out, mask),
+            25 => apply_segments::<25>(self, x, out, mask),
+            49 => apply_segments::<49>(self, x, out, mask),
+            w => unreachable!("no kernel has a stencil of {w} couplings"),
+        }
+    }
+
+    /// Partial lumping of the nodes with little mass relative to their neighbours (the same
+    /// matrix as [`super::stabilization::partially_lumped`]):
+    ///
+    /// ```text
+    /// M'_IJ = s_IJ M_IJ  (I ≠ J),   M'_II = M_II + Σ_{J≠I} (1 − s_IJ) M_IJ,
+    /// s_IJ = min(1, min(φ_I, φ_J)/θ),   φ_I = m_L,I / max_{J: M_IJ stored} m_L,J
+    /// ```
+    ///
+    /// # Panics
+    /// If `lumped` does not have one entry per node.
+    pub fn partially_lump(&mut self, lumped: &[f64], threshold: f64) {
+        assert_eq!(lumped.len(), self.num_nodes, "one lumped mass per node");
+        let k = self.width();
+        let centre = k / 2;
+        let (start, len) = (self.start, self.len);
+        let offsets = &self.offsets;
+        let node = |r: usize, o: usize| (start as isize + r as isize + offsets[o]) as usize;
+        // φ on the rows with couplings (elsewhere it is never read).
+        let mut phi = vec![1.0; len];
+        for &(lo, hi) in &self.segments {
+            for r in lo..hi {
+                let own = lumped[start + r];
+                let bits = self.pattern[r];
+                let heaviest = (0..k)
+                    .filter(|&o| bits >> o & 1 == 1)
+                    .map(|o| lumped[node(r, o)])
+                    .fold(own, f64::max);
+                phi[r] = if heaviest > 0.0 { own / heaviest } else { 1.0 };
+            }
+        }
+        // Each coupling once (upper half), its removed part onto both diagonals.
+        let plen = len + 2 * self.pad;
+        for r in self.segments.iter().flat_map(|&(lo, hi)| lo..hi) {
+            let bits = self.pattern[r];
+            for o in (centre + 1..k).filter(|&o| bits >> o & 1 == 1) {
+                let j = node(r, o) - start;
+                let s = (phi[r].min(phi[j]) / threshold).min(1.0);
+                if s < 1.0 {
+                    let at = (o - centre) * plen + self.pad + r;
+                    let moved = (1.0 - s) * self.values[at];
+                    self.values[at] *= s;
+                    self.values[self.pad + r] += moved;
+                    self.values[self.pad + j] += moved;
+                }
+            }
+        }
+    }
+
+    /// Preconditioned conjugate gradient on `M_FF x = b` for the free nodes `free` (ascending),
+    /// with the diagonal preconditioner `lumped` and the initial guess `x` (both on F), to the
+    /// residual `‖b − M_FF x‖ ≤ tolerance · scale` (the recurrence's residual; `scale` is `‖b‖`
+    /// or the norm of the whole vector problem `b` is a component of). Returns the iterations
+    /// and `‖b − M_FF x‖ / scale`, or the reason for failure.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn pcg(
+        &self,
+        free: &[usize],
+        lumped: &[f64],
+        b: &[f64],
+        x: &mut [f64],
+        tolerance: f64,
+        max_iterations: usize,
+        scale: f64,
+        work: &mut CgWork,
+    ) -> std::result::Result<(usize, f64), String> {
+        let norm_b = scale;
+        if free.is_empty() || b.iter().all(|&v| v == 0.0) {
+            x.fill(0.0);
+            return Ok((0, 0.0));
+        }
+        // Work vectors in the padded span layout, zero outside F.
+        let at = |i: usize| i - self.start + self.pad;
+        let plen = self.len + 2 * self.pad;
+        for v in work.0.iter_mut() {
+            v.clear();
+            v.resize(plen, 0.0);
+        }
+        let [inv_d, xs, r, q, z, p, scratch] = &mut work.0;
+        for (k, &i) in free.iter().enumerate() {
+            inv_d[at(i)] = 1.0 / lumped[i];
+            xs[at(i)] = x[k];
+            r[at(i)] = b[k];
+        }
+        let inv_d = &*inv_d;
+        // q = M_FF v (the product, zero off F) and v·q.
+        let apply = |v: &[f64], q: &mut [f64]| self.apply_padded(v, q, inv_d);
+        apply(xs, q);
+        let segments: Vec<std::ops::Range<usize>> = self
+            .segments
+            .iter()
+            .map(|&(lo, hi)| lo + self.pad..hi + self.pad)
+            .collect();
+        // r = b − M x0 (the update with q = M x0 and a unit step; the x it moves is scratch).
+        let (rr, rz) = fused_update(&segments, scratch, r, z, q, q, inv_d, 1.0);
+        p.copy_from_slice(z);
+        let (mut rz, mut residual) = (rz, rr.sqrt() / norm_b);
+        let mut it = 0;
+        while residual > tolerance {
+            if it == max_iterations {
+                return Err(format!(
+                    "conjugate gradient did not reach the relative residual {tolerance:e} in {max_iterations} iterations (reached {residual:.3e})"
+                ));
+            }
+            let pq = apply(p, q);
+            if pq.is_nan() || pq <= 0.0 {
+                return Err("the mass matrix is not positive definite".into());
+            }
+            let alpha = rz / pq;
+            let (rr, rz_new) = fused_update(&segments, xs, r, z, p, q, inv_d, alpha);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for g in &segments {
+                for (p, z) in p[g.clone()].iter_mut().zip(&z[g.clone()]) {
+                    *p = z + beta * *p;
+                }
+            }
+            residual = rr.sqrt() / norm_b;
+            it += 1;
+        }
+        for (k, &i) in free.iter().enumerate() {
+            x[k] = xs[at(i)];
+        }
+        Ok((it, residual))
+    }
+}
+
+/// Work vectors of [`StencilMass::pcg`], kept between solves.
+#[derive(Debug, Default)]
+pub(crate) struct CgWork([Vec<f64>; 7]);
+
+/// Eight partial sums added in a fixed order (the same bits on every run).
+fn lanes_sum(a: &[f64; 8]) -> f64 {
+    ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
+}
+
+/// One CG update over the segments: `x += α p`, `r −= α q`, `z = r ∘ d`; returns `(r·r, r·z)`
+/// (each summed in eight lanes per segment position, a fixed order).
+#[allow(clippy::too_many_arguments)]
+fn fused_update(
+    segments: &[std::ops::Range<usize>],
+    x: &mut [f64],
+    r: &mut [f64],
+    z: &mut [f64],
+    p: &[f64],
+    q: &[f64],
+    d: &[f64],
+    alpha: f64,
+) -> (f64, f64) {
+    let (mut rr, mut rz) = ([0.0; 8], [0.0; 8]);
+    for g in segments {
+        let g = g.clone();
+        let (x, r, z) = (&mut x[g.clone()], &mut r[g.clone()], &mut z[g.clone()]);
+        let (p, q, d) = (&p[g.clone()], &q[g.clone()], &d[g]);
+        let mut chunks = x
+            .chunks_exact_mut(8)
+            .zip(r.chunks_exact_mut(8))
+            .zip(z.chunks_exact_mut(8))
+            .zip(p.chunks_exact(8).zip(q.chunks_exact(8)).zip(d.chunks_exact(8)));
+        for (((x, r), z), ((p, q), d)) in &mut chunks {
+            for l in 0..8 {
+                x[l] += alpha * p[l];
+                r[l] -= alpha * q[l];
+                z[l] = r[l] * d[l];
+                rr[l] += r[l] * r[l];
+                rz[l] += r[l] * z[l];
+            }
+        }
+        let done = x.len() / 8 * 8;
+        for k in done..x.len() {
+            x[k] += alpha * p[k];
+            r[k] -= alpha * q[k];
+            z[k] = r[k] * d[k];
+            rr[k - done] += r[k] * r[k];
+            rz[k - done] += r[k] * z[k];
+        }
+    }
+    (lanes_sum(&rr), lanes_sum(&rz))
+}
+
+/// `out[r] = mask[r] Σ_o M_o[r] x[r + offset_o]` over the segments, padded layout: the centre,
+/// then each upper offset and its mirror, one sweep along each segment (SIMD across nodes).
+/// Returns `Σ x[r] out[r]`.
+fn apply_segments<const K: usize>(m: &StencilMass, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
+    let centre = K / 2;
+    let plen = m.len + 2 * m.pad;
+    let mut dot = [0.0; 8];
+    for &(lo, hi) in &m.segments {
+        let (lo, hi) = (lo + m.pad, hi + m.pad);
+        let y = &mut out[lo..hi];
+        for ((y, a), x) in y.iter_mut().zip(&m.values[lo..hi]).zip(&x[lo..hi]) {
+            *y = a * x;
+        }
+        for o in centre + 1..K {
+            let off = m.offsets[o];
+            let base = (o - centre) * plen;
+            let up = &m.values[base + lo..base + hi];
+            let down_at = (base as isize + lo as isize - off) as usize;
+            let down = &m.values[down_at..down_at + (hi - lo)];
+            let xu_at = (lo as isize + off) as usize;
+            let xd_at = (lo as isize - off) as usize;
+            let xu = &x[xu_at..xu_at + (hi - lo)];
+            let xd = &x[xd_at..xd_at + (hi - lo)];
+            for k in 0..hi - lo {
+                y[k] += up[k] * xu[k] + down[k] * xd[k];
+            }
+        }
+        let (mask, x) = (&mask[lo..hi], &x[lo..hi]);
+        for ((y, mask), x) in y.chunks_exact_mut(8).zip(mask.chunks_exact(8)).zip(x.chunks_exact(8)) {
+            for l in 0..8 {
+                y[l] = if mask[l] == 0.0 { 0.0 } else { y[l] };
+                dot[l] += y[l] * x[l];
+            }
+        }
+        let done = y.len() / 8 * 8;
+        for k in done..y.len() {
+            y[k] = if mask[k] == 0.0 { 0.0 } else { y[k] };
+            dot[k - done] += y[k] * x[k];
+        }
+    }
+    lanes_sum(&dot)
+}
+
+fn assemble_into<const S: usize>(s: &mut StencilMass, ops: &Operators, m: &[f64]) {
+    let w = 2 * S - 1;
+    let k = w * w;
+    let [sx, sy] = ops.strides();
+    let span = ops.node_span();
+    s.num_nodes = ops.num_nodes();
+    s.start = span.start;
+    s.len = span.len();
+    let len = s.len;
+    s.offsets.clear();
+    for dy in -(S as isize - 1)..S as isize {
+        for dx in -(S as isize - 1)..S as isize {
+            s.offsets.push(dx * sx as isize + dy * sy as isize);
+        }
+    }
+    s.pad = s.offsets.iter().map(|o| o.unsigned_abs()).max().unwrap_or(0);
+    let plen = len + 2 * s.pad;
+    let centre = k / 2;
+    s.values.clear();
+    s.values.resize((k - centre) * plen, 0.0);
+    s.pattern.clear();
+    s.pattern.resize(len, 0);
+    // The offsets a node at (a, b) of a stencil shares with the others.
+    let masks: [[u64; S]; S] = std::array::from_fn(|b| {
+        std::array::from_fn(|a| {
+            let mut bits = 0u64;
+            for d in 0..S {
+                for c in 0..S {
+                    bits |= 1 << ((d + S - 1 - b) * w + c + S - 1 - a);
+                }
+            }
+            bits
+        })
+    });
+    for (p, &mp) in m.iter().enumerate() {
+        let st = ops.stencil::<S>(p);
+        let wxx: [[f64; S]; S] = std::array::from_fn(|a| std::array::from_fn(|c| st.wx[a] * st.wx[c]));
+        for b in 0..S {
+            for a in 0..S {
+                let row = st.first + a * sx + b * sy - s.start;
+                s.pattern[row] |= masks[b][a];
+                // The upper half: offsets o = (d − b + S − 1) w + (c − a + S − 1) ≥ centre.
+                for d in b..S {
+                    let cy = mp * st.wy[b] * st.wy[d];
+                    let base = (d + S - 1 - b) * w + S - 1 - a;
+                    let c0 = if d == b { a } else { 0 };
+                    for c in c0..S {
+                        s.values[(base + c - centre) * plen + s.pad + row] += cy * wxx[a][c];
+                    }
+                }
+            }
+        }
+    }
+}

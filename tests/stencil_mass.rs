@@ -1,0 +1,155 @@
+//! The consistent mass in stencil form equals the compressed-column product `N diag(m) Nᵀ`,
+//! its partial lumping equals the CSC one, its product equals the CSC product, and the
+//! conjugate gradient on it solves the same systems as a Cholesky factorization.
+
+use sparse_mpm::mass::stabilization::partially_lumped;
+use sparse_mpm::mass::{
+    consistent_mass, lumped_mass, Constraints, GridMass, MassOptions, MassScheme, Role, Stabilization, StencilMass,
+};
+use sparse_mpm::transfer::VectorField;
+use sparse_mpm::{Grid, NodeOrder, Operators, Particles, ShapeFunction};
+
+const SHAPES: [ShapeFunction; 4] = [
+    ShapeFunction::Linear,
+    ShapeFunction::Gimp { half_width: 0.25 },
+    ShapeFunction::QuadraticBSpline,
+    ShapeFunction::CubicBSpline,
+];
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A disk of random particles (so its edge cuts cells at every fraction) in a 14 × 11 grid,
+/// with random masses.
+fn disk(order: NodeOrder, shape: ShapeFunction, seed: u64) -> (Operators, Vec<f64>) {
+    let grid = Grid::new([0.0, 0.0], [0.5, 0.4], [14, 11])
+        .unwrap()
+        .with_node_order(order);
+    let mut rng = Rng(seed);
+    let (mut x, mut y, mut m) = (vec![], vec![], vec![]);
+    while x.len() < 500 {
+        let (px, py) = (1.0 + 5.0 * rng.next(), 0.9 + 2.6 * rng.next());
+        if (px - 3.5).powi(2) / 6.25 + (py - 2.2).powi(2) / 1.69 < 1.0 {
+            x.push(px);
+            y.push(py);
+            m.push(0.5 + rng.next());
+        }
+    }
+    let np = x.len();
+    let particles = Particles::new(x, y, m.clone(), vec![0.01; np]).unwrap();
+    (Operators::assemble(&grid, shape, &particles).unwrap(), m)
+}
+
+fn max_difference(a: &nalgebra_sparse::CscMatrix<f64>, b: &nalgebra_sparse::CscMatrix<f64>) -> f64 {
+    let (da, db) = (nalgebra::DMatrix::from(a), nalgebra::DMatrix::from(b));
+    (da - db).abs().max()
+}
+
+#[test]
+fn stencil_mass_equals_the_compressed_column_product_for_every_kernel_and_node_order() {
+    for order in [NodeOrder::XFastest, NodeOrder::YFastest] {
+        for shape in SHAPES {
+            let (ops, m) = disk(order, shape, 7);
+            let csc = consistent_mass(&ops, &m);
+            let stencil = StencilMass::assemble(&ops, &m);
+            let scale = csc.values().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let converted = stencil.to_csc();
+            assert_eq!(converted.nnz(), csc.nnz(), "{shape:?} {order:?}: same pattern");
+            assert_eq!(converted.row_indices(), csc.row_indices(), "{shape:?} {order:?}");
+            assert!(max_difference(&converted, &csc) < 1e-14 * scale, "{shape:?} {order:?}");
+            // The product, against the CSC product, on a vector with every node set.
+            let mut rng = Rng(3);
+            let x: Vec<f64> = (0..ops.num_nodes()).map(|_| rng.next() - 0.5).collect();
+            let y = stencil.mul(&x);
+            let d = nalgebra::DMatrix::from(&csc) * nalgebra::DVector::from_vec(x.clone());
+            for i in 0..x.len() {
+                assert!((y[i] - d[i]).abs() < 1e-13 * scale, "{shape:?} {order:?} row {i}");
+            }
+            // Partial lumping as the CSC routine does it, at two thresholds.
+            let lumped = lumped_mass(&ops, &m);
+            for threshold in [0.5, 1.0] {
+                let mut s = stencil.clone();
+                s.partially_lump(&lumped, threshold);
+                let reference = partially_lumped(&csc, &lumped, threshold);
+                let diff = max_difference(&s.to_csc(), &reference);
+                assert!(diff < 1e-14 * scale, "{shape:?} {order:?} θ = {threshold}: {diff:e}");
+            }
+        }
+    }
+}
+
+#[test]
+fn conjugate_gradient_on_the_stencil_form_matches_the_cholesky_solve_with_walls() {
+    for shape in SHAPES {
+        let (ops, m) = disk(NodeOrder::XFastest, shape, 11);
+        let n = ops.num_nodes();
+        // Fix x on two columns of nodes the disk touches, y on one row.
+        let grid = ops.grid().unwrap().clone();
+        let fixed_x: Vec<usize> = (0..n).filter(|&i| matches!(grid.node_ij(i).0, 4 | 9)).collect();
+        let fixed_y: Vec<usize> = (0..n).filter(|&i| grid.node_ij(i).1 == 5).collect();
+        let constraints = Constraints { fixed_x, fixed_y };
+        let mut rng = Rng(5);
+        let r = VectorField {
+            x: (0..n).map(|_| rng.next() - 0.5).collect(),
+            y: (0..n).map(|_| rng.next() - 0.5).collect(),
+        };
+        let prescribed = VectorField {
+            x: vec![0.3; n],
+            y: vec![-0.2; n],
+        };
+        let solve = |scheme: MassScheme| {
+            let options = MassOptions {
+                stabilization: Stabilization::default(),
+                ..MassOptions::both(scheme)
+            };
+            let mass = GridMass::new(&ops, &m, &options, &constraints).unwrap();
+            let (u, report) = mass.solve(Role::Velocity, &r, Some(&prescribed), &ops).unwrap();
+            (u, report, mass.stencil().is_some())
+        };
+        let (direct, _, direct_stencil) = solve(MassScheme::Consistent);
+        let (cg, report, cg_stencil) = solve(MassScheme::Iterative {
+            tolerance: 1e-13,
+            max_iterations: 1000,
+        });
+        assert!(
+            !direct_stencil && cg_stencil,
+            "{shape:?}: the CG runs on the stencil form"
+        );
+        assert!(report.iterations > 3, "{shape:?}: it iterated");
+        let scale = direct.x.iter().chain(&direct.y).fold(0.0f64, |a, v| a.max(v.abs()));
+        for i in 0..n {
+            for (a, b) in [(direct.x[i], cg.x[i]), (direct.y[i], cg.y[i])] {
+                assert!((a - b).abs() < 1e-8 * scale, "{shape:?} node {i}: {a} vs {b}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_second_solve_starts_from_the_first_and_needs_fewer_iterations() {
+    let (ops, m) = disk(NodeOrder::XFastest, ShapeFunction::QuadraticBSpline, 2);
+    let n = ops.num_nodes();
+    let scheme = MassScheme::Iterative {
+        tolerance: 1e-12,
+        max_iterations: 1000,
+    };
+    let mass = GridMass::new(&ops, &m, &MassOptions::both(scheme), &Constraints::none()).unwrap();
+    let mut rng = Rng(9);
+    let r = VectorField {
+        x: (0..n).map(|_| rng.next()).collect(),
+        y: (0..n).map(|_| rng.next()).collect(),
+    };
+    let (u1, first) = mass.solve(Role::Velocity, &r, None, &ops).unwrap();
+    let (u2, second) = mass.solve(Role::Velocity, &r, None, &ops).unwrap();
+    assert!(first.iterations > 10);
+    assert_eq!(second.iterations, 0, "the same system again is solved on arrival");
+    assert_eq!(u1.x, u2.x);
+}
