@@ -8,7 +8,6 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw,
     SymmetricOrdering,
 };
-use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Par, Side};
 use nalgebra_sparse::CscMatrix;
@@ -107,12 +106,9 @@ impl SparseCholesky {
                 sym,
                 Side::Upper,
                 SymmetricOrdering::Amd,
-                CholeskySymbolicParams {
-                    // Simplicial storage puts each pivot first in its column of L, where the
-                    // pivot check below reads it.
-                    supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
-                    ..Default::default()
-                },
+                // faer picks simplicial or supernodal storage by the flop ratio (supernodal
+                // for the grid-sized matrices of a time loop); `pivots` reads either.
+                CholeskySymbolicParams::default(),
             )
             .expect("symbolic Cholesky analysis only fails when out of memory");
             self.perm_fwd = match symbolic.perm() {
@@ -141,19 +137,17 @@ impl SparseCholesky {
             let k = self.perm_fwd[index.saturating_sub(1).min(nf - 1)];
             return Err(Breakdown { local: k, pivot: 0.0 });
         }
-        if let SymbolicCholeskyRaw::Simplicial(s) = symbolic.raw() {
-            let lcp = s.col_ptr();
-            for jp in 0..nf {
-                let pivot = self.l_values[lcp[jp]].powi(2);
-                if pivot <= pivot_tolerance {
-                    return Err(Breakdown {
-                        local: self.perm_fwd[jp],
-                        pivot,
-                    });
-                }
+        let mut breakdown = None;
+        pivots(symbolic, &self.l_values, |jp, l| {
+            let pivot = l * l;
+            if breakdown.is_none() && pivot <= pivot_tolerance {
+                breakdown = Some(Breakdown {
+                    local: self.perm_fwd[jp],
+                    pivot,
+                });
             }
-        }
-        Ok(())
+        });
+        breakdown.map_or(Ok(()), Err)
     }
 
     /// Number of pivots at or below `tolerance` in a factorization that replaces each such
@@ -182,10 +176,11 @@ impl SparseCholesky {
             MemStack::new(&mut mem),
             Default::default(),
         );
-        match (result, symbolic.raw()) {
-            (Ok(_), SymbolicCholeskyRaw::Simplicial(s)) => {
-                let lcp = s.col_ptr();
-                (0..nf).filter(|&j| l[lcp[j]] == REPLACED_PIVOT.sqrt()).count()
+        match result {
+            Ok(_) => {
+                let mut count = 0;
+                pivots(symbolic, &l, |_, d| count += usize::from(d == REPLACED_PIVOT.sqrt()));
+                count
             }
             _ => nf,
         }
@@ -208,6 +203,31 @@ impl SparseCholesky {
         for (c, b) in rhs.iter_mut().enumerate() {
             for a in 0..nf {
                 b[a] = x[(a, c)] * self.inv_sqrt_diag[a];
+            }
+        }
+    }
+}
+
+/// Calls `f(j, L_jj)` for every column `j` (in the fill-reducing order) of a Cholesky factor
+/// `L` with values `l`, in simplicial (pivot first in its column) or supernodal (dense
+/// column-major diagonal block at the top of each supernode) storage.
+fn pivots(symbolic: &SymbolicCholesky<usize>, l: &[f64], mut f: impl FnMut(usize, f64)) {
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Simplicial(s) => {
+            let lcp = s.col_ptr();
+            for j in 0..s.ncols() {
+                f(j, l[lcp[j]]);
+            }
+        }
+        SymbolicCholeskyRaw::Supernodal(s) => {
+            let (begin, end) = (s.supernode_begin(), s.supernode_end());
+            let (row_ptr, val_ptr) = (s.col_ptr_for_row_idx(), s.col_ptr_for_val());
+            for k in 0..s.n_supernodes() {
+                let ncols = end[k] - begin[k];
+                let nrows = ncols + (row_ptr[k + 1] - row_ptr[k]);
+                for c in 0..ncols {
+                    f(begin[k] + c, l[val_ptr[k] + c * nrows + c]);
+                }
             }
         }
     }

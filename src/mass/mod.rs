@@ -74,12 +74,15 @@ pub fn lumped_mass_into(ops: &Operators, m: &[f64], out: &mut [f64]) {
 /// M = N diag(m) Nᵀ    (n × n sparse, symmetric; M[I,J] ≠ 0 only if some particle touches both I and J)
 /// ```
 ///
-/// Nodes touched by no particle have empty rows and columns.
+/// Nodes touched by no particle have empty rows and columns. Assembled in stencil form
+/// ([`StencilMass`]) from the operators' factored columns; [`weighted_product`] with
+/// `(N, N, m)` gives the same matrix by a general sparse product (equal up to the order of the
+/// sums).
 ///
 /// # Panics
 /// If `m.len()` is not the particle count.
 pub fn consistent_mass(ops: &Operators, m: &[f64]) -> CscMatrix<f64> {
-    weighted_product(ops, Operator::N, Operator::N, m)
+    StencilMass::assemble(ops, m).to_csc()
 }
 
 /// The active nodes: those with `m_L,I > tolerance · max_J m_L,J`, ascending (the nodes

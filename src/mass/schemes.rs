@@ -82,6 +82,8 @@ pub struct GridMass {
     stencil: Option<StencilMass>,
     /// The partially lumped `M` in stencil form, for the conjugate gradient.
     stencil_stabilized: Option<StencilMass>,
+    /// Buffers of the stencil assembly of the factorized schemes.
+    stencil_buffers: Option<StencilMass>,
     /// The conjugate gradient's last solution per (role, component) over all nodes (NaN where
     /// a node was not free): the next solve starts from it.
     cg: std::sync::Mutex<CgState>,
@@ -185,15 +187,35 @@ impl GridMass {
             MassScheme::Blended { gamma } => gamma > 0.0,
             _ => false,
         };
+        let stencil_stabilization = matches!(
+            options.stabilization,
+            Stabilization::None | Stabilization::PartialLumping { .. }
+        );
         let stencil_form = needs_matrix
             && !factorized(options.velocity)
             && !factorized(options.acceleration)
             && options.singularity == SingularityPolicy::Error
-            && matches!(
-                options.stabilization,
-                Stabilization::None | Stabilization::PartialLumping { .. }
-            );
-        if stencil_form {
+            && stencil_stabilization;
+        if needs_matrix && !stencil_form && stencil_stabilization {
+            // Factorized schemes: assembled in stencil form, handed over in compressed columns.
+            let mut stencil = self.stencil_buffers.take().or(self.stencil.take()).unwrap_or_default();
+            stencil.reassemble(ops, m);
+            self.matrix = Some(stencil.to_csc());
+            self.stabilized = match options.stabilization {
+                Stabilization::PartialLumping { threshold } => {
+                    stencil.partially_lump(&self.lumped, threshold);
+                    Some(stencil.to_csc())
+                }
+                _ => None,
+            };
+            // Kept for its buffers only.
+            self.stencil_buffers = Some(stencil);
+            self.stencil = None;
+            self.stencil_stabilized = None;
+        } else if stencil_form {
+            if self.stencil.is_none() {
+                self.stencil = self.stencil_buffers.take();
+            }
             self.matrix = None;
             self.stabilized = None;
             let mut stencil = self.stencil.take().unwrap_or_default();

@@ -12,7 +12,7 @@
 //! dense row of `(2S − 1)²` values per node. The conjugate-gradient and truncated-series
 //! schemes work on it; [`StencilMass::to_csc`] gives the compressed-column form.
 
-use nalgebra_sparse::{CooMatrix, CscMatrix};
+use nalgebra_sparse::CscMatrix;
 
 use crate::operators::Operators;
 use crate::with_support;
@@ -108,25 +108,30 @@ impl StencilMass {
         self.values[self.slot(r, o)]
     }
 
-    /// Calls `f(i, j, M_ij)` for every structural entry.
-    fn for_each(&self, mut f: impl FnMut(usize, usize, f64)) {
-        for r in 0..self.len {
-            let bits = self.pattern[r];
-            let i = self.start + r;
-            for (o, &off) in self.offsets.iter().enumerate() {
-                if bits >> o & 1 == 1 {
-                    f(i, (i as isize + off) as usize, self.value(r, o));
-                }
-            }
-        }
-    }
-
-    /// The matrix in compressed-column form (structural entries only).
+    /// The matrix in compressed-column form (structural entries only, rows ascending).
     pub fn to_csc(&self) -> CscMatrix<f64> {
         let n = self.num_nodes;
-        let mut coo = CooMatrix::new(n, n);
-        self.for_each(|i, j, v| coo.push(i, j, v));
-        CscMatrix::from(&coo)
+        // Offsets in ascending order of node number (for either node order).
+        let mut order: Vec<usize> = (0..self.width()).collect();
+        order.sort_by_key(|&o| self.offsets[o]);
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        let nnz = self.nnz();
+        let (mut rows, mut values) = (Vec::with_capacity(nnz), Vec::with_capacity(nnz));
+        col_ptr.extend(std::iter::repeat_n(0, self.start + 1));
+        // M is symmetric: column j holds row j's couplings.
+        for r in 0..self.len {
+            let bits = self.pattern[r];
+            let j = self.start + r;
+            for &o in &order {
+                if bits >> o & 1 == 1 {
+                    rows.push((j as isize + self.offsets[o]) as usize);
+                    values.push(self.value(r, o));
+                }
+            }
+            col_ptr.push(rows.len());
+        }
+        col_ptr.resize(n + 1, rows.len());
+        CscMatrix::try_from_csc_data(n, n, col_ptr, rows, values).expect("rows ascending within each column")
     }
 
     /// A zero vector in the padded span layout of the work vectors.
