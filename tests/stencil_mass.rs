@@ -154,3 +154,57 @@ fn a_second_solve_starts_from_the_first_and_needs_fewer_iterations() {
     assert_eq!(second.iterations, 0, "the same system again is solved on arrival");
     assert_eq!(u1.x, u2.x);
 }
+
+/// A large body (where the factorization uses supernodal storage) plus one lone particle far
+/// from it: the lone particle's four nodes have a rank-one mass, and the direct solve names one
+/// of them.
+#[test]
+fn a_singular_node_is_named_by_the_direct_solve_of_a_large_mass_matrix() {
+    let grid = Grid::new([0.0, 0.0], [1.0, 1.0], [170, 170]).unwrap();
+    let g = 0.5 / 3f64.sqrt();
+    let (mut x, mut y) = (vec![], vec![]);
+    for cj in 2..150 {
+        for ci in 2..150 {
+            for (a, b) in [(-g, -g), (g, -g), (-g, g), (g, g)] {
+                x.push(ci as f64 + 0.5 + a);
+                y.push(cj as f64 + 0.5 + b);
+            }
+        }
+    }
+    x.push(160.3);
+    y.push(160.6);
+    let np = x.len();
+    let particles = Particles::new(x, y, vec![1.0; np], vec![0.25; np]).unwrap();
+    let ops = Operators::assemble(&grid, ShapeFunction::Linear, &particles).unwrap();
+    let lone: Vec<usize> = [(160, 160), (161, 160), (160, 161), (161, 161)]
+        .iter()
+        .map(|&(i, j)| grid.node_index(i, j))
+        .collect();
+    let result = GridMass::new(
+        &ops,
+        &particles.mass,
+        &MassOptions::plain(MassScheme::Consistent),
+        &Constraints::none(),
+    );
+    match result {
+        Err(sparse_mpm::MpmError::SingularMassMatrix { node, particles, .. }) => {
+            assert!(
+                lone.contains(&node),
+                "node {node} is not one of the lone particle's {lone:?}"
+            );
+            assert_eq!(particles, vec![np - 1]);
+        }
+        other => panic!("expected a singular mass matrix, got {other:?}"),
+    }
+    // Without the lone particle the same body factorizes.
+    let body = Particles::new(
+        particles.x[..np - 1].to_vec(),
+        particles.y[..np - 1].to_vec(),
+        vec![1.0; np - 1],
+        vec![0.25; np - 1],
+    )
+    .unwrap();
+    let ops = Operators::assemble(&grid, ShapeFunction::Linear, &body).unwrap();
+    let options = MassOptions::plain(MassScheme::Consistent);
+    assert!(GridMass::new(&ops, &body.mass, &options, &Constraints::none()).is_ok());
+}
