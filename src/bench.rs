@@ -170,6 +170,32 @@ pub const STABLE_FRACTION: f64 = 0.5;
 /// [`MpmError::InvalidParameter`] for fewer than 16 particles; the errors of
 /// [`Simulation::new`].
 pub fn problem(n: usize, spec: &BenchSpec) -> Result<Simulation> {
+    if let Some(dt) = spec.dt {
+        return build(n, spec, dt);
+    }
+    let peers_dt = peers_time_step(n);
+    let sim = build(n, spec, peers_dt)?;
+    let stable = sim.stable_time_step();
+    if stable >= peers_dt || !stable.is_finite() {
+        return Ok(sim);
+    }
+    // Built again (not cloned before), so that the peak memory is one simulation's.
+    drop(sim);
+    build(n, spec, STABLE_FRACTION * stable)
+}
+
+/// Cells per side for `n` particles.
+fn cells_per_side(n: usize) -> usize {
+    ((n as f64).sqrt().round() as usize).max(2 * WALL_LAYERS + 4)
+}
+
+/// The peers' fixed step, `2·10⁻⁴ · 128 / n_grid`.
+fn peers_time_step(n: usize) -> f64 {
+    2e-4 * 128.0 / cells_per_side(n) as f64
+}
+
+/// The problem with the fixed step `dt`.
+fn build(n: usize, spec: &BenchSpec, dt: f64) -> Result<Simulation> {
     if n < 16 {
         return Err(MpmError::InvalidParameter {
             name: "particles",
@@ -177,7 +203,7 @@ pub fn problem(n: usize, spec: &BenchSpec) -> Result<Simulation> {
             reason: "the benchmark needs at least 16 particles",
         });
     }
-    let n_grid = ((n as f64).sqrt().round() as usize).max(2 * WALL_LAYERS + 4);
+    let n_grid = cells_per_side(n);
     let h = 1.0 / n_grid as f64;
     let grid = Grid::new([0.0, 0.0], [h, h], [n_grid, n_grid])?;
     let mut rng = SplitMix(spec.seed);
@@ -208,10 +234,7 @@ pub fn problem(n: usize, spec: &BenchSpec) -> Result<Simulation> {
         update: spec.update,
         transfer: spec.transfer,
         mass: MassOptions::both(spec.mass),
-        time_step: TimeStep::Fixed {
-            dt: 2e-4 * 128.0 / n_grid as f64,
-        },
-
+        time_step: TimeStep::Fixed { dt },
         // The peers take the fixed step without a check; the estimate at the build is kept
         // (set-up), none during the timed steps.
         allow_unstable_time_step: true,
@@ -220,25 +243,6 @@ pub fn problem(n: usize, spec: &BenchSpec) -> Result<Simulation> {
         gravity: [0.0, -GRAVITY],
         boundaries,
         ..Options::default()
-    };
-    let peers_dt = 2e-4 * 128.0 / n_grid as f64;
-    if let Some(dt) = spec.dt {
-        let options = Options {
-            time_step: TimeStep::Fixed { dt },
-            ..options
-        };
-        return Simulation::new(grid, particles, bodies, options);
-    }
-    let sim = Simulation::new(grid.clone(), particles.clone(), bodies.clone(), options.clone())?;
-    let stable = sim.stable_time_step();
-    if stable >= peers_dt || !stable.is_finite() {
-        return Ok(sim);
-    }
-    let options = Options {
-        time_step: TimeStep::Fixed {
-            dt: STABLE_FRACTION * stable,
-        },
-        ..options
     };
     Simulation::new(grid, particles, bodies, options)
 }
