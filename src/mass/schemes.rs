@@ -400,8 +400,6 @@ impl GridMass {
         let n = self.lumped.len();
         assert_eq!(r.len(), n, "right-hand side must have one entry per node");
         let mut outcome = solver.outcome.clone().expect("GridMass::new prepares every solver");
-        let zero = VectorField::zeros(n);
-        let u_d = prescribed.unwrap_or(&zero);
         let mut u = VectorField::zeros(n);
         let mut iterations = 0;
         let mut residual = 0.0;
@@ -413,12 +411,8 @@ impl GridMass {
             (sq(&r.x, &self.dofs_x) + sq(&r.y, &self.dofs_y)).sqrt()
         };
         for (c, dofs) in [(0usize, &self.dofs_x), (1, &self.dofs_y)] {
-            let (rc, pc) = if c == 0 { (&r.x, &u_d.x) } else { (&r.y, &u_d.y) };
-            // Prescribed values on D, zero on F, for the coupling term.
-            let mut ud_full = pc.clone();
-            for &i in &dofs.free {
-                ud_full[i] = 0.0;
-            }
+            let rc = if c == 0 { &r.x } else { &r.y };
+            let pc = prescribed.map(|u_d| if c == 0 { &u_d.x } else { &u_d.y });
             let coupling_gamma = match (&outcome, solver.gamma, scheme) {
                 (SolveOutcome::FellBackToLumped { .. }, _, _) => 0.0,
                 (_, Some(g), _) => g,
@@ -426,8 +420,15 @@ impl GridMass {
                 _ => 1.0,
             };
             let mut rhs: Vec<f64> = dofs.free.iter().map(|&i| rc[i]).collect();
-            // (Prescribed zeros, such as walls at rest, couple nothing.)
-            if prescribed.is_some() && coupling_gamma > 0.0 && ud_full.iter().any(|&v| v != 0.0) {
+            // Prescribed values on D, zero on F, for the coupling term (prescribed zeros, such
+            // as walls at rest, couple nothing).
+            let prescribed_nonzero =
+                pc.is_some_and(|pc| (0..n).any(|i| pc[i] != 0.0 && self.is_active[i] && dofs.local[i] == usize::MAX));
+            if let (Some(pc), true) = (pc, coupling_gamma > 0.0 && prescribed_nonzero) {
+                let mut ud_full = pc.clone();
+                for &i in &dofs.free {
+                    ud_full[i] = 0.0;
+                }
                 let m = self
                     .solve_matrix(scheme)
                     .expect("matrix assembled when coupling is needed");
@@ -510,7 +511,10 @@ impl GridMass {
             let out = if c == 0 { &mut u.x } else { &mut u.y };
             for i in 0..n {
                 let prescribed_here = self.is_active[i] && dofs.local[i] == usize::MAX;
-                out[i] = if prescribed_here { pc[i] } else { 0.0 };
+                out[i] = match pc {
+                    Some(pc) if prescribed_here => pc[i],
+                    _ => 0.0,
+                };
             }
             for (k, &i) in dofs.free.iter().enumerate() {
                 out[i] = x[k];
@@ -643,6 +647,25 @@ impl GridMass {
             max_iterations,
         )?;
         Ok((x, its, None))
+    }
+
+    /// The conjugate gradient's warm-start vectors, one per (role, component): the last
+    /// solution over all nodes (NaN where a node was not free), empty before the first solve.
+    /// The next solves start from them, so they are part of a checkpoint.
+    pub(crate) fn warm_start(&self) -> [Vec<f64>; 4] {
+        self.cg
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .warm
+            .clone()
+    }
+
+    /// Sets the warm-start vectors of [`GridMass::warm_start`] (resuming from a checkpoint).
+    pub(crate) fn set_warm_start(&mut self, warm: [Vec<f64>; 4]) {
+        self.cg
+            .get_mut()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .warm = warm;
     }
 
     /// Runs the Cholesky check on `M_FF` to name a singular node, if there is one.

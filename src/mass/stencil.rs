@@ -236,14 +236,55 @@ impl StencilMass {
             x.fill(0.0);
             return Ok((0, 0.0));
         }
-        // Work vectors in the padded span layout, zero outside F.
-        let at = |i: usize| i - self.start + self.pad;
+        // Work vectors in the padded span layout, zero outside F. They are zero outside the
+        // segments between solves (each solve clears what it wrote), so only a change of
+        // length needs a fill.
         let plen = self.len + 2 * self.pad;
         for v in work.0.iter_mut() {
-            v.clear();
-            v.resize(plen, 0.0);
+            if v.len() != plen {
+                v.clear();
+                v.resize(plen, 0.0);
+            }
         }
-        let [inv_d, xs, r, q, z, p, scratch] = &mut work.0;
+        let segments: Vec<std::ops::Range<usize>> = self
+            .segments
+            .iter()
+            .map(|&(lo, hi)| lo + self.pad..hi + self.pad)
+            .collect();
+        let result = self.pcg_in(
+            free,
+            lumped,
+            b,
+            x,
+            tolerance,
+            max_iterations,
+            norm_b,
+            &mut work.0,
+            &segments,
+        );
+        for v in work.0.iter_mut() {
+            for g in &segments {
+                v[g.clone()].fill(0.0);
+            }
+        }
+        result
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn pcg_in(
+        &self,
+        free: &[usize],
+        lumped: &[f64],
+        b: &[f64],
+        x: &mut [f64],
+        tolerance: f64,
+        max_iterations: usize,
+        norm_b: f64,
+        work: &mut [Vec<f64>; 7],
+        segments: &[std::ops::Range<usize>],
+    ) -> std::result::Result<(usize, f64), String> {
+        let at = |i: usize| i - self.start + self.pad;
+        let [inv_d, xs, r, q, z, p, scratch] = work;
         for (k, &i) in free.iter().enumerate() {
             inv_d[at(i)] = 1.0 / lumped[i];
             xs[at(i)] = x[k];
@@ -253,14 +294,11 @@ impl StencilMass {
         // q = M_FF v (the product, zero off F) and v·q.
         let apply = |v: &[f64], q: &mut [f64]| self.apply_padded(v, q, inv_d);
         apply(xs, q);
-        let segments: Vec<std::ops::Range<usize>> = self
-            .segments
-            .iter()
-            .map(|&(lo, hi)| lo + self.pad..hi + self.pad)
-            .collect();
         // r = b − M x0 (the update with q = M x0 and a unit step; the x it moves is scratch).
-        let (rr, rz) = fused_update(&segments, scratch, r, z, q, q, inv_d, 1.0);
-        p.copy_from_slice(z);
+        let (rr, rz) = fused_update(segments, scratch, r, z, q, q, inv_d, 1.0);
+        for g in segments {
+            p[g.clone()].copy_from_slice(&z[g.clone()]);
+        }
         let (mut rz, mut residual) = (rz, rr.sqrt() / norm_b);
         let mut it = 0;
         while residual > tolerance {
@@ -274,10 +312,10 @@ impl StencilMass {
                 return Err("the mass matrix is not positive definite".into());
             }
             let alpha = rz / pq;
-            let (rr, rz_new) = fused_update(&segments, xs, r, z, p, q, inv_d, alpha);
+            let (rr, rz_new) = fused_update(segments, xs, r, z, p, q, inv_d, alpha);
             let beta = rz_new / rz;
             rz = rz_new;
-            for g in &segments {
+            for g in segments {
                 for (p, z) in p[g.clone()].iter_mut().zip(&z[g.clone()]) {
                     *p = z + beta * *p;
                 }
