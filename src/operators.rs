@@ -635,8 +635,19 @@ impl Operators {
         with_support!(self, gather_columns::<S, K>(self, op, &y, &mut out));
     }
 
-    /// Writes N, Gx and Gy to `dir/N.mtx`, `dir/Gx.mtx`, `dir/Gy.mtx` (Matrix Market coordinate
-    /// format, 1-based indices, rows = nodes, columns = particles). Creates `dir` if needed.
+    /// Writes N, Gx and Gy to `dir/N.mtx`, `dir/Gx.mtx`, `dir/Gy.mtx` as Matrix Market
+    /// coordinate files with `general` storage (rows = nodes, columns = particles), as
+    /// [`crate::io::write_matrix_market`] does, with a comment line naming the operator:
+    ///
+    /// ```text
+    /// %%MatrixMarket matrix coordinate real general
+    /// % N: shape function values N[node, particle] of sparse-mpm (rows = grid nodes, columns = particles; 1-based)
+    /// nodes particles entries
+    /// row column value
+    /// …
+    /// ```
+    ///
+    /// Creates `dir` if needed.
     ///
     /// # Errors
     /// [`MpmError::Io`] naming the file that could not be written.
@@ -645,8 +656,17 @@ impl Operators {
             path: dir.to_path_buf(),
             source,
         })?;
-        for (op, name) in [(Operator::N, "N"), (Operator::Gx, "Gx"), (Operator::Gy, "Gy")] {
-            crate::io::write_matrix_market(&self.matrix(op), &dir.join(format!("{name}.mtx")))?;
+        for (op, name, what) in [
+            (Operator::N, "N", "shape function values N[node, particle]"),
+            (Operator::Gx, "Gx", "shape function x derivatives dN/dx[node, particle]"),
+            (Operator::Gy, "Gy", "shape function y derivatives dN/dy[node, particle]"),
+        ] {
+            crate::io::write_matrix_market_with_comment(
+                &self.matrix(op),
+                &dir.join(format!("{name}.mtx")),
+                crate::io::MatrixMarketStorage::General,
+                &format!("{name}: {what} of sparse-mpm (rows = grid nodes, columns = particles; 1-based)"),
+            )?;
         }
         Ok(())
     }

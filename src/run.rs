@@ -228,8 +228,10 @@ pub fn run_scene(
 }
 
 /// Writes the matrices of the scene's initial configuration into `out`: `N.mtx`, `Gx.mtx`,
-/// `Gy.mtx` (nodes × particles), `M.mtx` (consistent mass `N diag(m) Nᵀ`, nodes × nodes),
-/// `mL.mtx` (lumped mass `N m`, a dense nodes × 1 array), all Matrix Market; and `nodes.csv`
+/// `Gy.mtx` (nodes × particles, coordinate `general`), `M.mtx` (consistent mass `N diag(m) Nᵀ`,
+/// nodes × nodes, coordinate `symmetric`: the lower triangle, as
+/// [`crate::io::write_matrix_market_symmetric`] writes it), `mL.mtx` (lumped mass `N m`, a dense
+/// nodes × 1 array), all Matrix Market; and `nodes.csv`
 /// (`node, x, y`) and `particles.csv` (`particle, x, y, mass, volume, body`) to name the rows
 /// and columns (0-based; Matrix Market indices are 1-based).
 ///
@@ -243,7 +245,13 @@ pub fn write_matrices(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
     create_dir(out)?;
     ops.write_matrix_market(out)?;
     let m = mass::consistent_mass(&ops, &particles.mass);
-    crate::io::write_matrix_market(&m, &out.join("M.mtx"))?;
+    crate::io::write_matrix_market_with_comment(
+        &m,
+        &out.join("M.mtx"),
+        crate::io::MatrixMarketStorage::Symmetric,
+        "M: consistent mass N diag(m) N^T of sparse-mpm (rows and columns = grid nodes; 1-based), \
+         symmetric: lower triangle stored",
+    )?;
     let m_l = mass::lumped_mass(&ops, &particles.mass);
     let mut text = format!(
         "%%MatrixMarket matrix array real general\n% lumped mass m_L = N m, one row per node\n{} 1\n",

@@ -1,6 +1,9 @@
 //! Reading and writing files.
 //!
-//! * Matrix Market for the operators and matrices: [`write_matrix_market`],
+//! * Matrix Market for the operators and matrices: [`write_matrix_market`] (coordinate,
+//!   `general`), [`write_matrix_market_symmetric`] (coordinate, `symmetric`: the lower triangle
+//!   of a matrix checked to be symmetric), both with the standard `%%MatrixMarket` banner that
+//!   SciPy, MATLAB and Julia read, written whole (temporary file, then rename); and
 //!   [`read_matrix_market`].
 //! * Particle snapshots for ParaView: [`vtk::write_vtp`] writes one VTK XML PolyData file
 //!   (`.vtp`) per snapshot, [`vtk::PvdWriter`] keeps a `.pvd` collection that lists them with their
@@ -15,36 +18,16 @@
 
 use std::path::Path;
 
-use nalgebra_sparse::CscMatrix;
-
-use crate::error::{MpmError, Result};
+use crate::error::MpmError;
 
 pub mod csv;
+mod matrix_market;
 pub mod vtk;
 
-/// Writes a sparse matrix in Matrix Market coordinate format (1-based indices), readable by
-/// SciPy's `scipy.io.mmread`, MATLAB's `mmread` and nalgebra-sparse.
-///
-/// # Errors
-/// [`MpmError::Io`] naming `path` when it cannot be written.
-pub fn write_matrix_market(matrix: &CscMatrix<f64>, path: &Path) -> Result<()> {
-    nalgebra_sparse::io::save_to_matrix_market_file(matrix, path).map_err(|source| MpmError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
-}
-
-/// Reads a real sparse matrix in Matrix Market format.
-///
-/// # Errors
-/// [`MpmError::Io`] naming `path` when it cannot be read or parsed.
-pub fn read_matrix_market(path: &Path) -> Result<CscMatrix<f64>> {
-    let coo = nalgebra_sparse::io::load_coo_from_matrix_market_file::<f64, _>(path).map_err(|e| MpmError::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()),
-    })?;
-    Ok(CscMatrix::from(&coo))
-}
+pub use matrix_market::{read_matrix_market, write_matrix_market, write_matrix_market_symmetric};
+pub(crate) use matrix_market::{
+    write_with_comment as write_matrix_market_with_comment, Storage as MatrixMarketStorage,
+};
 
 /// Wraps an I/O error with the file it concerns.
 pub(crate) fn io_error(path: &Path, source: std::io::Error) -> MpmError {
