@@ -162,6 +162,16 @@ pub enum MpmError {
         /// The masses of the velocity and acceleration solves, as labels.
         masses: String,
     },
+    /// A checkpoint ([`Simulation::read_checkpoint`](crate::simulation::Simulation::read_checkpoint))
+    /// cannot be resumed: not a checkpoint, written in another format version, truncated,
+    /// corrupted (its checksum does not match), or holding a state that does not hold together.
+    Checkpoint {
+        /// The file; `None` for bytes given in memory
+        /// ([`Simulation::from_checkpoint_bytes`](crate::simulation::Simulation::from_checkpoint_bytes)).
+        path: Option<PathBuf>,
+        /// What is wrong, in words.
+        reason: String,
+    },
     /// Reading or writing a file failed.
     Io {
         /// The file.
@@ -286,6 +296,13 @@ impl fmt::Display for MpmError {
                  smaller `dt`, a CFL step (`cfl = 0.5`), or set `allow_unstable = true`",
                 100.0 * (dt / stable - 1.0)
             ),
+            MpmError::Checkpoint {
+                path: Some(path),
+                reason,
+            } => {
+                write!(f, "checkpoint {}: {reason}", path.display())
+            }
+            MpmError::Checkpoint { path: None, reason } => write!(f, "checkpoint: {reason}"),
             MpmError::Io { path, source } => write!(f, "{}: {source}", path.display()),
         }
     }

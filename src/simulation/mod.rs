@@ -39,11 +39,13 @@
 //! simulation. Consistent, blended, series and iterative schemes go through
 //! [`GridMass`], which reuses its factorization buffers but allocates its vectors.
 
+mod checkpoint;
 mod options;
 mod profile;
 mod report;
 mod stability;
 
+pub use checkpoint::CHECKPOINT_FORMAT_VERSION;
 pub use options::{Body, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
 pub use profile::{Phase, Profile};
 pub use report::StepReport;
@@ -80,6 +82,30 @@ struct StressBlock {
     energy: f64,
     wave_squared: f64,
     inverted: Option<(usize, f64, f64)>,
+}
+
+impl Scratch {
+    /// Work arrays sized for `grid`.
+    fn for_grid(grid: &Grid) -> Scratch {
+        let [cx, cy] = grid.cells();
+        Scratch {
+            extension: ExtensionScratch::new(grid.num_nodes()),
+            sorting: Sorting {
+                counts: vec![0; cx * cy + 1],
+                ..Sorting::default()
+            },
+            ..Scratch::default()
+        }
+    }
+}
+
+/// The prescribed velocities as a grid field, 0 where free.
+fn prescribed_velocity_field(prescribed: &Prescribed) -> VectorField {
+    let zero_free = |v: &[f64]| v.iter().map(|v| if v.is_nan() { 0.0 } else { *v }).collect();
+    VectorField {
+        x: zero_free(&prescribed.vx),
+        y: zero_free(&prescribed.vy),
+    }
 }
 
 /// The counting sort's arrays.
@@ -163,28 +189,8 @@ impl Simulation {
         }
         let mut ops = Operators::default();
         ops.reassemble(&grid, options.shape, &particles.x, &particles.y)?;
-        let n = grid.num_nodes();
-        let prescribed_velocity = VectorField {
-            x: prescribed
-                .vx
-                .iter()
-                .map(|v| if v.is_nan() { 0.0 } else { *v })
-                .collect(),
-            y: prescribed
-                .vy
-                .iter()
-                .map(|v| if v.is_nan() { 0.0 } else { *v })
-                .collect(),
-        };
-        let [cx, cy] = grid.cells();
-        let scratch = Scratch {
-            extension: ExtensionScratch::new(n),
-            sorting: Sorting {
-                counts: vec![0; cx * cy + 1],
-                ..Sorting::default()
-            },
-            ..Scratch::default()
-        };
+        let prescribed_velocity = prescribed_velocity_field(&prescribed);
+        let scratch = Scratch::for_grid(&grid);
         let nodes = GridState::new(&grid);
         let mut sim = Simulation {
             grid,

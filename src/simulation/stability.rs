@@ -12,12 +12,12 @@ use crate::transfer::VectorField;
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Stability {
     /// [`stiffness::mpm_critical_time_step`] at that estimate.
-    wave_step: f64,
+    pub(super) wave_step: f64,
     /// Largest tangent P-wave speed over the particles then.
-    wave_speed: f64,
+    pub(super) wave_speed: f64,
     /// Steps completed when it was made.
     pub(super) at_step: usize,
-    estimate: FrequencyEstimate,
+    pub(super) estimate: FrequencyEstimate,
 }
 
 /// The largest particle speed and tangent P-wave speed of a state.
