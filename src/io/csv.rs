@@ -24,14 +24,17 @@
 //!
 //! * Lines end with `\n`; fields are separated by `,` with no spaces.
 //! * Header names are written as given, or, when they contain `,`, `"`, `\r` or `\n`, between
-//!   double quotes with inner quotes doubled (RFC 4180).
+//!   double quotes with inner quotes doubled (RFC 4180). A header of one empty name is written
+//!   `""`, so that the line is not empty.
 //! * Values are written in the shortest form that reads back bit for bit with Rust's
 //!   `str::parse::<f64>` (and with NumPy, pandas, Python's `float`): Rust's `{}` formatting (`0.001`,
 //!   `-0`, `NaN`, `inf`, `-inf`), switching to exponent form (`1e-300`, `2.5e20`) below `1e-5` and
 //!   from `1e16` on, where `{}` would spell out hundreds of zeros.
+//!
+//! Records are written and read by the [`csv`](https://docs.rs/csv) crate.
 
 use std::fs::{self, File};
-use std::io::{BufWriter, Write};
+use std::io::{Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 use super::{invalid_data, io_error, push_f64};
@@ -46,9 +49,38 @@ use crate::error::{MpmError, Result};
 #[derive(Debug)]
 pub struct CsvWriter {
     path: PathBuf,
-    out: BufWriter<File>,
+    out: csv::Writer<File>,
     columns: usize,
-    line: String,
+    /// The text of one value, reused from value to value.
+    field: String,
+}
+
+/// The writer settings of every file: `,`, `\n`, quotes only where needed.
+fn writer_builder() -> csv::WriterBuilder {
+    let mut builder = csv::WriterBuilder::new();
+    builder
+        .delimiter(b',')
+        .terminator(csv::Terminator::Any(b'\n'))
+        .quote_style(csv::QuoteStyle::Necessary);
+    builder
+}
+
+/// The header line as [`CsvWriter::create`] writes it, newline included.
+fn header_bytes(header: &[&str]) -> Vec<u8> {
+    let mut w = writer_builder().from_writer(Vec::new());
+    // Writing into memory cannot fail.
+    w.write_record(header).expect("writing a record into memory");
+    w.into_inner().expect("flushing into memory")
+}
+
+/// A `csv` error as an [`MpmError::Io`] naming `path`: I/O errors keep their kind, anything
+/// else (a malformed record, invalid UTF-8) is `InvalidData`.
+fn csv_error(path: &Path, e: csv::Error) -> MpmError {
+    let message = e.to_string();
+    match e.into_kind() {
+        csv::ErrorKind::Io(source) => io_error(path, source),
+        _ => invalid_data(path, message),
+    }
 }
 
 impl CsvWriter {
@@ -67,26 +99,60 @@ impl CsvWriter {
             });
         }
         let file = File::create(path).map_err(|e| io_error(path, e))?;
-        let mut writer = CsvWriter {
+        let mut out = writer_builder().from_writer(file);
+        out.write_record(header).map_err(|e| csv_error(path, e))?;
+        Ok(CsvWriter {
             path: path.to_path_buf(),
-            out: BufWriter::new(file),
+            out,
             columns: header.len(),
-            line: String::new(),
+            field: String::new(),
+        })
+    }
+
+    /// Opens `path`, which must hold `rows` data rows under the header line `header` (as this
+    /// writer writes it), drops any line after them, and appends from there: how a resumed run
+    /// continues the report of the run it takes up.
+    ///
+    /// # Errors
+    /// [`MpmError::Io`] naming `path` when it cannot be read or written, and of kind
+    /// `InvalidData` when its header differs from `header` or it holds fewer than `rows` rows.
+    pub fn append_after(path: &Path, header: &[&str], rows: usize) -> Result<Self> {
+        let bytes = fs::read(path).map_err(|e| io_error(path, e))?;
+        let head = header_bytes(header);
+        let Some(body) = bytes.strip_prefix(head.as_slice()) else {
+            return Err(invalid_data(path, "its header is not the report's header"));
         };
-        for (i, name) in header.iter().enumerate() {
-            if i > 0 {
-                writer.line.push(',');
+        // The end of the last of the `rows` records that end with their newline.
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .from_reader(body);
+        let mut record = csv::ByteRecord::new();
+        let mut keep = 0;
+        for k in 0..rows {
+            let read = reader.read_byte_record(&mut record).map_err(|e| csv_error(path, e))?;
+            let end = reader.position().byte() as usize;
+            if !read || !body[..end].ends_with(b"\n") {
+                return Err(invalid_data(
+                    path,
+                    format!("it holds {k} whole rows, fewer than the {rows} the checkpoint was taken after"),
+                ));
             }
-            if name.contains([',', '"', '\r', '\n']) {
-                writer.line.push('"');
-                writer.line.push_str(&name.replace('"', "\"\""));
-                writer.line.push('"');
-            } else {
-                writer.line.push_str(name);
-            }
+            keep = end;
         }
-        writer.end_line()?;
-        Ok(writer)
+        let mut file = fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(|e| io_error(path, e))?;
+        file.set_len((head.len() + keep) as u64)
+            .map_err(|e| io_error(path, e))?;
+        file.seek(SeekFrom::End(0)).map_err(|e| io_error(path, e))?;
+        Ok(CsvWriter {
+            path: path.to_path_buf(),
+            out: writer_builder().from_writer(file),
+            columns: header.len(),
+            field: String::new(),
+        })
     }
 
     /// Appends one row; it reaches the file at the latest at the next [`flush`](Self::flush).
@@ -103,13 +169,17 @@ impl CsvWriter {
                 found: values.len(),
             });
         }
-        for (i, &v) in values.iter().enumerate() {
-            if i > 0 {
-                self.line.push(',');
-            }
-            push_f64(&mut self.line, v);
+        for &v in values {
+            self.field.clear();
+            push_f64(&mut self.field, v);
+            self.out
+                .write_field(&self.field)
+                .map_err(|e| csv_error(&self.path, e))?;
         }
-        self.end_line()
+        // An empty record ends the one the fields were written into.
+        self.out
+            .write_record(None::<&[u8]>)
+            .map_err(|e| csv_error(&self.path, e))
     }
 
     /// Writes every buffered row to the file.
@@ -129,136 +199,157 @@ impl CsvWriter {
     pub fn columns(&self) -> usize {
         self.columns
     }
-
-    fn end_line(&mut self) -> Result<()> {
-        self.line.push('\n');
-        let written = self.out.write_all(self.line.as_bytes());
-        self.line.clear();
-        written.map_err(|e| io_error(&self.path, e))
-    }
 }
 
 /// Reads a CSV file in the layout [`CsvWriter`] writes: the header's column names and the rows
-/// of numbers. `\r\n` line ends are accepted; a file that ends without a final newline keeps its
-/// last row.
+/// of numbers. `\r\n` line ends are accepted, as are blank lines (skipped) and spaces around a
+/// value; a file that ends without a final newline keeps its last row.
 ///
 /// # Errors
 /// [`MpmError::Io`] naming `path` when it cannot be read, and of kind
-/// [`std::io::ErrorKind::InvalidData`], naming the line and column, when a row does not have one
-/// value per column or a value is not a number.
+/// [`std::io::ErrorKind::InvalidData`] when it is empty or not UTF-8, or, naming the row (and
+/// its line) and the column, when a row does not have one value per column or a value is not a
+/// number.
 pub fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
-    let text = fs::read_to_string(path).map_err(|e| io_error(path, e))?;
-    parse_csv(&text).map_err(|message| invalid_data(path, message))
-}
-
-fn parse_csv(text: &str) -> std::result::Result<(Vec<String>, Vec<Vec<f64>>), String> {
-    let (header, body, header_lines) = parse_header(text)?;
+    let file = File::open(path).map_err(|e| io_error(path, e))?;
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(file);
+    let mut records = reader.records();
+    let header: Vec<String> = match records.next() {
+        None => return Err(invalid_data(path, "the file is empty: a header line is expected")),
+        Some(record) => record
+            .map_err(|e| csv_error(path, e))?
+            .iter()
+            .map(String::from)
+            .collect(),
+    };
     let mut rows = Vec::new();
-    let mut lines: Vec<&str> = body.split('\n').collect();
-    if lines.last() == Some(&"") {
-        lines.pop();
-    }
-    for (i, line) in lines.into_iter().enumerate() {
-        let line_number = header_lines + i + 1;
-        let line = line.strip_suffix('\r').unwrap_or(line);
-        let fields: Vec<&str> = line.split(',').collect();
-        if fields.len() != header.len() {
-            return Err(format!(
-                "line {line_number} has {} values but the header has {} columns",
-                fields.len(),
-                header.len()
+    for (i, record) in records.enumerate() {
+        let record = record.map_err(|e| csv_error(path, e))?;
+        let row_number = i + 1;
+        let line = record.position().map_or(0, |p| p.line());
+        if record.len() != header.len() {
+            return Err(invalid_data(
+                path,
+                format!(
+                    "row {row_number} (line {line}) has {} values but the header has {} columns",
+                    record.len(),
+                    header.len()
+                ),
             ));
         }
-        let row = fields
+        let row = record
             .iter()
             .zip(&header)
             .enumerate()
             .map(|(c, (field, name))| {
                 field.trim().parse::<f64>().map_err(|_| {
-                    format!(
-                        "line {line_number}, column {} (`{name}`): `{field}` is not a number",
-                        c + 1
+                    invalid_data(
+                        path,
+                        format!(
+                            "row {row_number} (line {line}), column {} (`{name}`): `{field}` is not a number",
+                            c + 1
+                        ),
                     )
                 })
             })
-            .collect::<std::result::Result<Vec<f64>, String>>()?;
+            .collect::<Result<Vec<f64>>>()?;
         rows.push(row);
     }
     Ok((header, rows))
-}
-
-/// Splits off the header record (RFC 4180 quoting, which may span lines): its fields, the rest
-/// of the text, and the number of lines the header took.
-fn parse_header(text: &str) -> std::result::Result<(Vec<String>, &str, usize), String> {
-    if text.is_empty() {
-        return Err("the file is empty: a header line is expected".into());
-    }
-    let mut fields = Vec::new();
-    let mut field = String::new();
-    let mut lines = 1;
-    let mut chars = text.char_indices().peekable();
-    let mut at_field_start = true;
-    while let Some((i, c)) = chars.next() {
-        match c {
-            '"' if at_field_start => {
-                // A quoted field: up to the closing quote, `""` standing for `"`.
-                loop {
-                    match chars.next() {
-                        None => return Err("the header ends inside a quoted name".into()),
-                        Some((_, '"')) if chars.peek().map(|&(_, c)| c) == Some('"') => {
-                            chars.next();
-                            field.push('"');
-                        }
-                        Some((_, '"')) => break,
-                        Some((_, c)) => {
-                            if c == '\n' {
-                                lines += 1;
-                            }
-                            field.push(c);
-                        }
-                    }
-                }
-                at_field_start = false;
-                match chars.peek() {
-                    None | Some((_, ',' | '\n' | '\r')) => {}
-                    Some(&(_, c)) => return Err(format!("header: `{c}` after a quoted name")),
-                }
-            }
-            ',' => {
-                fields.push(std::mem::take(&mut field));
-                at_field_start = true;
-            }
-            '\r' if chars.peek().map(|&(_, c)| c) == Some('\n') => {}
-            '\n' => {
-                fields.push(field);
-                return Ok((fields, &text[i + 1..], lines));
-            }
-            c => {
-                field.push(c);
-                at_field_start = false;
-            }
-        }
-    }
-    fields.push(field);
-    Ok((fields, "", lines))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn quoted_header_names_with_commas_quotes_and_newlines_parse_back() {
-        let (header, rows) = parse_csv("plain,\"a,b\",\"say \"\"hi\"\"\",\"two\nlines\"\r\n1,2,3,4\n").unwrap();
-        assert_eq!(header, ["plain", "a,b", "say \"hi\"", "two\nlines"]);
-        assert_eq!(rows, [[1.0, 2.0, 3.0, 4.0]]);
+    /// A fresh path in the temporary directory for one test.
+    fn scratch_file(test: &str) -> PathBuf {
+        std::env::temp_dir().join(format!("sparse-mpm-csv-{}-{test}.csv", std::process::id()))
+    }
+
+    /// The message of an `InvalidData` error.
+    fn invalid_data_message(err: MpmError) -> String {
+        match err {
+            MpmError::Io { source, .. } if source.kind() == std::io::ErrorKind::InvalidData => source.to_string(),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
-    fn bad_rows_name_the_line_and_column() {
-        let err = parse_csv("t,e\n0,1\n1,x\n").unwrap_err();
-        assert!(err.contains("line 3, column 2 (`e`)"), "{err}");
-        let err = parse_csv("t,e\n0,1,2\n").unwrap_err();
-        assert!(err.contains("line 2 has 3 values"), "{err}");
+    fn quoted_header_names_with_commas_quotes_and_newlines_parse_back() {
+        let path = scratch_file("quoted");
+        fs::write(&path, "plain,\"a,b\",\"say \"\"hi\"\"\",\"two\nlines\"\r\n1,2,3,4\n").unwrap();
+        let (header, rows) = read_csv(&path).unwrap();
+        assert_eq!(header, ["plain", "a,b", "say \"hi\"", "two\nlines"]);
+        assert_eq!(rows, [[1.0, 2.0, 3.0, 4.0]]);
+        fs::remove_file(&path).unwrap();
+    }
+
+    #[test]
+    fn headers_are_written_as_before_quoting_only_where_needed() {
+        assert_eq!(
+            header_bytes(&["time", "kinetic energy", "J"]),
+            b"time,kinetic energy,J\n"
+        );
+        assert_eq!(
+            header_bytes(&["a,b", "say \"hi\"", "two\nlines", "cr\r"]),
+            b"\"a,b\",\"say \"\"hi\"\"\",\"two\nlines\",\"cr\r\"\n"
+        );
+        assert_eq!(header_bytes(&["", "x"]), b",x\n");
+        assert_eq!(header_bytes(&[""]), b"\"\"\n");
+    }
+
+    #[test]
+    fn bad_rows_name_the_row_line_and_column() {
+        let path = scratch_file("bad-rows");
+        fs::write(&path, "t,e\n0,1\n1,x\n").unwrap();
+        let message = invalid_data_message(read_csv(&path).unwrap_err());
+        assert!(message.contains("row 2 (line 3), column 2 (`e`): `x`"), "{message}");
+        fs::write(&path, "t,e\n0,1,2\n").unwrap();
+        let message = invalid_data_message(read_csv(&path).unwrap_err());
+        assert!(message.contains("row 1 (line 2) has 3 values"), "{message}");
+        fs::write(&path, "").unwrap();
+        let message = invalid_data_message(read_csv(&path).unwrap_err());
+        assert!(message.contains("empty"), "{message}");
+        fs::remove_file(&path).unwrap();
+    }
+
+    #[test]
+    fn append_after_keeps_the_rows_asked_for_and_continues_byte_for_byte() {
+        let header = ["t", "odd, \"name\""];
+        let rows = [[0.0, -0.0], [1e-3, 1e300], [f64::NAN, 2.5]];
+        let whole = scratch_file("append-whole");
+        let mut csv = CsvWriter::create(&whole, &header).unwrap();
+        for row in &rows {
+            csv.write_row(row).unwrap();
+        }
+        drop(csv);
+        let expected = fs::read(&whole).unwrap();
+
+        // Two rows, a third cut off mid-line: resume after the two.
+        let resumed = scratch_file("append-resumed");
+        let mut text = expected.clone();
+        text.truncate(expected.len() - 3);
+        fs::write(&resumed, &text).unwrap();
+        let mut csv = CsvWriter::append_after(&resumed, &header, 2).unwrap();
+        assert_eq!(csv.columns(), 2);
+        csv.write_row(&rows[2]).unwrap();
+        drop(csv);
+        assert_eq!(fs::read(&resumed).unwrap(), expected);
+
+        // Asking for more whole rows than there are, or another header, is refused.
+        fs::write(&resumed, &text).unwrap();
+        let message = invalid_data_message(CsvWriter::append_after(&resumed, &header, 3).unwrap_err());
+        assert!(message.contains("it holds 2 whole rows"), "{message}");
+        let message = invalid_data_message(CsvWriter::append_after(&resumed, &["t", "e"], 0).unwrap_err());
+        assert!(message.contains("header"), "{message}");
+        // Zero rows keeps the header alone.
+        drop(CsvWriter::append_after(&resumed, &header, 0).unwrap());
+        assert_eq!(fs::read(&resumed).unwrap(), header_bytes(&header));
+        fs::remove_file(&whole).unwrap();
+        fs::remove_file(&resumed).unwrap();
     }
 }

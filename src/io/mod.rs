@@ -7,14 +7,14 @@
 //!   [`read_matrix_market`].
 //! * Particle snapshots for ParaView: [`vtk::write_vtp`] writes one VTK XML PolyData file
 //!   (`.vtp`) per snapshot, [`vtk::PvdWriter`] keeps a `.pvd` collection that lists them with their
-//!   times, so ParaView opens a whole run as a time series. [`vtk::read_vtp`] and
-//!   [`vtk::read_pvd`] read those files back.
-//! * Time histories (energies, probe values …) as CSV: [`csv::CsvWriter`], read back with
-//!   [`csv::read_csv`].
+//!   times, so ParaView opens a whole run as a time series. The crate only writes these files;
+//!   ParaView, VTK's own readers and the `vtkio` crate read them.
+//! * Time histories (energies, probe values …) as CSV, through the `csv` crate:
+//!   [`csv::CsvWriter`], read back with [`csv::read_csv`].
 //!
 //! Every failure is an [`MpmError::Io`] naming the file; a file that does not have the layout
-//! these readers expect gives an [`std::io::ErrorKind::InvalidData`] error whose message says what
-//! is wrong.
+//! the readers ([`read_matrix_market`], [`csv::read_csv`]) expect gives an
+//! [`std::io::ErrorKind::InvalidData`] error whose message says what is wrong.
 
 use std::path::Path;
 

@@ -1,5 +1,5 @@
 //! Base64 (RFC 4648, standard alphabet, `=` padding) for the binary arrays of VTK XML files:
-//! a streaming encoder for writing and a decoder for reading.
+//! a streaming encoder.
 
 use std::io::Write;
 
@@ -111,61 +111,6 @@ fn encode_base64_tail(tail: &[u8]) -> [u8; 4] {
     }
 }
 
-/// Base64 → bytes. ASCII whitespace is skipped; `=` may only pad the last group.
-pub(super) fn decode_base64(text: &str) -> std::result::Result<Vec<u8>, String> {
-    const INVALID: u8 = 255;
-    const TABLE: [u8; 256] = {
-        let mut t = [INVALID; 256];
-        let mut i = 0;
-        while i < 64 {
-            t[BASE64_ALPHABET[i] as usize] = i as u8;
-            i += 1;
-        }
-        t
-    };
-    let bytes = text.as_bytes();
-    let symbols: std::borrow::Cow<'_, [u8]> = if bytes.iter().any(u8::is_ascii_whitespace) {
-        bytes
-            .iter()
-            .copied()
-            .filter(|b| !b.is_ascii_whitespace())
-            .collect::<Vec<u8>>()
-            .into()
-    } else {
-        bytes.into()
-    };
-    if !symbols.len().is_multiple_of(4) {
-        return Err(format!(
-            "{} base64 symbols: not a whole number of 4-symbol groups",
-            symbols.len()
-        ));
-    }
-    let padding = symbols.iter().rev().take(2).take_while(|&&b| b == b'=').count();
-    let mut out = Vec::with_capacity(symbols.len() / 4 * 3);
-    let last_group = symbols.len() / 4;
-    for (g, group) in symbols.chunks_exact(4).enumerate() {
-        let mut n = 0u32;
-        for (k, &c) in group.iter().enumerate() {
-            let mut v = TABLE[c as usize];
-            if v == INVALID {
-                if c == b'=' && g + 1 == last_group && k >= 4 - padding {
-                    v = 0;
-                } else {
-                    return Err(format!(
-                        "invalid base64 character {:?} at symbol {}",
-                        c as char,
-                        4 * g + k
-                    ));
-                }
-            }
-            n = (n << 6) | u32::from(v);
-        }
-        out.extend_from_slice(&[(n >> 16) as u8, (n >> 8) as u8, n as u8]);
-    }
-    out.truncate(out.len() - padding);
-    Ok(out)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -181,7 +126,7 @@ mod tests {
     }
 
     #[test]
-    fn base64_matches_the_rfc_4648_test_vectors_and_decodes_back() {
+    fn base64_matches_the_rfc_4648_test_vectors() {
         let vectors = [
             ("", ""),
             ("f", "Zg=="),
@@ -194,9 +139,7 @@ mod tests {
         ];
         for (plain, encoded) in vectors {
             assert_eq!(encode_all(plain.as_bytes()), encoded);
-            assert_eq!(decode_base64(encoded).unwrap(), plain.as_bytes());
         }
-        assert_eq!(decode_base64(" Zm9v\nYmE=\n").unwrap(), b"fooba");
     }
 
     #[test]
@@ -227,15 +170,6 @@ mod tests {
                 encode_all(&raw),
                 "{words} words"
             );
-            assert_eq!(decode_base64(std::str::from_utf8(&out).unwrap()).unwrap(), raw);
         }
-    }
-
-    #[test]
-    fn base64_decoding_rejects_bad_characters_and_lengths() {
-        assert!(decode_base64("Zm9v!AAA").is_err());
-        assert!(decode_base64("Zm9").is_err());
-        assert!(decode_base64("Zg==Zg==").is_err());
-        assert!(decode_base64("Z===").is_err());
     }
 }
