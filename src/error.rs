@@ -172,6 +172,15 @@ pub enum MpmError {
         /// What is wrong, in words.
         reason: String,
     },
+    /// The output folder of a run already holds files (`mpm run --overwrite` replaces them).
+    OutputExists {
+        /// The folder.
+        path: PathBuf,
+        /// How many entries it holds.
+        count: usize,
+        /// A few of their names.
+        examples: Vec<String>,
+    },
     /// Reading or writing a file failed.
     Io {
         /// The file.
@@ -303,6 +312,14 @@ impl fmt::Display for MpmError {
                 write!(f, "checkpoint {}: {reason}", path.display())
             }
             MpmError::Checkpoint { path: None, reason } => write!(f, "checkpoint: {reason}"),
+            MpmError::OutputExists { path, count, examples } => write!(
+                f,
+                "the output folder {} already holds {count} file(s) ({}{}); use --overwrite to replace an earlier \
+                 run's output there, or --out to choose another folder",
+                path.display(),
+                examples.join(", "),
+                if *count > examples.len() { ", …" } else { "" }
+            ),
             MpmError::Io { path, source } => write!(f, "{}: {source}", path.display()),
         }
     }

@@ -1,4 +1,6 @@
-//! The seed assignment (ME 7953, Project II, Fall 2002) solved through the matrix-form API.
+//! The worked problem (one explicit MPM step on a 6-node grid with 4 particles: shape functions,
+//! masses, forces, accelerations, the step; a course assignment, ME 7953 Project II, Fall 2002)
+//! solved through the matrix-form API.
 //!
 //! [`solve`] answers every question 1(A)–4(F) and keeps every quantity in a [`Homework`];
 //! [`Homework::report`] prints them labelled by question and [`Homework::to_json`] gives one
@@ -263,7 +265,7 @@ impl Homework {
         let (s, a, r, lit) = (&self.step, &self.after, &self.step.strain_rate, &self.stress_literal);
         writeln!(
             out,
-            "ME 7953 Project II, answered with sparse-mpm (nodes n = 1..6, particles p = 1..4)\n"
+            "One explicit MPM step worked by hand: bilinear shape functions, masses, forces, the step\n(the ME 7953 Project II problem; nodes n = 1..6, particles p = 1..4)\n"
         )?;
         writeln!(
             out,

@@ -116,6 +116,7 @@ pub mod grid;
 pub mod homework;
 pub mod io;
 pub mod kernels;
+pub mod limits;
 pub mod mass;
 pub mod material;
 pub mod operators;

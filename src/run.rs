@@ -18,6 +18,113 @@ use crate::operators::Operators;
 use crate::scene::Scene;
 use crate::simulation::{Simulation, StepReport};
 
+/// A number for people: shortest round-trip digits (`3.5`, `0.001`, `12500`) between 10⁻⁴ and
+/// 10⁶, six significant digits in exponent form outside (`1.23457e-9`), `0`, `inf`, `NaN`.
+pub fn human(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    if (1e-4..1e6).contains(&a) {
+        // At most six significant digits, trailing zeros dropped.
+        let digits = (5 - a.log10().floor() as i32).max(0) as usize;
+        let text = format!("{x:.digits$}");
+        if text.contains('.') {
+            text.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            text
+        }
+    } else {
+        let text = format!("{x:.5e}");
+        let (mantissa, exponent) = text.split_once('e').unwrap_or((&text, "0"));
+        let mantissa = if mantissa.contains('.') {
+            mantissa.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            mantissa
+        };
+        format!("{mantissa}e{exponent}")
+    }
+}
+
+/// What to do with an output folder that already holds files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OutputPolicy {
+    /// Refuse a folder that holds anything ([`MpmError::OutputExists`]).
+    #[default]
+    RefuseNonEmpty,
+    /// Remove the files a run writes (snapshots, `particles.pvd`, `report.csv`, `scene.toml`,
+    /// particle files copied beside it, `checkpoints/`, left-over `*.tmp`) and write anew; other
+    /// files stay.
+    Overwrite,
+    /// Take up the output of the run being resumed (used by [`resume_run`]).
+    Continue,
+}
+
+/// How to run a scene to files.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RunOptions {
+    /// End time and step limits.
+    pub limits: RunLimits,
+    /// What to do with files already in the output folder.
+    pub output: OutputPolicy,
+    /// Write a checkpoint every this many steps under `out/checkpoints/`.
+    pub checkpoint_every: Option<usize>,
+    /// Run even when the estimated memory or output exceeds [`crate::limits::Limits::default`].
+    pub allow_large: bool,
+}
+
+/// Whether `name` is a file a run writes into its output folder.
+fn is_run_output(name: &str) -> bool {
+    (name.starts_with("particles_") && name.ends_with(".vtp"))
+        || matches!(name, "particles.pvd" | "report.csv" | "scene.toml" | "checkpoints")
+        || name.starts_with("input_")
+        || name.ends_with(".tmp")
+}
+
+/// Prepares `out` for a run under `policy`: creates it; refuses it when it holds files
+/// ([`OutputPolicy::RefuseNonEmpty`]); removes what an earlier run wrote there
+/// ([`OutputPolicy::Overwrite`]).
+///
+/// # Errors
+/// [`MpmError::OutputExists`] naming the folder and some of its files; [`MpmError::Io`] naming
+/// a file or folder that cannot be created or removed.
+pub fn prepare_output(out: &Path, policy: OutputPolicy) -> Result<()> {
+    create_dir(out)?;
+    let entries: Vec<String> = std::fs::read_dir(out)
+        .map_err(|source| MpmError::Io {
+            path: out.to_path_buf(),
+            source,
+        })?
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    match policy {
+        OutputPolicy::RefuseNonEmpty if !entries.is_empty() => {
+            let mut names = entries.clone();
+            names.sort();
+            names.truncate(3);
+            Err(MpmError::OutputExists {
+                path: out.to_path_buf(),
+                count: entries.len(),
+                examples: names,
+            })
+        }
+        OutputPolicy::Overwrite => {
+            for name in entries.iter().filter(|n| is_run_output(n)) {
+                let path = out.join(name);
+                let removed = if path.is_dir() {
+                    std::fs::remove_dir_all(&path)
+                } else {
+                    std::fs::remove_file(&path)
+                };
+                removed.map_err(|source| MpmError::Io { path, source })?;
+            }
+            Ok(())
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Limits that override the scene's end time (for quick looks and tests).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RunLimits {
@@ -67,6 +174,8 @@ pub struct RunSummary {
     pub report: PathBuf,
     /// The last step's report.
     pub last: Option<StepReport>,
+    /// The checkpoints written, in step order.
+    pub checkpoints: Vec<PathBuf>,
 }
 
 fn create_dir(dir: &Path) -> Result<()> {
@@ -135,50 +244,232 @@ pub fn write_snapshot(sim: &Simulation, path: &Path) -> Result<()> {
     write_vtp(path, &p.x, &p.y, &fields)
 }
 
-/// Runs `scene` and writes its output into `out` (created if needed): `scene.toml`,
+/// Runs `scene` and writes its output into `out` (created if needed), replacing what an
+/// earlier run wrote there ([`OutputPolicy::Overwrite`]): `scene.toml`,
 /// `particles_NNNNNN.vtp` snapshots every `output.snapshot_interval` (and at the start and the
 /// end), `particles.pvd`, `report.csv` (one row per step, columns [`StepReport::COLUMNS`]).
-/// `progress` is called after every step.
+/// `progress` is called after every step. [`run_scene_with`] takes all the options.
 ///
 /// # Errors
-/// The errors of [`Scene::build`], of [`Simulation::step`] (the output written so far stays)
-/// and [`MpmError::Io`] naming a file that could not be written.
-pub fn run_scene(
+/// As [`run_scene_with`].
+pub fn run_scene(scene: &Scene, out: &Path, limits: RunLimits, progress: impl FnMut(&Progress)) -> Result<RunSummary> {
+    let options = RunOptions {
+        limits,
+        output: OutputPolicy::Overwrite,
+        ..RunOptions::default()
+    };
+    run_scene_with(scene, out, &options, progress)
+}
+
+/// What a run needs besides the simulation to continue from a checkpoint (`run.json` in the
+/// checkpoint folder).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct RunState {
+    format: String,
+    end_time: f64,
+    snapshot_interval: f64,
+    next_snapshot: f64,
+    /// `(time, file)` of every snapshot written so far.
+    snapshots: Vec<(f64, PathBuf)>,
+    /// Rows of `report.csv` (= steps taken).
+    report_rows: usize,
+}
+
+const RUN_STATE_FORMAT: &str = "sparse-mpm run state 1";
+
+/// Runs `scene` into `out` under `options`: the estimated cost against the limits and the
+/// whole build first ([`crate::limits::prepare_run`], what `mpm check` runs), then the output
+/// folder ([`prepare_output`]), then the steps.
+///
+/// Output is never lost: every snapshot and checkpoint file is written whole (temporary file,
+/// then rename), the `.pvd` is rewritten after each snapshot so it always lists what exists,
+/// and the report is flushed after every step. A run that fails part-way keeps everything
+/// written before the failing step and returns the error. `scene.toml` in `out` reruns the
+/// same scene from there: particle files are copied beside it (`input_<body>_<name>`) and the
+/// copy names them.
+///
+/// # Errors
+/// The errors of [`crate::limits::prepare_run`] (limits, [`Scene::build`]), of
+/// [`prepare_output`], of [`Simulation::step`] (the output written so far stays) and
+/// [`MpmError::Io`] naming a file that could not be written.
+pub fn run_scene_with(
     scene: &Scene,
     out: &Path,
-    limits: RunLimits,
-    mut progress: impl FnMut(&Progress),
+    options: &RunOptions,
+    progress: impl FnMut(&Progress),
 ) -> Result<RunSummary> {
     let start = Instant::now();
-    let mut sim = scene.build()?;
-    create_dir(out)?;
+    let limits = if options.allow_large {
+        crate::limits::Limits::raised()
+    } else {
+        crate::limits::Limits::default()
+    };
+    let (sim, _) = crate::limits::prepare_run(scene, &limits)?;
+    prepare_output(out, options.output)?;
+    write_scene_copy(scene, out)?;
+    let state = RunState {
+        format: RUN_STATE_FORMAT.into(),
+        end_time: options.limits.end_time.unwrap_or(scene.time.end),
+        snapshot_interval: scene.snapshot_interval(),
+        next_snapshot: 0.0,
+        snapshots: Vec::new(),
+        report_rows: 0,
+    };
+    let pvd = PvdWriter::create(&out.join("particles.pvd"))?;
+    let csv = CsvWriter::create(&out.join("report.csv"), &StepReport::COLUMNS)?;
+    drive(sim, state, out, options, pvd, csv, start, progress)
+}
+
+/// Continues the run whose checkpoint folder is `checkpoint` (written by a run with
+/// [`RunOptions::checkpoint_every`]) in `out` (default: the run folder the checkpoint lies
+/// in). The report and snapshots of the run before the checkpoint are kept (copied when `out`
+/// is another folder) and the rest written as the uninterrupted run would have: the resumed
+/// run's `report.csv` and snapshots are bit-identical to an uninterrupted run's. Returns the
+/// summary and the output folder.
+///
+/// # Errors
+/// [`MpmError::Checkpoint`] for a checkpoint folder that is incomplete or of another format;
+/// the errors of [`Simulation::read_checkpoint`] and of [`run_scene_with`]'s steps.
+pub fn resume_run(
+    checkpoint: &Path,
+    out: Option<&Path>,
+    options: &RunOptions,
+    progress: impl FnMut(&Progress),
+) -> Result<(RunSummary, PathBuf)> {
+    let start = Instant::now();
+    let bad = |reason: String| MpmError::Checkpoint {
+        path: Some(checkpoint.to_path_buf()),
+        reason,
+    };
+    let state_path = checkpoint.join("run.json");
+    let text = std::fs::read_to_string(&state_path).map_err(|e| {
+        bad(format!(
+            "cannot read {} ({e}): give the checkpoint folder `checkpoints/step_NNNNNNNN` a run wrote",
+            state_path.display()
+        ))
+    })?;
+    let mut state: RunState = serde_json::from_str(&text).map_err(|e| bad(format!("run.json: {e}")))?;
+    if state.format != RUN_STATE_FORMAT {
+        return Err(bad(format!("run.json is `{}`, not `{RUN_STATE_FORMAT}`", state.format)));
+    }
+    let sim = Simulation::read_checkpoint(&checkpoint.join("simulation.ckpt"))?;
+    if sim.steps() != state.report_rows {
+        return Err(bad(format!(
+            "run.json says {} steps, the simulation {}",
+            state.report_rows,
+            sim.steps()
+        )));
+    }
+    if let Some(end) = options.limits.end_time {
+        state.end_time = end;
+    }
+    let run_dir = checkpoint
+        .parent()
+        .and_then(Path::parent)
+        .ok_or_else(|| bad("the checkpoint folder is not inside a run folder's `checkpoints/`".into()))?
+        .to_path_buf();
+    let out = out.map_or(run_dir.clone(), Path::to_path_buf);
+    if out != run_dir {
+        prepare_output(&out, OutputPolicy::RefuseNonEmpty)?;
+        for name in ["report.csv", "scene.toml"] {
+            copy(&run_dir.join(name), &out.join(name))?;
+        }
+        for (_, file) in &state.snapshots {
+            copy(&run_dir.join(file), &out.join(file))?;
+        }
+    } else {
+        // Snapshots written after the checkpoint by the interrupted run are written again.
+        let kept: std::collections::HashSet<&PathBuf> = state.snapshots.iter().map(|(_, f)| f).collect();
+        let entries = std::fs::read_dir(&out).map_err(|source| MpmError::Io {
+            path: out.clone(),
+            source,
+        })?;
+        for entry in entries.filter_map(|e| e.ok()) {
+            let name = PathBuf::from(entry.file_name());
+            let text = name.to_string_lossy();
+            if (text.starts_with("particles_") && text.ends_with(".vtp") && !kept.contains(&name))
+                || text.ends_with(".tmp")
+            {
+                let path = out.join(&name);
+                std::fs::remove_file(&path).map_err(|source| MpmError::Io { path, source })?;
+            }
+        }
+    }
+    let pvd = PvdWriter::with_entries(&out.join("particles.pvd"), &state.snapshots)?;
+    let csv = CsvWriter::append_after(&out.join("report.csv"), &StepReport::COLUMNS, state.report_rows)?;
+    let summary = drive(sim, state, &out, options, pvd, csv, start, progress)?;
+    Ok((summary, out))
+}
+
+fn copy(from: &Path, to: &Path) -> Result<()> {
+    std::fs::copy(from, to).map(|_| ()).map_err(|source| MpmError::Io {
+        path: from.to_path_buf(),
+        source,
+    })
+}
+
+/// Writes `out/scene.toml`, copying particle files beside it and naming the copies, so that
+/// the copy reruns the same scene from `out`.
+fn write_scene_copy(scene: &Scene, out: &Path) -> Result<()> {
+    let mut copy_scene = scene.clone();
+    for (k, body) in copy_scene.bodies.iter_mut().enumerate() {
+        if let crate::scene::Geometry::File(path) = &body.geometry {
+            let source = match &scene.base_dir {
+                Some(dir) if path.is_relative() => dir.join(path),
+                _ => path.clone(),
+            };
+            let name = format!(
+                "input_{k}_{}",
+                path.file_name()
+                    .map_or("particles.csv".into(), |n| n.to_string_lossy().into_owned())
+            );
+            copy(&source, &out.join(&name))?;
+            body.geometry = crate::scene::Geometry::File(PathBuf::from(name));
+        }
+    }
     let scene_copy = out.join("scene.toml");
-    std::fs::write(&scene_copy, scene.to_toml_string()?).map_err(|source| MpmError::Io {
+    std::fs::write(&scene_copy, copy_scene.to_toml_string()?).map_err(|source| MpmError::Io {
         path: scene_copy.clone(),
         source,
-    })?;
-    let end_time = limits.end_time.unwrap_or(scene.time.end);
-    let interval = scene.snapshot_interval();
-    let mut pvd = PvdWriter::create(&out.join("particles.pvd"))?;
-    let report_path = out.join("report.csv");
-    let mut csv = CsvWriter::create(&report_path, &StepReport::COLUMNS)?;
-    let mut snapshots = Vec::new();
-    let mut snapshot = |sim: &Simulation, pvd: &mut PvdWriter| -> Result<()> {
-        let name = format!("particles_{:06}.vtp", snapshots.len());
+    })
+}
+
+/// The time loop of [`run_scene_with`] and [`resume_run`], from the state of `sim` and `state`.
+#[allow(clippy::too_many_arguments)]
+fn drive(
+    mut sim: Simulation,
+    mut state: RunState,
+    out: &Path,
+    options: &RunOptions,
+    mut pvd: PvdWriter,
+    mut csv: CsvWriter,
+    start: Instant,
+    mut progress: impl FnMut(&Progress),
+) -> Result<RunSummary> {
+    let end_time = state.end_time;
+    let interval = state.snapshot_interval;
+    let mut snapshots: Vec<PathBuf> = state.snapshots.iter().map(|(_, f)| out.join(f)).collect();
+    let mut snapshot = |sim: &Simulation, pvd: &mut PvdWriter, state: &mut RunState| -> Result<()> {
+        let name = format!("particles_{:06}.vtp", state.snapshots.len());
         write_snapshot(sim, &out.join(&name))?;
         pvd.push(sim.time(), Path::new(&name))?;
         snapshots.push(out.join(&name));
+        state.snapshots.push((sim.time(), PathBuf::from(name)));
         Ok(())
     };
-    snapshot(&sim, &mut pvd)?;
-    let mut next_snapshot = interval;
+    if state.snapshots.is_empty() {
+        snapshot(&sim, &mut pvd, &mut state)?;
+        state.next_snapshot = interval;
+    }
+    let mut checkpoints = Vec::new();
     let mut stepping = Duration::ZERO;
     let mut last = None;
-    let max_steps = limits.max_steps.unwrap_or(usize::MAX);
+    let max_steps = options.limits.max_steps.unwrap_or(usize::MAX);
+    let steps_before = sim.steps();
     while sim.time() < end_time * (1.0 - 1e-12) && sim.steps() < max_steps {
         let t0 = Instant::now();
         // Land exactly on snapshot times and on the end.
-        let target = next_snapshot.min(end_time);
+        let target = state.next_snapshot.min(end_time);
         let result = sim.step_capped(target - sim.time());
         stepping += t0.elapsed();
         let report = match result {
@@ -190,9 +481,13 @@ pub fn run_scene(
         };
         csv.write_row(&report.values())?;
         csv.flush()?;
-        if sim.time() >= next_snapshot * (1.0 - 1e-12) {
-            snapshot(&sim, &mut pvd)?;
-            next_snapshot += interval;
+        state.report_rows += 1;
+        if sim.time() >= state.next_snapshot * (1.0 - 1e-12) {
+            snapshot(&sim, &mut pvd, &mut state)?;
+            state.next_snapshot += interval;
+        }
+        if options.checkpoint_every.is_some_and(|k| k > 0 && sim.steps().is_multiple_of(k)) {
+            checkpoints.push(write_run_checkpoint(&sim, &state, out)?);
         }
         progress(&Progress {
             time: sim.time(),
@@ -205,10 +500,11 @@ pub fn run_scene(
         last = Some(report);
     }
     if pvd.entries().last().map(|e| e.0) != Some(sim.time()) {
-        snapshot(&sim, &mut pvd)?;
+        snapshot(&sim, &mut pvd, &mut state)?;
     }
     let particles = sim.particles().len();
     let seconds = stepping.as_secs_f64();
+    let taken = sim.steps() - steps_before;
     Ok(RunSummary {
         steps: sim.steps(),
         time: sim.time(),
@@ -216,15 +512,37 @@ pub fn run_scene(
         stepping,
         total: start.elapsed(),
         particle_steps_per_second: if seconds > 0.0 {
-            particles as f64 * sim.steps() as f64 / seconds
+            particles as f64 * taken as f64 / seconds
         } else {
             0.0
         },
         snapshots,
         pvd: pvd.path().to_path_buf(),
-        report: report_path,
+        report: csv.path().to_path_buf(),
         last,
+        checkpoints,
     })
+}
+
+/// Writes `out/checkpoints/step_NNNNNNNN/` with `simulation.ckpt` and `run.json` (the run
+/// state last, so a folder without it is an unfinished checkpoint).
+fn write_run_checkpoint(sim: &Simulation, state: &RunState, out: &Path) -> Result<PathBuf> {
+    let dir = out.join("checkpoints").join(format!("step_{:08}", sim.steps()));
+    create_dir(&dir)?;
+    sim.write_checkpoint(&dir.join("simulation.ckpt"))?;
+    let json = serde_json::to_string_pretty(state).expect("the run state always serializes");
+    let tmp = dir.join("run.json.tmp");
+    let path = dir.join("run.json");
+    std::fs::write(&tmp, json)
+        .and_then(|()| std::fs::rename(&tmp, &path))
+        .map_err(|source| {
+            let _ = std::fs::remove_file(&tmp);
+            MpmError::Io {
+                path: path.clone(),
+                source,
+            }
+        })?;
+    Ok(dir)
 }
 
 /// Writes the matrices of the scene's initial configuration into `out`: `N.mtx`, `Gx.mtx`,

@@ -78,13 +78,27 @@ fn every_shipped_scene_runs_and_its_snapshots_read_back() {
             rows.iter().all(|r| (r[column] - mass).abs() < 1e-12 * mass),
             "{name}: mass changed"
         );
-        // The copy of the scene reads back to the same scene.
+        // The copy of the scene reads back to the same scene, its particle files copied beside
+        // it (`input_<body>_<name>`) with the same content, and builds the same particles.
         let copy = Scene::load(&out.join("scene.toml")).unwrap();
+        let mut expected = scene.clone();
+        for (k, body) in expected.bodies.iter_mut().enumerate() {
+            if let sparse_mpm::scene::Geometry::File(path) = &body.geometry {
+                let copied = format!("input_{k}_{}", path.file_name().unwrap().to_string_lossy());
+                assert_eq!(
+                    std::fs::read(out.join(&copied)).unwrap(),
+                    std::fs::read(scene.base_dir.as_ref().unwrap().join(path)).unwrap(),
+                    "{name}: {copied}"
+                );
+                body.geometry = sparse_mpm::scene::Geometry::File(copied.into());
+            }
+        }
+        assert_eq!(copy.particles().unwrap(), scene.particles().unwrap(), "{name}");
         assert_eq!(
             Scene { base_dir: None, ..copy },
             Scene {
                 base_dir: None,
-                ..scene.clone()
+                ..expected
             }
         );
         std::fs::remove_dir_all(&out).unwrap();
@@ -419,7 +433,7 @@ fn mpm_refuses_a_bad_scene_with_the_key_and_a_failure_status() {
         "{stderr}"
     );
     let o = mpm(&["frobnicate"]);
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(2), "an unknown command is a usage error");
     let o = mpm(&["run", "--steps", "many"]);
     assert_eq!(o.status.code(), Some(2));
     std::fs::remove_dir_all(&dir).unwrap();

@@ -1,277 +1,321 @@
-//! `mpm`: run scene files, export the matrices of a scene, print the worked problem.
-//!
-//! ```text
-//! mpm run [SCENE.toml] [--out DIR] [--end-time T] [--steps N] [--quiet]
-//! mpm matrices SCENE.toml [--out DIR]
-//! mpm check SCENE.toml
-//! mpm homework [--json]
-//! mpm study [--out DIR] [--spec STUDY.toml] [--parts a,b] [--quick]
-//! mpm bench [--shape S] [--mass M] [--transfer T] [--update U] [--particles N[,N…]]
-//!           [--threads T] [--steps S] [--reps R] [--profile]
-//! ```
+//! `mpm`: run scene files, export the matrices of a scene, print the worked problem, run the
+//! verification study and the benchmark. `mpm help` and `mpm <command> --help` describe each
+//! command.
 
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
 use sparse_mpm::bench::names;
-use sparse_mpm::run::{run_scene, write_matrices, Progress, RunLimits};
+use sparse_mpm::limits;
+use sparse_mpm::mass::MassScheme;
+use sparse_mpm::run::{
+    human, prepare_output, run_scene_with, write_matrices, OutputPolicy, Progress, RunLimits, RunOptions,
+};
 use sparse_mpm::scene::Scene;
+use sparse_mpm::simulation::{Transfer, UpdateScheme};
+use sparse_mpm::ShapeFunction;
 
 /// The scene `mpm run` uses when none is given.
 const DEFAULT_SCENE: (&str, &str) = ("two_disks", include_str!("../../scenes/two_disks.toml"));
 
-const USAGE: &str = "\
-mpm: the 2D material point method in sparse-matrix form
+/// The 2D material point method in sparse-matrix form.
+#[derive(Parser, Debug)]
+#[command(name = "mpm", version, about, long_about = None, arg_required_else_help = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
 
-USAGE:
-    mpm run [SCENE.toml] [--out DIR] [--end-time T] [--steps N] [--quiet]
-        Run a scene (default: the built-in two-disk impact, scenes/two_disks.toml).
-        Writes DIR/particles_*.vtp, DIR/particles.pvd (open it in ParaView),
-        DIR/report.csv (one row per step) and DIR/scene.toml.
-        DIR defaults to out/<scene name>.
-    mpm matrices SCENE.toml [--out DIR]
-        Write N, Gx, Gy, M (consistent mass) and mL (lumped mass) of the initial
-        configuration as Matrix Market files, with nodes.csv and particles.csv.
-        DIR defaults to out/<scene name>/matrices.
-    mpm check SCENE.toml
-        Read and validate a scene; print its size and stable time step.
-    mpm homework [--json]
-        Print the answers of the worked problem (the seed assignment).
-    mpm study [--out DIR] [--spec STUDY.toml] [--parts a,b] [--quick]
-        Run the verification problems over a matrix of choices (mass schemes,
-        transfers, shape functions, resolutions) and write DIR/report.md with its
-        PNG plots and DIR/runs.csv (every run). DIR defaults to out/study.
-        Parts: frequency, bar_energy, convergence, energy, time_step, cantilever,
-        single_point (default: all). --quick: smaller grids, a few seconds.
-        A STUDY.toml sets any of the study's keys (docs/verification.md).
-    mpm bench [--shape S] [--mass M] [--transfer T] [--update U] [--particles N[,N...]]
-              [--threads T] [--steps S] [--reps R] [--profile]
-        Time the peers' benchmark problem (random block falling into a walled unit
-        box, neo-Hookean, about 4 particles per cell; docs/performance.md) over whole
-        explicit steps, set-up excluded. Defaults: quadratic, lumped, apic, usl,
-        8192,65536,262144,1048576 particles, 1 thread, max(20, min(2000, 2e7/N))
-        steps, 5 repetitions. Prints min/median/max per particle count, then
-        `particle-steps/s: <median>` and `peak bytes/particle: <value>`.
-        Shapes: linear, gimp[:half_width], quadratic, cubic. Masses: lumped,
-        consistent, blended:g, series:k, cg[:tol]. Transfers: pic, flip, apic,
-        blend:a, xpic:k, fmpm:k. Updates: usf, usl, musl. --profile: the share of
-        each phase of the step.
-    mpm help
-        This text.
-";
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run a scene: particle snapshots for ParaView, a report row per step, the scene as read.
+    ///
+    /// Writes DIR/particles_*.vtp, DIR/particles.pvd (open it in ParaView), DIR/report.csv
+    /// (one row per step) and DIR/scene.toml (reruns the same scene from DIR). Without a scene,
+    /// runs the built-in two-disk impact (scenes/two_disks.toml).
+    Run(RunArgs),
+    /// Continue a run from a checkpoint written by `mpm run --checkpoint-every`.
+    ///
+    /// The continued run's report rows and snapshots are bit-identical to an uninterrupted
+    /// run's. Writes into the checkpoint's run folder (the folder above `checkpoints/`) unless
+    /// --out says otherwise.
+    Resume(ResumeArgs),
+    /// Write N, Gx, Gy, M (consistent mass) and mL (lumped mass) of a scene's initial
+    /// configuration as Matrix Market files, with nodes.csv and particles.csv.
+    Matrices(MatricesArgs),
+    /// Read and validate a scene exactly as `run` does (limits and the stable time step
+    /// included) and print its size and stable time step.
+    Check(CheckArgs),
+    /// One explicit MPM step worked by hand: bilinear shape functions on a 6-node grid with 4
+    /// particles, consistent and lumped mass, grid forces, accelerations, the step; every
+    /// quantity printed (docs/homework.md).
+    Homework {
+        /// Print the answers as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Run the verification problems over a matrix of choices and write a report with plots.
+    ///
+    /// Writes DIR/report.md with its PNG plots and DIR/runs.csv (every run). Parts: frequency,
+    /// bar_energy, convergence, energy, time_step, cantilever, single_point.
+    Study(StudyArgs),
+    /// Time the peers' benchmark problem (a random block falling into a walled unit box,
+    /// neo-Hookean, about 4 particles per cell; docs/performance.md) over whole steps.
+    ///
+    /// Prints a CSV row per particle count (min/median/max), then `particle-steps/s: <median>`
+    /// and `peak bytes/particle: <value>`.
+    Bench(BenchArgs),
+}
 
-struct Args {
-    positional: Vec<String>,
+/// Where output goes and what may be replaced there.
+#[derive(Args, Debug)]
+struct OutputArgs {
+    /// Output folder [default: out/<scene name>].
+    #[arg(long, short = 'o', value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Replace the output of an earlier run in DIR (its snapshots, report, scene and
+    /// checkpoints are removed first); without it a folder holding files is refused.
+    #[arg(long)]
+    overwrite: bool,
+}
+
+#[derive(Args, Debug)]
+struct RunArgs {
+    /// The scene file [default: the built-in two-disk impact].
+    scene: Option<PathBuf>,
+    #[command(flatten)]
+    output: OutputArgs,
+    /// Stop at this time instead of the scene's `time.end`.
+    #[arg(long, value_name = "T", value_parser = positive)]
     end_time: Option<f64>,
+    /// Stop after this many steps.
+    #[arg(long, value_name = "N")]
     steps: Option<usize>,
+    /// Write a checkpoint every K steps under DIR/checkpoints (resume with `mpm resume`).
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u64).range(1..))]
+    checkpoint_every: Option<u64>,
+    /// Accept a run whose estimated memory or output exceeds the limits of docs/reliability.md.
+    #[arg(long)]
+    allow_large: bool,
+    /// Print only the final throughput line.
+    #[arg(long, short = 'q')]
     quiet: bool,
-    json: bool,
+}
+
+#[derive(Args, Debug)]
+struct ResumeArgs {
+    /// A checkpoint file written by `mpm run --checkpoint-every`.
+    checkpoint: PathBuf,
+    /// Output folder [default: the checkpoint's run folder].
+    #[arg(long, short = 'o', value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Stop at this time instead of the scene's `time.end`.
+    #[arg(long, value_name = "T", value_parser = positive)]
+    end_time: Option<f64>,
+    /// Stop after this many steps in all (counted from the start of the run).
+    #[arg(long, value_name = "N")]
+    steps: Option<usize>,
+    /// Write a checkpoint every K steps.
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u64).range(1..))]
+    checkpoint_every: Option<u64>,
+    /// Accept a run whose estimated output exceeds the limits.
+    #[arg(long)]
+    allow_large: bool,
+    /// Print only the final throughput line.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+#[derive(Args, Debug)]
+struct MatricesArgs {
+    /// The scene file.
+    scene: PathBuf,
+    /// Output folder [default: out/<scene name>/matrices].
+    #[arg(long, short = 'o', value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Replace matrix files already in DIR.
+    #[arg(long)]
+    overwrite: bool,
+    /// Accept a scene whose estimated memory exceeds the limits.
+    #[arg(long)]
+    allow_large: bool,
+}
+
+#[derive(Args, Debug)]
+struct CheckArgs {
+    /// The scene file.
+    scene: PathBuf,
+    /// Check against raised limits, as `mpm run --allow-large` would run.
+    #[arg(long)]
+    allow_large: bool,
+}
+
+#[derive(Args, Debug)]
+struct StudyArgs {
+    /// Output folder [default: out/study].
+    #[arg(long, short = 'o', value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// A TOML file setting any of the study's keys (docs/verification.md).
+    #[arg(long, value_name = "STUDY.toml")]
     spec: Option<PathBuf>,
-    parts: Option<String>,
+    /// Comma-separated parts to run [default: all].
+    #[arg(long, value_name = "a,b", value_delimiter = ',')]
+    parts: Option<Vec<String>>,
+    /// Smaller grids: a few seconds.
+    #[arg(long)]
     quick: bool,
-    bench: sparse_mpm::bench::BenchSpec,
+    /// No progress bar or summary.
+    #[arg(long, short = 'q')]
+    quiet: bool,
 }
 
-fn parse(args: &[String]) -> Result<Args, String> {
-    let mut a = Args {
-        positional: Vec::new(),
-        out: None,
-        end_time: None,
-        steps: None,
-        quiet: false,
-        json: false,
-        spec: None,
-        parts: None,
-        quick: false,
-        bench: sparse_mpm::bench::BenchSpec::default(),
-    };
-    let mut it = args.iter();
-    while let Some(arg) = it.next() {
-        let mut value = |name: &str| it.next().cloned().ok_or_else(|| format!("{name} needs a value"));
-        match arg.as_str() {
-            "--out" | "-o" => a.out = Some(PathBuf::from(value("--out")?)),
-            "--end-time" => {
-                let v = value("--end-time")?;
-                a.end_time = Some(
-                    v.parse::<f64>()
-                        .ok()
-                        .filter(|t| t.is_finite() && *t > 0.0)
-                        .ok_or_else(|| format!("--end-time {v}: expected a positive number"))?,
-                );
-            }
-            "--steps" => {
-                let v = value("--steps")?;
-                a.steps = Some(v.parse().map_err(|_| format!("--steps {v}: expected a whole number"))?);
-            }
-            "--quiet" | "-q" => a.quiet = true,
-            "--json" => a.json = true,
-            "--spec" => a.spec = Some(PathBuf::from(value("--spec")?)),
-            "--parts" => a.parts = Some(value("--parts")?),
-            "--quick" => a.quick = true,
-            "--profile" => a.bench.profile = true,
-            "--shape" => a.bench.shape = names::shape(&value("--shape")?).map_err(|e| format!("--shape: {e}"))?,
-            "--mass" => a.bench.mass = names::mass(&value("--mass")?).map_err(|e| format!("--mass: {e}"))?,
-            "--transfer" => {
-                a.bench.transfer = names::transfer(&value("--transfer")?).map_err(|e| format!("--transfer: {e}"))?
-            }
-            "--update" => a.bench.update = names::update(&value("--update")?).map_err(|e| format!("--update: {e}"))?,
-            "--particles" => {
-                let v = value("--particles")?;
-                a.bench.particles = v
-                    .split(',')
-                    .map(|n| {
-                        let n = n.trim().replace('_', "");
-                        n.parse::<f64>()
-                            .ok()
-                            .filter(|x| x.fract() == 0.0 && *x >= 16.0 && *x <= 1e9)
-                            .map(|x| x as usize)
-                            .ok_or_else(|| format!("--particles {v}: `{n}` is not a count between 16 and 1e9"))
-                    })
-                    .collect::<Result<_, _>>()?;
-            }
-            "--threads" => {
-                let v = value("--threads")?;
-                a.bench.threads = v
-                    .parse()
-                    .ok()
-                    .filter(|t| *t >= 1)
-                    .ok_or_else(|| format!("--threads {v}: expected a whole number of at least 1"))?;
-            }
-            "--dt" => {
-                let v = value("--dt")?;
-                a.bench.dt = Some(
-                    v.parse()
-                        .ok()
-                        .filter(|d: &f64| d.is_finite() && *d > 0.0)
-                        .ok_or_else(|| format!("--dt {v}: expected a positive number"))?,
-                );
-            }
-            "--reps" => {
-                let v = value("--reps")?;
-                a.bench.reps = v
-                    .parse()
-                    .ok()
-                    .filter(|r| *r >= 1)
-                    .ok_or_else(|| format!("--reps {v}: expected a whole number of at least 1"))?;
-            }
-            s if s.starts_with('-') => return Err(format!("unknown option `{s}`")),
-            s => a.positional.push(s.to_string()),
-        }
-    }
-    Ok(a)
+#[derive(Args, Debug)]
+struct BenchArgs {
+    /// Shape functions: linear, gimp[:half_width], quadratic, cubic.
+    #[arg(long, default_value = "quadratic", value_parser = names::shape)]
+    shape: ShapeFunction,
+    /// Mass scheme: lumped, consistent, blended:γ, series:k, cg[:tolerance].
+    #[arg(long, default_value = "lumped", value_parser = names::mass)]
+    mass: MassScheme,
+    /// Velocity transfer: pic, flip, apic, blend:α, xpic:k, fmpm:k.
+    #[arg(long, default_value = "apic", value_parser = names::transfer)]
+    transfer: Transfer,
+    /// Update scheme: usf, usl, musl.
+    #[arg(long, default_value = "usl", value_parser = names::update)]
+    update: UpdateScheme,
+    /// Particle counts, comma-separated (16 to 1e9; `1e6` and `1_000_000` are accepted)
+    /// [default: 8192,65536,262144,1048576].
+    #[arg(long, value_name = "N[,N…]", value_delimiter = ',', value_parser = particle_count)]
+    particles: Option<Vec<usize>>,
+    /// Worker threads (results are bit-identical for any count).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+    threads: u64,
+    /// Timed steps per repetition [default: max(20, min(2000, 2e7/N))].
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    steps: Option<u64>,
+    /// Repetitions; the median is reported.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..))]
+    reps: u64,
+    /// A fixed time step instead of the problem's.
+    #[arg(long, value_parser = positive)]
+    dt: Option<f64>,
+    /// Print the share of each phase of the step.
+    #[arg(long)]
+    profile: bool,
 }
 
-/// The scene named on the command line, or the built-in default; and its name.
-fn load_scene(args: &Args, allow_default: bool) -> Result<(Scene, String), String> {
-    match args.positional.first() {
+/// A finite positive number.
+fn positive(text: &str) -> Result<f64, String> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .ok_or_else(|| format!("`{text}` is not a positive number"))
+}
+
+/// A particle count between 16 and 1e9, written as an integer, with `_` separators, or in
+/// exponent form.
+fn particle_count(text: &str) -> Result<usize, String> {
+    let cleaned = text.trim().replace('_', "");
+    cleaned
+        .parse::<f64>()
+        .ok()
+        .filter(|x| x.fract() == 0.0 && (16.0..=1e9).contains(x))
+        .map(|x| x as usize)
+        .ok_or_else(|| format!("`{text}` is not a count between 16 and 1e9"))
+}
+
+/// The scene at `path`, or the built-in default; and its name.
+fn load_scene(path: Option<&Path>) -> Result<(Scene, String), String> {
+    match path {
         Some(path) => {
-            let path = Path::new(path);
             let scene = Scene::load(path).map_err(|e| e.to_string())?;
             let name = path
                 .file_stem()
                 .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
             Ok((scene, name))
         }
-        None if allow_default => {
+        None => {
             let scene = Scene::from_toml_str(DEFAULT_SCENE.1).map_err(|e| format!("built-in scene: {e}"))?;
             Ok((scene, DEFAULT_SCENE.0.to_string()))
         }
-        None => Err("a scene file is required".into()),
     }
 }
 
-/// A one-line progress bar on stderr, redrawn at most every 0.2 s, shown once a run has taken
-/// more than a second.
-struct Bar {
-    enabled: bool,
-    last: Option<Instant>,
+/// A progress bar over simulated time on stderr (hidden when stderr is not a terminal or with
+/// `--quiet`), and a one-time warning when a fixed step runs above the stable step.
+struct RunDisplay {
+    bar: ProgressBar,
+    warned: bool,
 }
 
-impl Bar {
-    fn update(&mut self, p: &Progress) {
-        if !self.enabled || p.elapsed < Duration::from_secs(1) {
-            return;
-        }
-        if self.last.is_some_and(|t| t.elapsed() < Duration::from_millis(200)) {
-            return;
-        }
-        self.last = Some(Instant::now());
-        let fraction = (p.time / p.end_time).clamp(0.0, 1.0);
-        let width = 30;
-        let filled = (fraction * width as f64).round() as usize;
-        let eta = if fraction > 0.0 {
-            p.elapsed.as_secs_f64() * (1.0 - fraction) / fraction
+impl RunDisplay {
+    fn new(quiet: bool) -> RunDisplay {
+        let bar = if quiet || !std::io::stderr().is_terminal() {
+            ProgressBar::hidden()
         } else {
-            0.0
+            ProgressBar::new(1000)
         };
-        eprint!(
-            "\r[{}{}] {:5.1}%  t = {:.4e} / {:.4e}  step {}  eta {:.0} s   ",
-            "#".repeat(filled),
-            " ".repeat(width - filled),
-            100.0 * fraction,
-            p.time,
-            p.end_time,
-            p.steps,
-            eta
+        bar.set_style(
+            ProgressStyle::with_template("[{bar:30}] {percent:>3}%  {msg}  eta {eta}")
+                .expect("a valid template")
+                .progress_chars("#>-"),
         );
+        bar.enable_steady_tick(Duration::from_millis(200));
+        RunDisplay { bar, warned: false }
+    }
+
+    fn update(&mut self, p: &Progress) {
+        if p.dt > p.stable_time_step && !self.warned {
+            self.warned = true;
+            self.bar.suspend(|| {
+                eprintln!(
+                    "warning: step {}: the fixed time step {} exceeds the stable step {} ({:.1}% over); the run goes \
+                     on because `allow_unstable = true`",
+                    p.steps,
+                    human(p.dt),
+                    human(p.stable_time_step),
+                    100.0 * (p.dt / p.stable_time_step - 1.0)
+                )
+            });
+        }
+        let fraction = (p.time / p.end_time).clamp(0.0, 1.0);
+        self.bar.set_position((1000.0 * fraction) as u64);
+        self.bar.set_message(format!(
+            "t = {} / {}  step {}",
+            human(p.time),
+            human(p.end_time),
+            p.steps
+        ));
     }
 
     fn finish(&self) {
-        if self.last.is_some() {
-            eprintln!();
-        }
+        self.bar.finish_and_clear();
     }
 }
 
-fn run(args: &Args) -> Result<(), String> {
-    let (scene, name) = load_scene(args, true)?;
-    let out = args.out.clone().unwrap_or_else(|| Path::new("out").join(&name));
-    let title = scene.title.clone().unwrap_or_else(|| name.clone());
-    if !args.quiet {
-        println!("scene: {title}");
-    }
-    let mut bar = Bar {
-        enabled: !args.quiet && std::io::stderr().is_terminal(),
-        last: None,
-    };
-    let limits = RunLimits {
-        end_time: args.end_time,
-        max_steps: args.steps,
-    };
-    let mut warned = false;
-    let result = run_scene(&scene, &out, limits, |p| {
-        if p.dt > p.stable_time_step && !warned {
-            warned = true;
-            bar.finish();
-            eprintln!(
-                "warning: step {}: the fixed time step {:e} exceeds the stable step {:e} ({:.1}% over); the run \
-                 goes on because `allow_unstable = true`",
-                p.steps,
-                p.dt,
-                p.stable_time_step,
-                100.0 * (p.dt / p.stable_time_step - 1.0)
-            );
-        }
-        bar.update(p)
-    });
-    bar.finish();
-    let summary = result.map_err(|e| format!("{e}\n(output written so far is in {})", out.display()))?;
-    if !args.quiet {
+fn print_summary(summary: &sparse_mpm::run::RunSummary, out: &Path, quiet: bool) {
+    if !quiet {
         println!(
-            "{} particles, {} steps to t = {:.6e} in {:.2} s ({:.2} s stepping)",
+            "{} particles, {} steps to t = {} in {:.2} s ({:.2} s stepping)",
             summary.particles,
             summary.steps,
-            summary.time,
+            human(summary.time),
             summary.total.as_secs_f64(),
             summary.stepping.as_secs_f64()
         );
         if let Some(r) = &summary.last {
             println!(
-                "final: kinetic {:.6e}, strain {:.6e}, total {:.6e}, momentum ({:.6e}, {:.6e})",
-                r.kinetic_energy, r.strain_energy, r.total_energy, r.momentum[0], r.momentum[1]
+                "final: kinetic energy {}, strain energy {}, total {}, momentum ({}, {})",
+                human(r.kinetic_energy),
+                human(r.strain_energy),
+                human(r.total_energy),
+                human(r.momentum[0]),
+                human(r.momentum[1])
             );
         }
         println!(
@@ -281,17 +325,98 @@ fn run(args: &Args) -> Result<(), String> {
             summary.pvd.display(),
             summary.report.display()
         );
+        if !summary.checkpoints.is_empty() {
+            println!(
+                "checkpoints: {} (last {})",
+                summary.checkpoints.len(),
+                summary
+                    .checkpoints
+                    .last()
+                    .map_or(String::new(), |c| c.display().to_string())
+            );
+        }
     }
-    println!("particle-steps per second: {:.4e}", summary.particle_steps_per_second);
+    println!(
+        "particle-steps per second: {}",
+        human(summary.particle_steps_per_second)
+    );
+}
+
+/// What to say about a failed run: the error, and where its output is when the run had
+/// started writing (a failed step; not a refused scene or output folder).
+fn failure(error: sparse_mpm::MpmError, out: &Path) -> String {
+    use sparse_mpm::MpmError;
+    let before_output = matches!(
+        error,
+        MpmError::OutputExists { .. } | MpmError::InvalidScene { .. } | MpmError::InvalidOption { .. }
+    );
+    let written = out.join("report.csv").exists();
+    if written && !before_output {
+        format!("{error}\n(output written before the failure is in {})", out.display())
+    } else {
+        error.to_string()
+    }
+}
+
+fn run(args: &RunArgs) -> Result<(), String> {
+    let (scene, name) = load_scene(args.scene.as_deref())?;
+    let out = args.output.out.clone().unwrap_or_else(|| Path::new("out").join(&name));
+    let title = scene.title.clone().unwrap_or_else(|| name.clone());
+    if !args.quiet {
+        println!("scene: {title}");
+    }
+    let options = RunOptions {
+        limits: RunLimits {
+            end_time: args.end_time,
+            max_steps: args.steps,
+        },
+        output: if args.output.overwrite {
+            OutputPolicy::Overwrite
+        } else {
+            OutputPolicy::RefuseNonEmpty
+        },
+        checkpoint_every: args.checkpoint_every.map(|k| k as usize),
+        allow_large: args.allow_large,
+    };
+    let mut display = RunDisplay::new(args.quiet);
+    let result = run_scene_with(&scene, &out, &options, |p| display.update(p));
+    display.finish();
+    let summary = result.map_err(|e| failure(e, &out))?;
+    print_summary(&summary, &out, args.quiet);
     Ok(())
 }
 
-fn matrices(args: &Args) -> Result<(), String> {
-    let (scene, name) = load_scene(args, false)?;
+fn resume(args: &ResumeArgs) -> Result<(), String> {
+    let options = RunOptions {
+        limits: RunLimits {
+            end_time: args.end_time,
+            max_steps: args.steps,
+        },
+        output: OutputPolicy::Continue,
+        checkpoint_every: args.checkpoint_every.map(|k| k as usize),
+        allow_large: args.allow_large,
+    };
+    let mut display = RunDisplay::new(args.quiet);
+    let result = sparse_mpm::run::resume_run(&args.checkpoint, args.out.as_deref(), &options, |p| display.update(p));
+    display.finish();
+    let (summary, out) = result.map_err(|e| e.to_string())?;
+    print_summary(&summary, &out, args.quiet);
+    Ok(())
+}
+
+fn matrices(args: &MatricesArgs) -> Result<(), String> {
+    let (scene, name) = load_scene(Some(&args.scene))?;
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&name).join("matrices"));
+    if !args.allow_large {
+        let estimate = limits::estimate_scene(&scene);
+        limits::check(&estimate, &limits::Limits::default(), &scene).map_err(|e| e.to_string())?;
+    }
+    if !args.overwrite {
+        prepare_output(&out, OutputPolicy::RefuseNonEmpty).map_err(|e| e.to_string())?;
+    }
     let files = write_matrices(&scene, &out).map_err(|e| e.to_string())?;
     for f in files {
         println!("{}", f.display());
@@ -299,13 +424,19 @@ fn matrices(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
-fn check(args: &Args) -> Result<(), String> {
-    let (scene, name) = load_scene(args, false)?;
-    let sim = scene.build().map_err(|e| e.to_string())?;
+fn check(args: &CheckArgs) -> Result<(), String> {
+    let (scene, name) = load_scene(Some(&args.scene))?;
+    let limits = if args.allow_large {
+        limits::Limits::raised()
+    } else {
+        limits::Limits::default()
+    };
+    // Exactly what `mpm run` checks before its first step.
+    let (sim, estimate) = limits::prepare_run(&scene, &limits).map_err(|e| e.to_string())?;
     let g = sim.grid();
     println!("{name}: {}", scene.title.as_deref().unwrap_or(""));
     println!(
-        "grid {} x {} cells ({} nodes), {} particles in {} bodies",
+        "grid {} × {} cells ({} nodes), {} particles in {} bodies",
         g.cells()[0],
         g.cells()[1],
         g.num_nodes(),
@@ -320,11 +451,12 @@ fn check(args: &Args) -> Result<(), String> {
         scene.schemes.mass.velocity.label(),
         scene.schemes.mass.acceleration.label()
     );
-    println!("stable time step at t = 0: {:.6e}", sim.stable_time_step());
+    println!("stable time step at t = 0: {}", human(sim.stable_time_step()));
+    println!("{estimate}");
     Ok(())
 }
 
-fn study(args: &Args) -> Result<(), String> {
+fn study(args: &StudyArgs) -> Result<(), String> {
     use sparse_mpm::study::{run_study, Part, StudySpec};
     let mut spec = match &args.spec {
         Some(path) => {
@@ -336,37 +468,34 @@ fn study(args: &Args) -> Result<(), String> {
     };
     if let Some(list) = &args.parts {
         spec.parts = list
-            .split(',')
+            .iter()
             .map(|name| {
-                Part::ALL
-                    .into_iter()
-                    .find(|p| p.name() == name.trim())
-                    .ok_or_else(|| format!("--parts: unknown part `{name}`"))
+                Part::ALL.into_iter().find(|p| p.name() == name.trim()).ok_or_else(|| {
+                    let all: Vec<&str> = Part::ALL.iter().map(|p| p.name()).collect();
+                    format!("--parts: unknown part `{name}` (parts: {})", all.join(", "))
+                })
             })
             .collect::<Result<_, _>>()?;
     }
     let out = args.out.clone().unwrap_or_else(|| Path::new("out").join("study"));
-    let terminal = !args.quiet && std::io::stderr().is_terminal();
+    let bar = if args.quiet || !std::io::stderr().is_terminal() {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(0)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("[{bar:30}] {pos}/{len} {elapsed}  {wide_msg}")
+            .expect("a valid template")
+            .progress_chars("#>-"),
+    );
     let start = Instant::now();
     let summary = run_study(&spec, &out, |p| {
-        if terminal {
-            let width = 30;
-            let filled = (width * p.done).checked_div(p.total).unwrap_or(width);
-            eprint!(
-                "\r[{}{}] {}/{} {:.0} s  {:<70}",
-                "#".repeat(filled),
-                " ".repeat(width - filled),
-                p.done,
-                p.total,
-                start.elapsed().as_secs_f64(),
-                p.current.chars().take(70).collect::<String>()
-            );
-            if p.done == p.total {
-                eprintln!();
-            }
-        }
+        bar.set_length(p.total as u64);
+        bar.set_position(p.done as u64);
+        bar.set_message(p.current.clone());
     })
     .map_err(|e| e.to_string())?;
+    bar.finish_and_clear();
     let failed = summary.runs.iter().filter(|r| r.outcome.is_err()).count();
     if !args.quiet {
         println!(
@@ -381,12 +510,21 @@ fn study(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
-fn bench(args: &Args) -> Result<(), String> {
-    let mut spec = args.bench.clone();
-    spec.steps = args.steps;
-    if spec.steps == Some(0) {
-        return Err("--steps 0: time at least one step".into());
-    }
+fn bench(args: &BenchArgs) -> Result<(), String> {
+    let defaults = sparse_mpm::bench::BenchSpec::default();
+    let spec = sparse_mpm::bench::BenchSpec {
+        shape: args.shape,
+        mass: args.mass,
+        transfer: args.transfer,
+        update: args.update,
+        particles: args.particles.clone().unwrap_or(defaults.particles.clone()),
+        threads: args.threads as usize,
+        steps: args.steps.map(|s| s as usize),
+        reps: args.reps as usize,
+        profile: args.profile,
+        dt: args.dt,
+        ..defaults
+    };
     println!(
         "# sparse-mpm {}: shape {}, mass {}, transfer {}, update {:?}, {} thread(s), f64",
         env!("CARGO_PKG_VERSION"),
@@ -444,9 +582,9 @@ fn bench(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
-fn homework(args: &Args) -> Result<(), String> {
+fn homework(json: bool) -> Result<(), String> {
     let answers = sparse_mpm::homework::solve().map_err(|e| e.to_string())?;
-    let text = if args.json {
+    let text = if json {
         serde_json::to_string_pretty(&answers.to_json()).expect("JSON values always serialize") + "\n"
     } else {
         answers.report()
@@ -456,30 +594,15 @@ fn homework(args: &Args) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    let all: Vec<String> = std::env::args().skip(1).collect();
-    let Some((command, rest)) = all.split_first() else {
-        eprint!("{USAGE}");
-        return ExitCode::from(2);
-    };
-    let args = match parse(rest) {
-        Ok(a) => a,
-        Err(e) => {
-            eprintln!("error: {e}\n\n{USAGE}");
-            return ExitCode::from(2);
-        }
-    };
-    let result = match command.as_str() {
-        "run" => run(&args),
-        "matrices" => matrices(&args),
-        "check" => check(&args),
-        "homework" => homework(&args),
-        "study" => study(&args),
-        "bench" => bench(&args),
-        "help" | "--help" | "-h" => {
-            print!("{USAGE}");
-            Ok(())
-        }
-        other => Err(format!("unknown command `{other}`\n\n{USAGE}")),
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Run(a) => run(a),
+        Command::Resume(a) => resume(a),
+        Command::Matrices(a) => matrices(a),
+        Command::Check(a) => check(a),
+        Command::Homework { json } => homework(*json),
+        Command::Study(a) => study(a),
+        Command::Bench(a) => bench(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,292 @@
+//! What a run will cost, estimated before it starts, against limits a user can raise.
+//!
+//! A scene file can ask for more than a machine has: a 10⁴ × 10⁴ grid with 32 × 32 particles
+//! per cell, an end time of 10¹⁵ at a stable step of 10⁻⁶, a snapshot every 10⁻³⁰⁰ s. `mpm
+//! check` and `mpm run` (and [`prepare_run`] in the library) estimate memory, steps and output
+//! from the scene and the stable step of its initial state, and refuse a run above
+//! [`Limits::default`] with an error naming the scene key that drives the cost, the estimate
+//! and the limit. `--allow-large` ([`Limits::raised`]) lifts the limits.
+//!
+//! The estimates (documented in docs/reliability.md) are deliberately simple:
+//!
+//! ```text
+//! particles   = Σ_bodies  (area of the body ∩ grid) / (hx hy) · ppc²       (rectangles, disks)
+//!             + Σ_files   file bytes / 24                                   (CSV rows of about 24 bytes)
+//! memory      = 800 B · particles + 200 B · nodes  (+ 600 B · nodes for a non-lumped mass)
+//! steps       = end time / Δt    (Δt fixed, or the CFL number × the stable step at t = 0)
+//! output      = snapshots · 330 B · particles + steps · 600 B (report rows)
+//! snapshots   = end time / snapshot interval + 2
+//! ```
+//!
+//! 800 B per particle is the measured peak of a quadratic-B-spline run with its stable-step
+//! estimate (docs/performance.md); 330 B per particle the size of a `.vtp` snapshot with its
+//! fourteen arrays in base64.
+
+use std::fmt;
+
+use crate::error::{MpmError, Result};
+use crate::mass::MassScheme;
+use crate::scene::{Geometry, Scene};
+use crate::simulation::Simulation;
+
+/// Peak bytes per particle of a run (measured, quadratic B-splines, with the stable-step
+/// estimate).
+pub const BYTES_PER_PARTICLE: f64 = 800.0;
+/// Bytes per grid node of the lumped-mass engine.
+pub const BYTES_PER_NODE: f64 = 200.0;
+/// Extra bytes per grid node of a consistent, blended, series or conjugate-gradient mass.
+pub const BYTES_PER_NODE_CONSISTENT: f64 = 600.0;
+/// Bytes per particle of one `.vtp` snapshot.
+pub const SNAPSHOT_BYTES_PER_PARTICLE: f64 = 330.0;
+/// Bytes per row of `report.csv`.
+pub const REPORT_BYTES_PER_STEP: f64 = 600.0;
+/// Bytes per particle row of a CSV particle file, for the estimate of its particle count.
+pub const PARTICLE_FILE_BYTES_PER_ROW: f64 = 24.0;
+
+/// What a run may cost.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    /// Estimated peak memory, bytes.
+    pub memory_bytes: f64,
+    /// Estimated output (snapshots and report), bytes.
+    pub output_bytes: f64,
+    /// Snapshots (each rewrites the `.pvd` list of all before it).
+    pub snapshots: f64,
+    /// Time steps.
+    pub steps: f64,
+}
+
+impl Default for Limits {
+    /// 8 GiB of memory, 20 GiB of output, 2000 snapshots, 10⁸ steps.
+    fn default() -> Self {
+        Limits {
+            memory_bytes: 8.0 * GIB,
+            output_bytes: 20.0 * GIB,
+            snapshots: 2000.0,
+            steps: 1e8,
+        }
+    }
+}
+
+impl Limits {
+    /// No limits (`--allow-large`).
+    pub fn raised() -> Limits {
+        Limits {
+            memory_bytes: f64::INFINITY,
+            output_bytes: f64::INFINITY,
+            snapshots: f64::INFINITY,
+            steps: f64::INFINITY,
+        }
+    }
+}
+
+const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
+
+/// A run's estimated cost.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Particles (exact once built).
+    pub particles: f64,
+    /// Grid nodes.
+    pub nodes: f64,
+    /// Peak memory, bytes.
+    pub memory_bytes: f64,
+    /// Snapshots.
+    pub snapshots: f64,
+    /// Time steps, when the step is known.
+    pub steps: Option<f64>,
+    /// Output bytes (snapshots, and the report when the steps are known).
+    pub output_bytes: f64,
+}
+
+impl fmt::Display for Estimate {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "estimated cost: {} particles, {} nodes, memory {}, {} snapshots",
+            count(self.particles),
+            count(self.nodes),
+            bytes(self.memory_bytes),
+            count(self.snapshots)
+        )?;
+        if let Some(steps) = self.steps {
+            write!(f, ", {} steps", count(steps))?;
+        }
+        write!(f, ", output {}", bytes(self.output_bytes))
+    }
+}
+
+/// A count for people: `416`, `1.05e6`.
+fn count(x: f64) -> String {
+    if x < 1e5 {
+        format!("{x:.0}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+/// A byte count for people: `12.5 MiB`.
+fn bytes(b: f64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = b;
+    let mut unit = 0;
+    while v >= 1024.0 && unit + 1 < UNITS.len() {
+        v /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{v:.0} B")
+    } else {
+        format!("{v:.1} {}", UNITS[unit])
+    }
+}
+
+/// The estimate from the scene alone (no particle generated, no file read beyond its size):
+/// particles, nodes, memory, snapshots, and the steps when `time.dt` is fixed.
+pub fn estimate_scene(scene: &Scene) -> Estimate {
+    let g = &scene.grid;
+    let nodes = (g.cells[0] as f64 + 1.0) * (g.cells[1] as f64 + 1.0);
+    let [hx, hy] = g.cell_size;
+    let bounds = [
+        g.origin[0],
+        g.origin[0] + g.cells[0] as f64 * hx,
+        g.origin[1],
+        g.origin[1] + g.cells[1] as f64 * hy,
+    ];
+    let clip = |lo: f64, hi: f64, a: f64, b: f64| (hi.min(b) - lo.max(a)).max(0.0);
+    let mut particles = 0.0;
+    for body in &scene.bodies {
+        let ppc = (body.particles_per_cell as f64).powi(2);
+        particles += match &body.geometry {
+            Geometry::Rectangle { min, max } => {
+                clip(min[0], max[0], bounds[0], bounds[1]) * clip(min[1], max[1], bounds[2], bounds[3]) / (hx * hy)
+                    * ppc
+            }
+            Geometry::Disk { center, radius } => {
+                let square = clip(center[0] - radius, center[0] + radius, bounds[0], bounds[1])
+                    * clip(center[1] - radius, center[1] + radius, bounds[2], bounds[3]);
+                square.min(std::f64::consts::PI * radius * radius) / (hx * hy) * ppc
+            }
+            Geometry::File(path) => {
+                let path = match &scene.base_dir {
+                    Some(dir) if path.is_relative() => dir.join(path),
+                    _ => path.clone(),
+                };
+                std::fs::metadata(&path).map_or(0.0, |m| m.len() as f64) / PARTICLE_FILE_BYTES_PER_ROW
+            }
+        };
+    }
+    let consistent = [scene.schemes.mass.velocity, scene.schemes.mass.acceleration]
+        .iter()
+        .any(|s| !matches!(s, MassScheme::Lumped));
+    let memory_bytes = BYTES_PER_PARTICLE * particles
+        + BYTES_PER_NODE * nodes
+        + if consistent {
+            BYTES_PER_NODE_CONSISTENT * nodes
+        } else {
+            0.0
+        };
+    let end = scene.time.end;
+    let snapshots = end / scene.snapshot_interval() + 2.0;
+    let steps = scene.time.dt.map(|dt| end / dt);
+    Estimate {
+        particles,
+        nodes,
+        memory_bytes,
+        snapshots,
+        steps,
+        output_bytes: output_bytes(particles, snapshots, steps),
+    }
+}
+
+fn output_bytes(particles: f64, snapshots: f64, steps: Option<f64>) -> f64 {
+    snapshots * SNAPSHOT_BYTES_PER_PARTICLE * particles + steps.unwrap_or(0.0) * REPORT_BYTES_PER_STEP
+}
+
+/// `estimate` against `limits`, naming the scene key that drives what is over.
+///
+/// # Errors
+/// [`MpmError::InvalidScene`] naming the key (`grid.cells` or `bodies` for memory,
+/// `output.snapshot_interval` for snapshots, `time.end` for steps and output), the estimate and
+/// the limit, and saying how to raise it.
+pub fn check(estimate: &Estimate, limits: &Limits, scene: &Scene) -> Result<()> {
+    let raise = "check the scene, or raise the limit with --allow-large (docs/reliability.md)";
+    let over = |key: String, what: String| -> Result<()> { Err(MpmError::InvalidScene { key, reason: what }) };
+    if estimate.memory_bytes > limits.memory_bytes {
+        let key = if BYTES_PER_NODE * estimate.nodes > BYTES_PER_PARTICLE * estimate.particles {
+            "grid.cells".to_string()
+        } else {
+            "bodies".to_string()
+        };
+        return over(
+            key,
+            format!(
+                "the run would need about {} of memory ({} particles, {} nodes), more than the limit of {}; {raise}",
+                bytes(estimate.memory_bytes),
+                count(estimate.particles),
+                count(estimate.nodes),
+                bytes(limits.memory_bytes)
+            ),
+        );
+    }
+    if estimate.snapshots > limits.snapshots {
+        return over(
+            "output.snapshot_interval".into(),
+            format!(
+                "{} gives {} snapshots over time.end = {}, more than the limit of {}; {raise}",
+                scene.snapshot_interval(),
+                count(estimate.snapshots),
+                scene.time.end,
+                count(limits.snapshots)
+            ),
+        );
+    }
+    if let Some(steps) = estimate.steps {
+        if steps > limits.steps {
+            return over(
+                "time.end".into(),
+                format!(
+                    "{} at the time step of the scene takes about {} steps, more than the limit of {}; {raise}",
+                    scene.time.end,
+                    count(steps),
+                    count(limits.steps)
+                ),
+            );
+        }
+    }
+    if estimate.output_bytes > limits.output_bytes {
+        return over(
+            "time.end".into(),
+            format!(
+                "{} would write about {} of snapshots and report, more than the limit of {}; {raise}",
+                scene.time.end,
+                bytes(estimate.output_bytes),
+                bytes(limits.output_bytes)
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// Everything `mpm run` checks before its first step, in the order it checks them, and the
+/// simulation it would run: the scene estimate against `limits`, the build (particles, options,
+/// the stable time step), then the steps and output with the particle count and stable step of
+/// the built simulation. `mpm check` calls exactly this.
+///
+/// # Errors
+/// The errors of [`check`] and [`Scene::build`].
+pub fn prepare_run(scene: &Scene, limits: &Limits) -> Result<(Simulation, Estimate)> {
+    let mut estimate = estimate_scene(scene);
+    check(&estimate, limits, scene)?;
+    let sim = scene.build()?;
+    estimate.particles = sim.particles().len() as f64;
+    let end = scene.time.end;
+    let dt = match (scene.time.dt, scene.time.cfl) {
+        (Some(dt), _) => dt,
+        (None, cfl) => cfl.unwrap_or(0.5) * sim.stable_time_step(),
+    };
+    estimate.steps = (dt > 0.0).then(|| end / dt);
+    estimate.output_bytes = output_bytes(estimate.particles, estimate.snapshots, estimate.steps);
+    check(&estimate, limits, scene)?;
+    Ok((sim, estimate))
+}

@@ -1,0 +1,234 @@
+//! The `mpm` program as a user meets it: help and version, refused arguments, output folders
+//! that are not silently overwritten, limits that stop bombs before they run, `check` doing
+//! what `run` does, a scene copy that reruns, and an interrupted run resumed bit for bit.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn mpm(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mpm"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("the mpm binary runs")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// A fresh folder for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sparse_mpm_cli_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn two_disks() -> &'static str {
+    include_str!("../scenes/two_disks.toml")
+}
+
+#[test]
+fn help_version_and_unknown_arguments() {
+    let dir = scratch("help");
+    let v = mpm(&["--version"], &dir);
+    assert!(v.status.success());
+    assert!(text(&v).contains(env!("CARGO_PKG_VERSION")));
+    for command in ["run", "resume", "check", "matrices", "study", "bench", "homework"] {
+        let h = mpm(&[command, "--help"], &dir);
+        assert!(h.status.success(), "{command} --help: {}", text(&h));
+        assert!(text(&h).contains("Usage: mpm"), "{command}");
+    }
+    let bad = mpm(&["run", "--bogus"], &dir);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(text(&bad).contains("--bogus"));
+    let extra = mpm(&["check", "a.toml", "b.toml"], &dir);
+    assert_eq!(extra.status.code(), Some(2), "an extra argument is refused");
+    let value = mpm(&["run", "--end-time", "-1"], &dir);
+    assert_eq!(value.status.code(), Some(2));
+    assert!(text(&value).contains("-1"));
+}
+
+#[test]
+fn a_second_run_into_the_same_folder_is_refused_and_overwrite_clears_the_old_output() {
+    let dir = scratch("overwrite");
+    let first = mpm(&["run", "--out", "o", "--steps", "30", "-q"], &dir);
+    assert!(first.status.success(), "{}", text(&first));
+    let snapshots = |d: &Path| {
+        std::fs::read_dir(d)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".vtp"))
+            .count()
+    };
+    let before = std::fs::read(dir.join("o/report.csv")).unwrap();
+    let second = mpm(&["run", "--out", "o", "--steps", "10", "-q"], &dir);
+    assert!(!second.status.success());
+    let message = text(&second);
+    assert!(
+        message.contains("already holds") && message.contains("--overwrite"),
+        "{message}"
+    );
+    assert!(!message.contains("output written"), "nothing was written: {message}");
+    assert_eq!(std::fs::read(dir.join("o/report.csv")).unwrap(), before, "nothing lost");
+    // A stale snapshot from an earlier, longer run, a left-over temporary file and a file of
+    // the user's.
+    std::fs::write(dir.join("o/particles_009999.vtp"), "stale").unwrap();
+    std::fs::write(dir.join("o/particles_000001.vtp.tmp"), "partial").unwrap();
+    std::fs::write(dir.join("o/notes.txt"), "mine").unwrap();
+    let third = mpm(&["run", "--out", "o", "--steps", "10", "-q", "--overwrite"], &dir);
+    assert!(third.status.success(), "{}", text(&third));
+    assert!(!dir.join("o/particles_009999.vtp").exists());
+    assert!(!dir.join("o/particles_000001.vtp.tmp").exists());
+    assert!(dir.join("o/notes.txt").exists(), "files a run does not write are kept");
+    let rows = std::fs::read_to_string(dir.join("o/report.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(rows, 11, "header and ten steps");
+    assert!(snapshots(&dir.join("o")) >= 2);
+}
+
+#[test]
+fn an_interrupted_run_resumes_bit_for_bit() {
+    let dir = scratch("resume");
+    let whole = mpm(&["run", "--out", "whole", "-q"], &dir);
+    assert!(whole.status.success(), "{}", text(&whole));
+    // The "interrupted" run stops at step 130, having checkpointed every 40 steps.
+    let cut = mpm(
+        &[
+            "run",
+            "--out",
+            "cut",
+            "--steps",
+            "130",
+            "--checkpoint-every",
+            "40",
+            "-q",
+        ],
+        &dir,
+    );
+    assert!(cut.status.success(), "{}", text(&cut));
+    assert!(dir.join("cut/checkpoints/step_00000120/run.json").exists());
+    for (checkpoint, out) in [
+        ("cut/checkpoints/step_00000080", None),
+        ("cut/checkpoints/step_00000040", Some("elsewhere")),
+    ] {
+        let mut args = vec!["resume", checkpoint, "-q"];
+        if let Some(o) = out {
+            args.extend(["--out", o]);
+        }
+        let resumed = mpm(&args, &dir);
+        assert!(resumed.status.success(), "{}", text(&resumed));
+        let folder = dir.join(out.unwrap_or("cut"));
+        for entry in std::fs::read_dir(dir.join("whole")).unwrap() {
+            let name = entry.unwrap().file_name();
+            let name = name.to_string_lossy();
+            if name.ends_with(".vtp") || name == "report.csv" || name == "particles.pvd" {
+                assert_eq!(
+                    std::fs::read(dir.join("whole").join(&*name)).unwrap(),
+                    std::fs::read(folder.join(&*name)).unwrap_or_default(),
+                    "{checkpoint}: {name} differs from the uninterrupted run's"
+                );
+            }
+        }
+    }
+    let missing = mpm(&["resume", "cut/checkpoints/step_00000099"], &dir);
+    assert!(!missing.status.success());
+    assert!(text(&missing).contains("step_00000099"));
+}
+
+#[test]
+fn the_scene_copy_reruns_from_the_output_folder_with_its_particle_file() {
+    let dir = scratch("rerun");
+    std::fs::create_dir_all(dir.join("scene")).unwrap();
+    let mut csv = String::from("x,y,volume\n");
+    for i in 0..6 {
+        for j in 0..6 {
+            csv.push_str(&format!("{},{},0.01\n", 0.45 + 0.1 * i as f64, 0.45 + 0.1 * j as f64));
+        }
+    }
+    std::fs::write(dir.join("scene/block.csv"), csv).unwrap();
+    let scene = r#"
+title = "a block from a file"
+[grid]
+origin = [0.0, 0.0]
+cell_size = [0.2, 0.2]
+cells = [10, 10]
+[time]
+end = 0.01
+dt = 1e-4
+[loads]
+gravity = [0.0, -9.81]
+[[bodies]]
+name = "block"
+density = 1000.0
+material = { model = "linear_elastic", youngs_modulus = 1e5, poisson_ratio = 0.3, plane = "strain" }
+geometry = { file = "block.csv" }
+"#;
+    std::fs::write(dir.join("scene/scene.toml"), scene).unwrap();
+    let first = mpm(&["run", "scene/scene.toml", "--out", "first", "-q"], &dir);
+    assert!(first.status.success(), "{}", text(&first));
+    // Rerun the copy from inside the output folder.
+    let again = mpm(&["run", "scene.toml", "--out", "../again", "-q"], &dir.join("first"));
+    assert!(again.status.success(), "{}", text(&again));
+    assert_eq!(
+        std::fs::read(dir.join("first/report.csv")).unwrap(),
+        std::fs::read(dir.join("again/report.csv")).unwrap()
+    );
+}
+
+#[test]
+fn check_refuses_what_run_refuses_naming_the_key() {
+    let dir = scratch("check");
+    let bombs = [
+        // Memory: a huge grid with many particles per cell.
+        (
+            two_disks()
+                .replace("cells = [20, 20]", "cells = [9998, 9998]")
+                .replace("particles_per_cell = 2", "particles_per_cell = 32"),
+            "grid.cells",
+        ),
+        // Snapshots without end.
+        (
+            two_disks().replace("snapshot_interval = 0.05", "snapshot_interval = 1e-300"),
+            "output.snapshot_interval",
+        ),
+        // Steps without end.
+        (two_disks().replace("end = 3.5", "end = 1e15"), "time.end"),
+    ];
+    for (k, (scene, key)) in bombs.iter().enumerate() {
+        let path = dir.join(format!("bomb{k}.toml"));
+        std::fs::write(&path, scene).unwrap();
+        for command in ["check", "run"] {
+            let mut args = vec![command, path.to_str().unwrap()];
+            if command == "run" {
+                args.extend(["--out", "never"]);
+            }
+            let o = mpm(&args, &dir);
+            let message = text(&o);
+            assert!(!o.status.success(), "{command} {key}: {message}");
+            assert!(message.contains(key), "{command}: `{key}` not named in: {message}");
+            assert!(message.contains("--allow-large"), "{message}");
+        }
+        assert!(!dir.join("never").exists(), "nothing written for a refused run");
+    }
+    let ok = mpm(
+        &[
+            "check",
+            &format!("{}/scenes/two_disks.toml", env!("CARGO_MANIFEST_DIR")),
+        ],
+        &dir,
+    );
+    assert!(ok.status.success(), "{}", text(&ok));
+    let out = text(&ok);
+    assert!(
+        out.contains("estimated cost") && out.contains("stable time step"),
+        "{out}"
+    );
+}
