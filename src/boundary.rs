@@ -15,7 +15,8 @@
 //! | `Slip` (on an edge) | the component normal to the edge, zero; tangential motion is free |
 //! | `Velocity { vx, vy }` | the components given (either or both) |
 //!
-//! When several conditions name the same node and component, the later one wins.
+//! When several conditions name the same node and component, the later one wins; a `nodes`
+//! list names each node once.
 //!
 //! ## Edges and layers
 //! An edge condition covers the outermost `layers` lines of nodes along that edge. The default
@@ -28,6 +29,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::mass::Constraints;
+use crate::scene::num;
 use crate::shape::ShapeFunction;
 
 /// A side of the grid.
@@ -173,14 +175,151 @@ impl Prescribed {
     }
 }
 
+impl BoundaryCondition {
+    /// Checks condition `k` (numbered as in a scene's `[[boundaries]]`, for the messages) on
+    /// `grid` with kernels `shape`, without allocating anything in proportion to the grid:
+    /// exactly one node set, `layers` only with an edge and within the grid, `slip` only on an
+    /// edge, `vx`/`vy` finite and only with a velocity condition, a finite ordered rectangle,
+    /// and a `nodes` list that names existing nodes, each once (a list longer than the grid's
+    /// node count is refused before it is looked at further).
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidScene`] naming the key (`boundaries[k].nodes` …) and the value.
+    pub fn validate(&self, k: usize, grid: &Grid, shape: ShapeFunction) -> Result<()> {
+        let err = |field: &str, reason: String| MpmError::InvalidScene {
+            key: if field.is_empty() {
+                format!("boundaries[{k}]")
+            } else {
+                format!("boundaries[{k}].{field}")
+            },
+            reason,
+        };
+        let given: Vec<String> = [
+            ("edge", self.edge.is_some()),
+            ("rectangle", self.rectangle.is_some()),
+            ("nodes", self.nodes.is_some()),
+        ]
+        .iter()
+        .filter(|(_, g)| *g)
+        .map(|(name, _)| format!("`{name}`"))
+        .collect();
+        if given.len() != 1 {
+            let found = if given.is_empty() {
+                "none is given".to_string()
+            } else {
+                format!("{} are given", given.join(" and "))
+            };
+            return Err(err(
+                "",
+                format!("give exactly one of `edge`, `rectangle`, `nodes` ({found})"),
+            ));
+        }
+        if let (Some(layers), None) = (self.layers, self.edge) {
+            return Err(err(
+                "layers",
+                format!("{layers}: `layers` applies only to an `edge` condition"),
+            ));
+        }
+        match self.condition {
+            Condition::Slip if self.edge.is_none() => {
+                return Err(err(
+                    "condition",
+                    "`slip` needs an `edge` (its normal); for other node sets use condition = \"velocity\" with \
+                     vx = 0 or vy = 0"
+                        .into(),
+                ))
+            }
+            Condition::Velocity if self.vx.is_none() && self.vy.is_none() => {
+                return Err(err(
+                    "condition",
+                    "condition \"velocity\" needs `vx`, `vy` or both".into(),
+                ))
+            }
+            _ => {}
+        }
+        for (name, v) in [("vx", self.vx), ("vy", self.vy)] {
+            let Some(v) = v else { continue };
+            if self.condition != Condition::Velocity {
+                return Err(err(
+                    name,
+                    format!("{}: `vx` and `vy` go with condition = \"velocity\"", num(v)),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(err(name, format!("`{name}` = {} is not a finite number", num(v))));
+            }
+        }
+        let [nx, ny] = grid.nodes_per_axis();
+        if let Some(edge) = self.edge {
+            let layers = self.layers.unwrap_or_else(|| shape.boundary_layers());
+            let across = match edge {
+                Edge::Left | Edge::Right => nx,
+                Edge::Bottom | Edge::Top => ny,
+            };
+            if layers == 0 || layers > across {
+                return Err(err(
+                    "layers",
+                    format!("{layers} layers: must be between 1 and {across} (the node lines across the grid)"),
+                ));
+            }
+        }
+        if let Some([[x0, y0], [x1, y1]]) = self.rectangle {
+            if ![x0, y0, x1, y1].iter().all(|v| v.is_finite()) || x0 > x1 || y0 > y1 {
+                return Err(err(
+                    "rectangle",
+                    format!(
+                        "[[{}, {}], [{}, {}]] must be [[x_min, y_min], [x_max, y_max]] with finite values and min <= \
+                         max",
+                        num(x0),
+                        num(y0),
+                        num(x1),
+                        num(y1)
+                    ),
+                ));
+            }
+        }
+        if let Some(ids) = &self.nodes {
+            let n = grid.num_nodes();
+            if ids.len() > n {
+                return Err(err(
+                    "nodes",
+                    format!(
+                        "lists {} nodes, more than the {n} nodes of the grid (each node can be listed once)",
+                        ids.len()
+                    ),
+                ));
+            }
+            if let Some(&bad) = ids.iter().find(|&&i| i >= n) {
+                return Err(err(
+                    "nodes",
+                    format!("node {bad} does not exist (the grid has {n} nodes, numbered from 0)"),
+                ));
+            }
+            // The list is no longer than the grid: a set of its entries is no larger.
+            let mut first_at = std::collections::HashMap::with_capacity(ids.len());
+            for (at, &id) in ids.iter().enumerate() {
+                if let Some(first) = first_at.insert(id, at) {
+                    return Err(err(
+                        "nodes",
+                        format!("node {id} is listed twice: at index {first} and again at index {at} (each node once)"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Resolves `conditions` on `grid` for kernels `shape`.
 ///
 /// # Errors
-/// [`MpmError::InvalidScene`] naming the condition (`boundaries[k]`) when it does not give
-/// exactly one node set, gives `Slip` off an edge, gives `Velocity` without `vx` or `vy`, gives
-/// velocities with another condition, has a non-finite value, names a node outside the grid,
-/// or asks for more layers than the grid has.
+/// [`MpmError::InvalidScene`] naming the condition (`boundaries[k]`, or the key within it) when
+/// [`BoundaryCondition::validate`] refuses it (before anything is allocated for the grid), or
+/// when a rectangle contains no grid node.
 pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryCondition]) -> Result<Prescribed> {
+    for (k, bc) in conditions.iter().enumerate() {
+        bc.validate(k, grid, shape)?;
+    }
     let n = grid.num_nodes();
     let mut out = Prescribed {
         vx: vec![f64::NAN; n],
@@ -188,61 +327,19 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
         constraints: Constraints::none(),
     };
     let [nx, ny] = grid.nodes_per_axis();
+    let mut nodes = Vec::new();
     for (k, bc) in conditions.iter().enumerate() {
-        let err = |reason: String| MpmError::InvalidScene {
-            key: format!("boundaries[{k}]"),
-            reason,
-        };
-        let given = [bc.edge.is_some(), bc.rectangle.is_some(), bc.nodes.is_some()];
-        if given.iter().filter(|&&g| g).count() != 1 {
-            return Err(err("give exactly one of `edge`, `rectangle`, `nodes`".into()));
-        }
-        if bc.layers.is_some() && bc.edge.is_none() {
-            return Err(err("`layers` applies only to an `edge` condition".into()));
-        }
         let (vx, vy) = match bc.condition {
             Condition::Fixed => (Some(0.0), Some(0.0)),
             Condition::Slip => match bc.edge {
                 Some(Edge::Left | Edge::Right) => (Some(0.0), None),
-                Some(Edge::Bottom | Edge::Top) => (None, Some(0.0)),
-                None => {
-                    return Err(err(
-                        "`slip` needs an `edge` (its normal); for other node sets use condition = \"velocity\" \
-                         with vx = 0 or vy = 0"
-                            .into(),
-                    ))
-                }
+                _ => (None, Some(0.0)),
             },
-            Condition::Velocity => {
-                if bc.vx.is_none() && bc.vy.is_none() {
-                    return Err(err("condition \"velocity\" needs `vx`, `vy` or both".into()));
-                }
-                (bc.vx, bc.vy)
-            }
+            Condition::Velocity => (bc.vx, bc.vy),
         };
-        if bc.condition != Condition::Velocity && (bc.vx.is_some() || bc.vy.is_some()) {
-            return Err(err("`vx` and `vy` go with condition = \"velocity\"".into()));
-        }
-        for (name, v) in [("vx", vx), ("vy", vy)] {
-            if let Some(v) = v {
-                if !v.is_finite() {
-                    return Err(err(format!("`{name}` = {v} is not a finite number")));
-                }
-            }
-        }
-        let mut nodes = Vec::new();
+        nodes.clear();
         if let Some(edge) = bc.edge {
             let layers = bc.layers.unwrap_or_else(|| shape.boundary_layers());
-            let across = match edge {
-                Edge::Left | Edge::Right => nx,
-                Edge::Bottom | Edge::Top => ny,
-            };
-            if layers == 0 || layers > across {
-                return Err(MpmError::InvalidScene {
-                    key: format!("boundaries[{k}].layers"),
-                    reason: format!("{layers} layers: must be between 1 and {across} (the node lines across the grid)"),
-                });
-            }
             for j in 0..ny {
                 for i in 0..nx {
                     let inside = match edge {
@@ -257,12 +354,6 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
                 }
             }
         } else if let Some([[x0, y0], [x1, y1]]) = bc.rectangle {
-            if ![x0, y0, x1, y1].iter().all(|v| v.is_finite()) || x0 > x1 || y0 > y1 {
-                return Err(MpmError::InvalidScene {
-                    key: format!("boundaries[{k}].rectangle"),
-                    reason: "must be [[x_min, y_min], [x_max, y_max]] with finite values and min <= max".into(),
-                });
-            }
             let tol = 1e-9 * grid.cell_size()[0].min(grid.cell_size()[1]);
             nodes.extend((0..n).filter(|&id| {
                 let [x, y] = grid.node_position(id);
@@ -271,16 +362,16 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
             if nodes.is_empty() {
                 return Err(MpmError::InvalidScene {
                     key: format!("boundaries[{k}].rectangle"),
-                    reason: "contains no grid node".into(),
+                    reason: format!(
+                        "[[{}, {}], [{}, {}]] contains no grid node",
+                        num(x0),
+                        num(y0),
+                        num(x1),
+                        num(y1)
+                    ),
                 });
             }
         } else if let Some(ids) = &bc.nodes {
-            if let Some(&bad) = ids.iter().find(|&&i| i >= n) {
-                return Err(MpmError::InvalidScene {
-                    key: format!("boundaries[{k}].nodes"),
-                    reason: format!("node {bad} does not exist (the grid has {n} nodes, numbered from 0)"),
-                });
-            }
             nodes.extend_from_slice(ids);
         }
         for &i in &nodes {

@@ -50,15 +50,33 @@
 //! folder). Rectangles and disks are filled with `particles_per_cell²` particles per grid cell,
 //! at the centres of a regular sub-lattice of the grid cells, each of volume
 //! `hx hy / particles_per_cell²` and mass `density × volume`.
+//!
+//! ## What a scene file may ask for
+//! A scene file is input like any other and is read defensively:
+//!
+//! - A particle file must lie in the scene file's folder or below it: an absolute path, a path
+//!   whose `..` leave the folder, or a symbolic link that leads out of it is refused (a program
+//!   that trusts its scenes can set [`Scene::allow_outside_files`]). Only regular files are read
+//!   (not devices, pipes or folders), and at most [`MAX_PARTICLE_FILE_BYTES`] of them. An error
+//!   about a particle file names its line and column and what is wrong; it shows nothing of a
+//!   file whose header is not a particle-file header, and of a particle file at most a short
+//!   word of the offending cell.
+//! - Every number is checked where it is given, and an error names the key and the value:
+//!   NaN and infinities are refused everywhere; accelerations (`loads.gravity`,
+//!   `bodies[k].body_force`) are bounded by [`MAX_ACCELERATION`] and speeds (`bodies[k].velocity`,
+//!   a particle file's `vx`, `vy`, a boundary's `vx`, `vy`) by [`MAX_SPEED`]; the grid's origin
+//!   by [`MAX_ORIGIN_CELLS`] cell sizes.
+//! - A boundary's `nodes` list names each node once and is no longer than the grid's node count.
 
-use std::path::{Path, PathBuf};
+use std::io::Read;
+use std::path::{Component, Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use crate::boundary::BoundaryCondition;
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::mass::MassOptions;
+use crate::mass::{MassOptions, MassScheme, SingularityPolicy, Stabilization};
 use crate::material::Material;
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
@@ -90,9 +108,17 @@ pub struct Scene {
     /// What to write.
     #[serde(default)]
     pub output: OutputSpec,
-    /// The folder relative paths (particle files) are taken from; set by [`Scene::load`].
+    /// The folder relative paths (particle files) are taken from; set by [`Scene::load`]. When
+    /// `None`, the current directory.
     #[serde(skip)]
     pub base_dir: Option<PathBuf>,
+    /// Read particle files wherever their paths lead (absolute paths, `..` out of
+    /// [`Scene::base_dir`], symbolic links out of it). `false` (the default, and what a scene
+    /// read from TOML gets; it is not a key of the file): a particle file must lie inside the
+    /// scene's folder, so that a scene from elsewhere cannot make the program read, and report
+    /// on, files it was not meant to. Only a program that trusts its scenes should set it.
+    #[serde(skip)]
+    pub allow_outside_files: bool,
 }
 
 /// The uniform background grid.
@@ -221,6 +247,26 @@ pub const MAX_NODES: f64 = 1e8;
 /// Largest `particles_per_cell` (per axis) accepted from a scene file.
 pub const MAX_PARTICLES_PER_CELL: usize = 32;
 
+/// Largest magnitude of an acceleration accepted from a scene file (`loads.gravity`,
+/// `bodies[k].body_force`): 10¹² in the scene's units, some 10¹¹ g in SI units. Above it a run
+/// only overflows (a particle's velocity after one step, its travel over the run).
+pub const MAX_ACCELERATION: f64 = 1e12;
+
+/// Largest speed accepted from a scene file (`bodies[k].velocity`, the `vx`, `vy` columns of a
+/// particle file, a boundary's `vx`, `vy`): 10¹² in the scene's units. The step's reports
+/// square speeds, which overflows from about 10¹⁵⁴ on.
+pub const MAX_SPEED: f64 = 1e12;
+
+/// How far from zero the grid's origin may lie, in cell sizes of the same axis: 10¹². There a
+/// coordinate resolves about 2·10⁻⁴ of a cell; further out, positions within a cell lose their
+/// meaning.
+pub const MAX_ORIGIN_CELLS: f64 = 1e12;
+
+/// Largest particle file read, in bytes (1 GiB). A larger file is refused from its size before
+/// anything is read, and no more than this is ever read from a file that grows or reports a
+/// wrong size.
+pub const MAX_PARTICLE_FILE_BYTES: u64 = 1 << 30;
+
 fn default_ppc() -> usize {
     2
 }
@@ -238,6 +284,43 @@ fn invalid(key: impl Into<String>, reason: impl Into<String>) -> MpmError {
     MpmError::InvalidScene {
         key: key.into(),
         reason: reason.into(),
+    }
+}
+
+/// `v` as it reads back, short: `0.5`, `1e12`, `-1e-10`, `NaN`, `inf` (never hundreds of
+/// digits).
+pub(crate) fn num(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// `[x, y]` with [`num`].
+fn pair(v: [f64; 2]) -> String {
+    format!("[{}, {}]", num(v[0]), num(v[1]))
+}
+
+/// An [`MpmError::InvalidParameter`] of a part of the scene (a material, a mass scheme …)
+/// restated at the key `{prefix}.{name}` with its value; other errors at `prefix`.
+fn parameter_error(prefix: &str, e: MpmError) -> MpmError {
+    match e {
+        MpmError::InvalidParameter { name, value, reason } => invalid(
+            format!("{prefix}.{name}"),
+            format!("{} is invalid: {reason}", num(value)),
+        ),
+        e => invalid(prefix, e.to_string()),
+    }
+}
+
+/// The TOML key of a mass scheme's table (`blended`, `iterative` …), empty for unit variants.
+fn mass_scheme_key(scheme: &MassScheme) -> &'static str {
+    match scheme {
+        MassScheme::Blended { .. } => ".blended",
+        MassScheme::TruncatedSeries { .. } => ".truncated_series",
+        MassScheme::Iterative { .. } => ".iterative",
+        MassScheme::Lumped | MassScheme::Consistent => "",
     }
 }
 
@@ -297,17 +380,40 @@ impl Scene {
     }
 
     /// Checks what the file format cannot: positive sizes and times, one time-step rule, at
-    /// least one body, sensible body parameters.
+    /// least one body, sensible body parameters, finite and bounded numbers everywhere (see the
+    /// [module docs](self)), boundary conditions that fit the grid.
     ///
     /// # Errors
-    /// [`MpmError::InvalidScene`] naming the key (`time.dt`, `bodies[1].density` …).
+    /// [`MpmError::InvalidScene`] naming the key (`time.dt`, `bodies[1].density`,
+    /// `schemes.mass.pivot_tolerance` …) and its value.
     pub fn validate(&self) -> Result<()> {
         let g = &self.grid;
         for (k, h) in g.cell_size.iter().enumerate() {
             if !(h.is_finite() && *h > 0.0) {
                 return Err(invalid(
                     format!("grid.cell_size[{k}]"),
-                    format!("{h} must be positive and finite"),
+                    format!("{} must be positive and finite", num(*h)),
+                ));
+            }
+        }
+        for (k, o) in g.origin.iter().enumerate() {
+            if !o.is_finite() {
+                return Err(invalid(
+                    format!("grid.origin[{k}]"),
+                    format!("{} must be finite", num(*o)),
+                ));
+            }
+            let h = g.cell_size[k];
+            if o.abs() > MAX_ORIGIN_CELLS * h {
+                return Err(invalid(
+                    format!("grid.origin[{k}]"),
+                    format!(
+                        "{} is too far from zero for cells of {}: at most {} cell sizes are accepted (further out, \
+                         positions within a cell lose their precision)",
+                        num(*o),
+                        num(h),
+                        num(MAX_ORIGIN_CELLS)
+                    ),
                 ));
             }
         }
@@ -330,9 +436,27 @@ impl Scene {
                 ),
             ));
         }
+        for k in 0..2 {
+            let far = g.origin[k] + g.cells[k] as f64 * g.cell_size[k];
+            if !far.is_finite() {
+                return Err(invalid(
+                    format!("grid.cell_size[{k}]"),
+                    format!(
+                        "{} cells of {} from the origin {} overflow (the far edge is at {})",
+                        g.cells[k],
+                        num(g.cell_size[k]),
+                        num(g.origin[k]),
+                        num(far)
+                    ),
+                ));
+            }
+        }
         let t = &self.time;
         if !(t.end.is_finite() && t.end > 0.0) {
-            return Err(invalid("time.end", format!("{} must be positive and finite", t.end)));
+            return Err(invalid(
+                "time.end",
+                format!("{} must be positive and finite", num(t.end)),
+            ));
         }
         if t.dt.is_some() && t.cfl.is_some() {
             return Err(invalid("time", "give `dt` or `cfl`, not both"));
@@ -341,58 +465,200 @@ impl Scene {
             if !(s.is_finite() && s > 0.0) {
                 return Err(invalid(
                     "output.snapshot_interval",
-                    format!("{s} must be positive and finite"),
+                    format!("{} must be positive and finite", num(s)),
                 ));
             }
         }
-        let s = &self.schemes;
-        s.shape
-            .validate()
-            .map_err(|e| invalid("schemes.shape", e.to_string()))?;
-        for (role, scheme) in [("velocity", s.mass.velocity), ("acceleration", s.mass.acceleration)] {
-            scheme
-                .validate()
-                .map_err(|e| invalid(format!("schemes.mass.{role}"), e.to_string()))?;
-        }
+        self.check_vector("loads.gravity", self.loads.gravity, MAX_ACCELERATION)?;
+        self.validate_schemes()?;
         self.options().validate().map_err(|e| self.scene_error(e))?;
         if self.bodies.is_empty() {
             return Err(invalid("bodies", "the scene needs at least one [[bodies]] entry"));
         }
         for (k, b) in self.bodies.iter().enumerate() {
-            let key = |f: &str| format!("bodies[{k}].{f}");
-            if !(b.density.is_finite() && b.density > 0.0) {
-                return Err(invalid(
-                    key("density"),
-                    format!("{} must be positive and finite", b.density),
-                ));
-            }
-            if b.particles_per_cell == 0 || b.particles_per_cell > MAX_PARTICLES_PER_CELL {
-                return Err(invalid(
-                    key("particles_per_cell"),
-                    format!(
-                        "{} must lie between 1 and {MAX_PARTICLES_PER_CELL} (per axis)",
-                        b.particles_per_cell
-                    ),
-                ));
-            }
-            b.material
-                .validate()
-                .map_err(|e| invalid(key("material"), e.to_string()))?;
-            match &b.geometry {
-                Geometry::Rectangle { min, max } => {
-                    if !(min.iter().chain(max).all(|v| v.is_finite()) && min[0] < max[0] && min[1] < max[1]) {
-                        return Err(invalid(key("geometry.rectangle"), "needs finite min < max in x and y"));
-                    }
-                }
-                Geometry::Disk { center, radius } => {
-                    if !(center.iter().all(|v| v.is_finite()) && radius.is_finite() && *radius > 0.0) {
+            self.validate_body(k, b)?;
+        }
+        let grid = self.grid()?;
+        for (k, bc) in self.boundaries.iter().enumerate() {
+            bc.validate(k, &grid, self.schemes.shape)?;
+            for (name, v) in [("vx", bc.vx), ("vy", bc.vy)] {
+                if let Some(v) = v {
+                    if v.abs() > MAX_SPEED {
                         return Err(invalid(
-                            key("geometry.disk"),
-                            "needs a finite centre and a positive radius",
+                            format!("boundaries[{k}].{name}"),
+                            format!(
+                                "{} is too large: prescribed speeds of at most {} are accepted",
+                                num(v),
+                                num(MAX_SPEED)
+                            ),
                         ));
                     }
                 }
-                Geometry::File(_) => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// The shape function, the mass schemes and the mass solves' tolerances and policies, each
+    /// at its own key.
+    fn validate_schemes(&self) -> Result<()> {
+        let s = &self.schemes;
+        s.shape
+            .validate()
+            .map_err(|e| parameter_error(&format!("schemes.shape.{}", s.shape.name()), e))?;
+        for (role, scheme) in [("velocity", s.mass.velocity), ("acceleration", s.mass.acceleration)] {
+            scheme
+                .validate()
+                .map_err(|e| parameter_error(&format!("schemes.mass.{role}{}", mass_scheme_key(&scheme)), e))?;
+        }
+        for (name, value, meaning) in [
+            (
+                "active_tolerance",
+                s.mass.active_tolerance,
+                "the relative lumped mass at or below which a node is inactive",
+            ),
+            (
+                "pivot_tolerance",
+                s.mass.pivot_tolerance,
+                "the scaled Cholesky pivot at or below which the matrix counts as singular",
+            ),
+        ] {
+            if !(0.0..1.0).contains(&value) {
+                return Err(invalid(
+                    format!("schemes.mass.{name}"),
+                    format!("{} must be a number in [0, 1) ({meaning})", num(value)),
+                ));
+            }
+        }
+        if let SingularityPolicy::Regularize { epsilon } = s.mass.singularity {
+            if !(epsilon > 0.0 && epsilon <= 1.0) {
+                return Err(invalid(
+                    "schemes.mass.singularity.regularize.epsilon",
+                    format!(
+                        "{} must lie in (0, 1] (the weight of the lumped mass in the regularized matrix)",
+                        num(epsilon)
+                    ),
+                ));
+            }
+        }
+        let stabilization = match s.mass.stabilization {
+            Stabilization::None => "schemes.mass.stabilization",
+            Stabilization::GhostPenalty { .. } => "schemes.mass.stabilization.ghost_penalty",
+            Stabilization::PartialLumping { .. } => "schemes.mass.stabilization.partial_lumping",
+        };
+        s.mass
+            .stabilization
+            .validate()
+            .map_err(|e| parameter_error(stabilization, e))
+    }
+
+    /// One body's density, particle count, material, velocity, body force and geometry.
+    fn validate_body(&self, k: usize, b: &BodySpec) -> Result<()> {
+        let key = |f: &str| format!("bodies[{k}].{f}");
+        if !(b.density.is_finite() && b.density > 0.0) {
+            return Err(invalid(
+                key("density"),
+                format!("{} must be positive and finite", num(b.density)),
+            ));
+        }
+        let [hx, hy] = self.grid.cell_size;
+        if !(b.density * hx * hy).is_finite() {
+            return Err(invalid(
+                key("density"),
+                format!(
+                    "{} is too large for cells of {} x {}: the mass of a cell's particles overflows",
+                    num(b.density),
+                    num(hx),
+                    num(hy)
+                ),
+            ));
+        }
+        if b.particles_per_cell == 0 || b.particles_per_cell > MAX_PARTICLES_PER_CELL {
+            return Err(invalid(
+                key("particles_per_cell"),
+                format!(
+                    "{} must lie between 1 and {MAX_PARTICLES_PER_CELL} (per axis)",
+                    b.particles_per_cell
+                ),
+            ));
+        }
+        b.material
+            .validate()
+            .map_err(|e| parameter_error(&key("material"), e))?;
+        let c = b.material.wave_speed(b.density);
+        if !(c.is_finite() && c > 0.0) {
+            return Err(invalid(
+                key("material"),
+                format!(
+                    "the wave speed of this material at `density` = {} is {}: it must be positive and finite",
+                    num(b.density),
+                    num(c)
+                ),
+            ));
+        }
+        self.check_vector(&key("velocity"), b.velocity, MAX_SPEED)?;
+        self.check_vector(&key("body_force"), b.body_force, MAX_ACCELERATION)?;
+        match &b.geometry {
+            Geometry::Rectangle { min, max } => {
+                if !(min.iter().chain(max).all(|v| v.is_finite()) && min[0] < max[0] && min[1] < max[1]) {
+                    return Err(invalid(
+                        key("geometry.rectangle"),
+                        format!(
+                            "min = {}, max = {}: needs finite values with min < max in x and y",
+                            pair(*min),
+                            pair(*max)
+                        ),
+                    ));
+                }
+            }
+            Geometry::Disk { center, radius } => {
+                if !(center.iter().all(|v| v.is_finite()) && radius.is_finite() && *radius > 0.0) {
+                    return Err(invalid(
+                        key("geometry.disk"),
+                        format!(
+                            "center = {}, radius = {}: needs a finite centre and a positive finite radius",
+                            pair(*center),
+                            num(*radius)
+                        ),
+                    ));
+                }
+            }
+            Geometry::File(_) => {}
+        }
+        Ok(())
+    }
+
+    /// A vector of the scene at `key` (an acceleration or a velocity): finite, of magnitude at
+    /// most `bound`, and such that its magnitude times `time.end` and times the cell size do
+    /// not overflow.
+    fn check_vector(&self, key: &str, v: [f64; 2], bound: f64) -> Result<()> {
+        if !v.iter().all(|c| c.is_finite()) {
+            return Err(invalid(key, format!("{} must be finite", pair(v))));
+        }
+        let magnitude = v[0].hypot(v[1]);
+        if magnitude > bound {
+            return Err(invalid(
+                key,
+                format!(
+                    "{} is too large: its magnitude {} exceeds the {} this program accepts",
+                    pair(v),
+                    num(magnitude),
+                    num(bound)
+                ),
+            ));
+        }
+        let h = self.grid.cell_size[0].max(self.grid.cell_size[1]);
+        for (factor, what) in [(self.time.end, "`time.end`"), (h, "the cell size")] {
+            if !(magnitude * factor).is_finite() {
+                return Err(invalid(
+                    key,
+                    format!(
+                        "{} is too large: its magnitude {} times {what} ({}) overflows",
+                        pair(v),
+                        num(magnitude),
+                        num(factor)
+                    ),
+                ));
             }
         }
         Ok(())
@@ -449,15 +715,84 @@ impl Scene {
         Ok(all)
     }
 
+    /// The file body `body` reads its particles from, checked as it will be read: `None` when
+    /// the body's geometry is not a file; else the path, taken from [`Scene::base_dir`] (the
+    /// current directory when `None`), with symbolic links resolved unless
+    /// [`Scene::allow_outside_files`] is set. A program that reads or copies the file itself
+    /// should use this path.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidScene`] at `bodies[k].geometry.file` naming the path when it is
+    /// absolute, leaves the scene's folder (`..`, a symbolic link) or cannot be resolved
+    /// (it does not exist), unless [`Scene::allow_outside_files`] is set.
+    pub fn particle_file_path(&self, body: usize) -> Result<Option<PathBuf>> {
+        let Some(BodySpec {
+            geometry: Geometry::File(written),
+            ..
+        }) = self.bodies.get(body)
+        else {
+            return Ok(None);
+        };
+        self.locate_particle_file(written)
+            .map(|(_, path)| Some(path))
+            .map_err(|reason| invalid(format!("bodies[{body}].geometry.file"), reason))
+    }
+
+    /// The particle file named `written` in the scene: the path to show in messages (joined to
+    /// the scene's folder) and the path to open (the same with symbolic links resolved, once it
+    /// is known to lie in the folder).
+    fn locate_particle_file(&self, written: &Path) -> std::result::Result<(PathBuf, PathBuf), String> {
+        let folder = match &self.base_dir {
+            Some(dir) if !dir.as_os_str().is_empty() => dir.clone(),
+            _ => PathBuf::from("."),
+        };
+        let joined = folder.join(written);
+        if self.allow_outside_files {
+            return Ok((joined.clone(), joined));
+        }
+        let refuse = |why: &str| {
+            format!(
+                "`{}` {why}; a particle file must lie in the scene file's folder ({}) or below it",
+                written.display(),
+                folder.display()
+            )
+        };
+        // Decided from the path's text first, so that nothing outside the folder is looked at.
+        let mut depth = 0usize;
+        for part in written.components() {
+            match part {
+                Component::Normal(_) => depth += 1,
+                Component::CurDir => {}
+                Component::ParentDir if depth == 0 => return Err(refuse("leaves the folder through `..`")),
+                Component::ParentDir => depth -= 1,
+                Component::RootDir | Component::Prefix(_) => return Err(refuse("is an absolute path")),
+            }
+        }
+        if depth == 0 {
+            return Err(refuse("names the folder itself, not a file in it"));
+        }
+        // Then with symbolic links resolved: a link inside the folder must not lead out of it.
+        let root = folder
+            .canonicalize()
+            .map_err(|e| format!("the scene file's folder {} cannot be resolved: {e}", folder.display()))?;
+        let path = joined
+            .canonicalize()
+            .map_err(|e| format!("{}: {e}", joined.display()))?;
+        if !path.starts_with(&root) {
+            return Err(refuse("leads out of the folder through a symbolic link"));
+        }
+        Ok((joined, path))
+    }
+
     fn body_particles(&self, k: usize, body: &BodySpec, grid: &Grid) -> Result<Particles> {
         let key = |f: &str| format!("bodies[{k}].{f}");
         let columns = match &body.geometry {
-            Geometry::File(path) => {
-                let path = match &self.base_dir {
-                    Some(dir) if path.is_relative() => dir.join(path),
-                    _ => path.clone(),
-                };
-                read_particle_file(&path).map_err(|reason| invalid(key("geometry.file"), reason))?
+            Geometry::File(written) => {
+                let (shown, path) = self
+                    .locate_particle_file(written)
+                    .map_err(|reason| invalid(key("geometry.file"), reason))?;
+                read_particle_file(&shown, &path, body.density)
+                    .map_err(|reason| invalid(key("geometry.file"), reason))?
             }
             geometry => {
                 let [x0, x1, y0, y1] = grid.bounds();
@@ -567,34 +902,139 @@ struct ParticleColumns {
 /// Optional particle-file columns, in the order of `ParticleColumns::optional`.
 const OPTIONAL_COLUMNS: [&str; 6] = ["vx", "vy", "mass", "sxx", "syy", "sxy"];
 
+/// Reads the text of a particle file: a regular file of at most [`MAX_PARTICLE_FILE_BYTES`]
+/// bytes, in UTF-8. `shown` is the path for messages, `path` the one opened.
+fn read_particle_text(shown: &Path, path: &Path) -> std::result::Result<String, String> {
+    let shown = shown.display();
+    let before = std::fs::metadata(path).map_err(|e| format!("{shown}: {e}"))?;
+    check_regular_file(&before).map_err(|what| format!("{shown} is {what}, not a regular file"))?;
+    let too_large = |bytes: String| {
+        format!("{shown} has {bytes} bytes, more than the {MAX_PARTICLE_FILE_BYTES} (1 GiB) a particle file may have")
+    };
+    if before.len() > MAX_PARTICLE_FILE_BYTES {
+        return Err(too_large(before.len().to_string()));
+    }
+    let file = std::fs::File::open(path).map_err(|e| format!("{shown}: {e}"))?;
+    let opened = file.metadata().map_err(|e| format!("{shown}: {e}"))?;
+    check_regular_file(&opened).map_err(|what| format!("{shown} is {what}, not a regular file"))?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if (before.dev(), before.ino()) != (opened.dev(), opened.ino()) {
+            return Err(format!("{shown} was replaced while it was being opened"));
+        }
+    }
+    let expected = opened.len().min(MAX_PARTICLE_FILE_BYTES);
+    let mut bytes = Vec::with_capacity(usize::try_from(expected).unwrap_or(0));
+    file.take(MAX_PARTICLE_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| format!("{shown}: {e}"))?;
+    if bytes.len() as u64 > MAX_PARTICLE_FILE_BYTES {
+        return Err(too_large(format!(
+            "more than {MAX_PARTICLE_FILE_BYTES} (it grew while being read)"
+        )));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..valid].iter().filter(|&&b| b == b'\n').count() + 1;
+        format!("{shown} line {line}: not UTF-8 text (a particle file is CSV text)")
+    })
+}
+
+/// `Ok` for a regular file; else what it is, in words.
+fn check_regular_file(meta: &std::fs::Metadata) -> std::result::Result<(), &'static str> {
+    let kind = meta.file_type();
+    if kind.is_file() {
+        return Ok(());
+    }
+    if kind.is_dir() {
+        return Err("a folder");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_fifo() {
+            return Err("a named pipe (FIFO)");
+        }
+        if kind.is_char_device() || kind.is_block_device() {
+            return Err("a device");
+        }
+        if kind.is_socket() {
+            return Err("a socket");
+        }
+    }
+    Err("something else")
+}
+
+/// Whether a piece of a particle file may be quoted in a message: a short word of letters,
+/// digits and `+-._` (a misspelt number or column name), nothing longer or stranger.
+fn quotable(text: &str) -> bool {
+    !text.is_empty() && text.len() <= 24 && text.bytes().all(|b| b.is_ascii_alphanumeric() || b"+-._".contains(&b))
+}
+
 /// Reads a CSV particle file: columns `x, y, volume` and optionally `vx, vy, mass, sxx, syy, sxy`.
-fn read_particle_file(path: &Path) -> std::result::Result<ParticleColumns, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+/// `density` gives the mass of a file without a `mass` column.
+///
+/// Messages name the line and the column and say what is wrong. They show nothing of a file
+/// whose header does not name `x`, `y` and `volume` (it is not a particle file, and its content
+/// is none of the scene's business), and of a particle file at most a short word ([`quotable`]).
+fn read_particle_file(shown: &Path, path: &Path, density: f64) -> std::result::Result<ParticleColumns, String> {
+    let text = read_particle_text(shown, path)?;
+    let shown = shown.display();
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let mut lines = text
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
-    let (_, header) = lines
+    let (header_index, header) = lines
         .next()
-        .ok_or_else(|| format!("{}: the file is empty", path.display()))?;
+        .ok_or_else(|| format!("{shown}: the file has no header line (it is empty or only comments)"))?;
+    let header_line = header_index + 1;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let column = |name: &str| names.iter().position(|n| *n == name);
-    let (Some(cx), Some(cy), Some(cv)) = (column("x"), column("y"), column("volume")) else {
-        return Err(format!(
-            "{}: the header must name columns `x`, `y` and `volume` (found {names:?})",
-            path.display()
-        ));
-    };
-    if let Some(unknown) = names
+    let missing: Vec<String> = ["x", "y", "volume"]
         .iter()
-        .find(|n| !["x", "y", "volume"].contains(n) && !OPTIONAL_COLUMNS.contains(n))
-    {
+        .filter(|n| column(n).is_none())
+        .map(|n| format!("`{n}`"))
+        .collect();
+    if !missing.is_empty() {
         return Err(format!(
-            "{}: unknown column `{unknown}` (known: x, y, volume, {})",
-            path.display(),
-            OPTIONAL_COLUMNS.join(", ")
+            "{shown} line {header_line}: the header ({} column{}) must name the columns `x`, `y` and `volume`; \
+             it lacks {}",
+            names.len(),
+            if names.len() == 1 { "" } else { "s" },
+            missing.join(", ")
         ));
     }
+    for (c, name) in names.iter().enumerate() {
+        if !["x", "y", "volume"].contains(name) && !OPTIONAL_COLUMNS.contains(name) {
+            let known = format!("known: x, y, volume, {}", OPTIONAL_COLUMNS.join(", "));
+            return Err(if quotable(name) {
+                format!(
+                    "{shown} line {header_line}: unknown column `{name}` (column {}; {known})",
+                    c + 1
+                )
+            } else {
+                format!(
+                    "{shown} line {header_line}: column {} of the header is not a known column name (not shown; \
+                     {known})",
+                    c + 1
+                )
+            });
+        }
+        if let Some(first) = names[..c].iter().position(|n| n == name) {
+            return Err(format!(
+                "{shown} line {header_line}: column `{name}` is named twice (columns {} and {})",
+                first + 1,
+                c + 1
+            ));
+        }
+    }
+    let (cx, cy, cv) = (
+        column("x").unwrap_or(0),
+        column("y").unwrap_or(0),
+        column("volume").unwrap_or(0),
+    );
     let optional: Vec<Option<usize>> = OPTIONAL_COLUMNS.iter().map(|n| column(n)).collect();
     let mut out = ParticleColumns::default();
     for (k, c) in optional.iter().enumerate() {
@@ -602,42 +1042,64 @@ fn read_particle_file(path: &Path) -> std::result::Result<ParticleColumns, Strin
             out.optional[k] = Some(Vec::new());
         }
     }
-    for (line_no, line) in lines {
+    for (line_index, line) in lines {
+        let line_no = line_index + 1;
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         if cells.len() != names.len() {
             return Err(format!(
-                "{} line {}: {} values but the header has {} columns",
-                path.display(),
-                line_no + 1,
+                "{shown} line {line_no}: {} values but the header has {} columns",
                 cells.len(),
                 names.len()
             ));
         }
+        let at = |c: usize| format!("{shown} line {line_no}, column `{}` (column {})", names[c], c + 1);
         let value = |c: usize| -> std::result::Result<f64, String> {
-            cells[c].parse::<f64>().map_err(|_| {
-                format!(
-                    "{} line {}: column `{}` = `{}` is not a number",
-                    path.display(),
-                    line_no + 1,
-                    names[c],
-                    cells[c]
-                )
-            })
+            let cell = cells[c];
+            let v = cell.parse::<f64>().map_err(|_| {
+                if cell.is_empty() {
+                    format!("{}: the value is missing", at(c))
+                } else if quotable(cell) {
+                    format!("{}: `{cell}` is not a number", at(c))
+                } else {
+                    format!("{}: not a number ({} bytes, not shown)", at(c), cell.len())
+                }
+            })?;
+            if !v.is_finite() {
+                return Err(format!("{}: {} is not a finite number", at(c), num(v)));
+            }
+            Ok(v)
         };
         out.x.push(value(cx)?);
         out.y.push(value(cy)?);
         let volume = value(cv)?;
-        if !(volume > 0.0 && volume.is_finite()) {
+        if volume <= 0.0 {
+            return Err(format!("{}: {} must be positive", at(cv), num(volume)));
+        }
+        if optional[2].is_none() && !(density * volume).is_finite() {
             return Err(format!(
-                "{} line {}: column `volume` = {volume} must be positive",
-                path.display(),
-                line_no + 1
+                "{}: {} times the body's density {} (its mass) overflows",
+                at(cv),
+                num(volume),
+                num(density)
             ));
         }
         out.volume.push(volume);
         for (k, c) in optional.iter().enumerate() {
-            if let (Some(c), Some(v)) = (c, out.optional[k].as_mut()) {
-                v.push(value(*c)?);
+            if let (Some(c), Some(values)) = (*c, out.optional[k].as_mut()) {
+                let v = value(c)?;
+                match OPTIONAL_COLUMNS[k] {
+                    "mass" if v <= 0.0 => return Err(format!("{}: {} must be positive", at(c), num(v))),
+                    "vx" | "vy" if v.abs() > MAX_SPEED => {
+                        return Err(format!(
+                            "{}: {} is too large: speeds of at most {} are accepted",
+                            at(c),
+                            num(v),
+                            num(MAX_SPEED)
+                        ))
+                    }
+                    _ => {}
+                }
+                values.push(v);
             }
         }
     }
