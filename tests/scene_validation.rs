@@ -32,9 +32,7 @@ const PARTICLES: &str = "x,y,volume\n0.45,0.45,0.0025\n0.55,0.55,0.0025\n";
 
 /// A fresh, empty directory for one test.
 fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir()
-        .join(format!("sparse-mpm-scene-validation-{}", std::process::id()))
-        .join(name);
+    let dir = std::env::temp_dir().join(format!("sparse-mpm-scene-validation-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
