@@ -155,7 +155,7 @@ pub fn estimate_scene(scene: &Scene) -> Estimate {
     ];
     let clip = |lo: f64, hi: f64, a: f64, b: f64| (hi.min(b) - lo.max(a)).max(0.0);
     let mut particles = 0.0;
-    for body in &scene.bodies {
+    for (k, body) in scene.bodies.iter().enumerate() {
         let ppc = (body.particles_per_cell as f64).powi(2);
         particles += match &body.geometry {
             Geometry::Rectangle { min, max } => {
@@ -167,13 +167,14 @@ pub fn estimate_scene(scene: &Scene) -> Estimate {
                     * clip(center[1] - radius, center[1] + radius, bounds[2], bounds[3]);
                 square.min(std::f64::consts::PI * radius * radius) / (hx * hy) * ppc
             }
-            Geometry::File(path) => {
-                let path = match &scene.base_dir {
-                    Some(dir) if path.is_relative() => dir.join(path),
-                    _ => path.clone(),
-                };
-                std::fs::metadata(&path).map_or(0.0, |m| m.len() as f64) / PARTICLE_FILE_BYTES_PER_ROW
-            }
+            // Only a path that passes the scene's checks is looked at (the build refuses the
+            // others, naming them).
+            Geometry::File(_) => match scene.particle_file_path(k) {
+                Ok(Some(path)) => {
+                    std::fs::metadata(&path).map_or(0.0, |m| m.len() as f64) / PARTICLE_FILE_BYTES_PER_ROW
+                }
+                _ => 0.0,
+            },
         };
     }
     let consistent = [scene.schemes.mass.velocity, scene.schemes.mass.acceleration]

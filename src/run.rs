@@ -414,10 +414,16 @@ fn write_scene_copy(scene: &Scene, out: &Path) -> Result<()> {
     let mut copy_scene = scene.clone();
     for (k, body) in copy_scene.bodies.iter_mut().enumerate() {
         if let crate::scene::Geometry::File(path) = &body.geometry {
-            let source = match &scene.base_dir {
-                Some(dir) if path.is_relative() => dir.join(path),
-                _ => path.clone(),
-            };
+            // The path the build read, with the same checks (inside the scene's folder, a
+            // regular file within the size limit).
+            let source = scene.particle_file_path(k)?.unwrap_or_else(|| path.clone());
+            let size = std::fs::metadata(&source).map_or(u64::MAX, |m| m.len());
+            if size > crate::scene::MAX_PARTICLE_FILE_BYTES {
+                return Err(MpmError::InvalidScene {
+                    key: format!("bodies[{k}].geometry.file"),
+                    reason: format!("{} changed since it was read", source.display()),
+                });
+            }
             let name = format!(
                 "input_{k}_{}",
                 path.file_name()
@@ -486,7 +492,10 @@ fn drive(
             snapshot(&sim, &mut pvd, &mut state)?;
             state.next_snapshot += interval;
         }
-        if options.checkpoint_every.is_some_and(|k| k > 0 && sim.steps().is_multiple_of(k)) {
+        if options
+            .checkpoint_every
+            .is_some_and(|k| k > 0 && sim.steps().is_multiple_of(k))
+        {
             checkpoints.push(write_run_checkpoint(&sim, &state, out)?);
         }
         progress(&Progress {

@@ -160,7 +160,11 @@ impl Simulation {
             for k in range {
                 let m = p.mass[k];
                 let (vx, vy) = (p.vx[k], p.vy[k]);
-                let speed = (vx * vx + vy * vy).sqrt();
+                let mut speed = (vx * vx + vy * vy).sqrt();
+                if speed == f64::INFINITY && vx.is_finite() && vy.is_finite() {
+                    // Finite but beyond 1e154: the squares overflowed, the speed did not.
+                    speed = vx.hypot(vy);
+                }
                 if !speed.is_finite() {
                     s.non_finite.get_or_insert(k);
                     continue;
