@@ -269,8 +269,10 @@ impl fmt::Display for MpmError {
             } => write!(
                 f,
                 "step {step}: particle {particle} (id {id}, body `{body}`) inverted: det(I + Δt L) = \
-                 {det_increment:e}, det F = {det_f:e}; reduce the time step (Courant number) or check the material \
-                 and loads"
+                 {}, det F = {}; reduce the time step (Courant number) or check the material \
+                 and loads",
+                crate::run::human(*det_increment),
+                crate::run::human(*det_f)
             ),
             MpmError::NonFinite {
                 step,
@@ -300,9 +302,11 @@ impl fmt::Display for MpmError {
                 masses,
             } => write!(
                 f,
-                "step {step}: the fixed time step {dt:e} exceeds the stable step {stable:e} of the update with \
+                "step {step}: the fixed time step {} exceeds the stable step {} of the update with \
                  {masses} mass (estimated from the operators, material stiffness and masses; {:.1}% over); use a \
                  smaller `dt`, a CFL step (`cfl = 0.5`), or set `allow_unstable = true`",
+                crate::run::human(*dt),
+                crate::run::human(*stable),
                 100.0 * (dt / stable - 1.0)
             ),
             MpmError::Checkpoint {

@@ -232,3 +232,21 @@ fn check_refuses_what_run_refuses_naming_the_key() {
         "{out}"
     );
 }
+
+#[test]
+fn check_refuses_a_fixed_step_above_the_stable_step_with_numbers_for_people() {
+    let dir = scratch("bigdt");
+    let path = dir.join("bigdt.toml");
+    std::fs::write(&path, two_disks().replace("cfl = 0.5", "dt = 22.0")).unwrap();
+    for command in ["check", "run"] {
+        let o = mpm(&[command, path.to_str().unwrap()], &dir);
+        let message = text(&o);
+        assert!(!o.status.success(), "{message}");
+        assert!(
+            message.contains("the fixed time step 22 exceeds the stable step 0.06"),
+            "{command}: {message}"
+        );
+        assert!(!message.contains("e-2"), "numbers for people: {message}");
+    }
+    assert!(!dir.join("out").exists(), "a refused run writes nothing");
+}
