@@ -1,0 +1,285 @@
+"""sparse_mpm: the 2D Material Point Method in sparse-matrix form, from Python.
+
+The shape functions and their gradients at the particles are sparse matrices, nodes × particles::
+
+    N_Ip  = S_I(x_p)                 (shape function of node I at particle p)
+    Gx_Ip = dS_I/dx (x_p),  Gy_Ip = dS_I/dy (x_p)
+
+and the masses are products with them::
+
+    m_L = N m                        (lumped mass, one entry per node)
+    M   = N diag(m) N^T              (consistent mass, nodes × nodes; M 1 = m_L)
+
+``Operators.assemble`` computes N, Gx, Gy in Rust and hands them over as
+``scipy.sparse.csc_array``; ``Simulation`` runs the library's explicit time loop on a scene
+(TOML file, TOML text or dict). Every array crossing the boundary is copied, in both
+directions: changing a returned matrix or array does not change the Rust state, and the Rust
+side never holds on to a NumPy buffer. Errors of the library are raised as ``MpmError``
+(a ``ValueError``) with the library's message, which names the particle, node or key at fault.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Dict, Mapping, Optional, Union
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import _core
+from ._core import Grid, MpmError, Particles
+
+__all__ = [
+    "Grid",
+    "Particles",
+    "Operators",
+    "Simulation",
+    "MpmError",
+    "lumped_mass",
+    "consistent_mass",
+    "REPORT_COLUMNS",
+]
+
+#: Columns of the step report (``StepReport::COLUMNS``), in order. Outcomes are coded
+#: 0 = solved, 1 = fell back to lumped, 2 = regularized; ``velocity_fallback_node`` is -1 when none.
+REPORT_COLUMNS = tuple(_core.report_columns())
+
+_INT_COLUMNS = ("step",)
+
+
+class Operators:
+    """N, Gx, Gy (nodes × particles) at the particles' positions.
+
+    ``N[I, p] = S_I(x_p)``, ``Gx[I, p] = dS_I/dx (x_p)``, ``Gy[I, p] = dS_I/dy (x_p)``. The three
+    matrices share one sparsity pattern: column p holds particle p's weights at the nodes of its
+    support (4 entries for linear shape functions), row indices ascending in each column.
+
+    ``.N``, ``.Gx``, ``.Gy`` are ``scipy.sparse.csc_array`` built (once, on first access) from
+    copies of the Rust compressed-column arrays.
+    """
+
+    def __init__(self, core: "_core.Operators"):
+        self._core = core
+        self._cache: Dict[str, sp.csc_array] = {}
+
+    @classmethod
+    def assemble(cls, grid: Grid, particles: Particles, shape: Union[str, Mapping[str, Any]] = "linear") -> "Operators":
+        """Assembles N, Gx, Gy for ``particles`` on ``grid``.
+
+        ``shape``: ``"linear"``, ``"quadratic_bspline"``, ``"cubic_bspline"`` or
+        ``{"gimp": {"half_width": l}}`` with ``0 < l <= 0.5``. A particle outside the region the
+        shape function allows raises ``MpmError`` naming the particle.
+        """
+        return cls(_core.Operators.assemble(grid, particles, shape))
+
+    @property
+    def num_nodes(self) -> int:
+        return self._core.num_nodes
+
+    @property
+    def num_particles(self) -> int:
+        return self._core.num_particles
+
+    @property
+    def nnz(self) -> int:
+        return self._core.nnz
+
+    @property
+    def shape_function(self) -> str:
+        return self._core.shape_function
+
+    def col_offsets(self) -> np.ndarray:
+        """CSC column offsets (length P + 1, int64), a copy."""
+        return self._core.col_offsets()
+
+    def row_indices(self) -> np.ndarray:
+        """CSC row indices (node numbers, int64), a copy."""
+        return self._core.row_indices()
+
+    def values(self, op: str) -> np.ndarray:
+        """CSC values of ``"N"``, ``"Gx"`` or ``"Gy"``, aligned with ``row_indices()``, a copy."""
+        return self._core.values(op)
+
+    def matrix(self, op: str) -> sp.csc_array:
+        """``op`` (``"N"``, ``"Gx"``, ``"Gy"``) as a ``scipy.sparse.csc_array``, nodes × particles."""
+        if op not in self._cache:
+            if op not in ("N", "Gx", "Gy"):
+                raise MpmError(f'operator {op!r}: expected "N", "Gx" or "Gy"')
+            if "pattern" not in self._cache:
+                self._cache["pattern"] = (self._core.col_offsets(), self._core.row_indices())
+            indptr, indices = self._cache["pattern"]
+            self._cache[op] = sp.csc_array(
+                (self._core.values(op), indices, indptr), shape=(self.num_nodes, self.num_particles)
+            )
+        return self._cache[op]
+
+    @property
+    def N(self) -> sp.csc_array:
+        """``N[I, p] = S_I(x_p)`` (nodes × particles)."""
+        return self.matrix("N")
+
+    @property
+    def Gx(self) -> sp.csc_array:
+        """``Gx[I, p] = dS_I/dx (x_p)`` (nodes × particles)."""
+        return self.matrix("Gx")
+
+    @property
+    def Gy(self) -> sp.csc_array:
+        """``Gy[I, p] = dS_I/dy (x_p)`` (nodes × particles)."""
+        return self.matrix("Gy")
+
+    def __repr__(self) -> str:
+        return (
+            f"Operators(nodes={self.num_nodes}, particles={self.num_particles}, nnz={self.nnz}, "
+            f"shape={self.shape_function!r})"
+        )
+
+
+def _core_ops(ops: Union[Operators, "_core.Operators"]) -> "_core.Operators":
+    return ops._core if isinstance(ops, Operators) else ops
+
+
+def lumped_mass(ops: Operators, m) -> np.ndarray:
+    """``m_L = N m``: the lumped (nodal) mass, one entry per node (the row sums of ``M``)."""
+    return _core.lumped_mass(_core_ops(ops), m)
+
+
+def consistent_mass(ops: Operators, m) -> sp.csc_array:
+    """``M = N diag(m) N^T``: the consistent mass matrix, nodes × nodes, symmetric positive
+    semi-definite, a 9-point stencil for linear shape functions; ``M @ ones = m_L``."""
+    indptr, indices, data, n = _core.consistent_mass_csc(_core_ops(ops), m)
+    return sp.csc_array((data, indices, indptr), shape=(n, n))
+
+
+class Simulation:
+    """The library's explicit MPM time loop on a scene.
+
+    Make one with ``Simulation.from_scene(path)``, ``Simulation.from_toml(text)`` or
+    ``Simulation.from_dict(d)`` (the keys of a scene file, docs/simulation.md). The scene's
+    limits on memory, steps and output are checked as ``mpm run`` checks them
+    (``allow_large=True`` raises them).
+
+    Steps land on multiples of ``land_every`` (the scene's snapshot interval by default) and on
+    the end time, exactly as ``mpm run`` lands on its snapshot times, so that ``run(end_time)``
+    reproduces ``mpm run``'s ``report.csv`` bit for bit. Set ``land_every = None`` to take
+    unconstrained steps.
+    """
+
+    def __init__(self, core: "_core.Simulation"):
+        self._core = core
+
+    @classmethod
+    def from_scene(cls, path: Union[str, os.PathLike], allow_large: bool = False) -> "Simulation":
+        """The simulation of a scene file; relative particle files are read from its folder."""
+        return cls(_core.Simulation.from_scene(os.fspath(path), allow_large))
+
+    @classmethod
+    def from_toml(
+        cls, text: str, base_dir: Optional[Union[str, os.PathLike]] = None, allow_large: bool = False
+    ) -> "Simulation":
+        """The simulation of a scene given as TOML text; particle files relative to ``base_dir``."""
+        base = None if base_dir is None else os.fspath(base_dir)
+        return cls(_core.Simulation.from_toml(text, base, allow_large))
+
+    @classmethod
+    def from_dict(
+        cls, scene: Mapping[str, Any], base_dir: Optional[Union[str, os.PathLike]] = None, allow_large: bool = False
+    ) -> "Simulation":
+        """The simulation of a scene given as a dict with the tables and keys of a scene file."""
+        base = None if base_dir is None else os.fspath(base_dir)
+        return cls(_core.Simulation.from_dict(dict(scene), base, allow_large))
+
+    @property
+    def time(self) -> float:
+        """Time reached."""
+        return self._core.time
+
+    @property
+    def steps(self) -> int:
+        """Steps taken."""
+        return self._core.steps
+
+    @property
+    def end_time(self) -> float:
+        """The scene's ``[time] end``."""
+        return self._core.end_time
+
+    @property
+    def land_every(self) -> Optional[float]:
+        """Steps land on multiples of this interval (the scene's snapshot interval), or None."""
+        return self._core.land_every
+
+    @land_every.setter
+    def land_every(self, every: Optional[float]) -> None:
+        self._core.land_every = every
+
+    def stable_time_step(self) -> float:
+        """The stable time step for the current state:
+        ``dt_stable = 1 / (1/dt_wave + max|v_p| / min(hx, hy))``, ``dt_wave`` from the largest
+        frequency of the update with this simulation's masses (Lanczos)."""
+        return self._core.stable_time_step()
+
+    def step(self, max_dt: Optional[float] = None) -> Dict[str, float]:
+        """Advances one step (no longer than ``max_dt``) and returns its report as a dict with
+        the keys of ``REPORT_COLUMNS``."""
+        report = self._core.step(max_dt)
+        for k in _INT_COLUMNS:
+            report[k] = int(report[k])
+        return report
+
+    def run(self, until: Optional[float] = None) -> Dict[str, np.ndarray]:
+        """Steps until time ``until`` (default: the scene's end time; the last step is shortened
+        to land on it) and returns the per-step report as a dict of float64 arrays, one per
+        column of ``REPORT_COLUMNS``. A library error raises ``MpmError``; the steps taken before
+        it stay taken."""
+        if until is None:
+            until = self.end_time
+        flat, rows = self._core.run_rows(float(until))
+        table = flat.reshape(rows, len(REPORT_COLUMNS))
+        return {name: np.ascontiguousarray(table[:, k]) for k, name in enumerate(REPORT_COLUMNS)}
+
+    def particles(self) -> Dict[str, np.ndarray]:
+        """The particle state as a dict of new arrays: x, y, vx, vy, mass, volume, sxx, syy, sxy,
+        bx, by, fxx, fxy, fyx, fyy (float64), body, id (int64)."""
+        return self._core.particles()
+
+    def grid(self) -> Grid:
+        """The background grid."""
+        return self._core.grid()
+
+    def operators(self) -> Operators:
+        """N, Gx, Gy at the current particle positions (a copy)."""
+        return Operators(self._core.operators())
+
+    def lumped_mass(self) -> np.ndarray:
+        """The lumped mass ``m_L = N m`` of the last step (a copy)."""
+        return self._core.lumped_mass()
+
+    def scene_toml(self) -> str:
+        """The scene as TOML text."""
+        return self._core.scene_toml()
+
+    def __repr__(self) -> str:
+        return f"Simulation(time={self.time!r}, steps={self.steps})"
+
+
+def scene_matrices(path: Union[str, os.PathLike]) -> Dict[str, Any]:
+    """N, Gx, Gy, M and m_L of a scene file's initial configuration, as ``mpm matrices`` writes
+    them: a dict with ``grid``, ``operators``, ``N``, ``Gx``, ``Gy`` (csc_array), ``M`` (csc_array)
+    and ``mL`` (array)."""
+    grid, particles, core = _core.scene_operators(os.fspath(path))
+    ops = Operators(core)
+    m = particles.mass
+    return {
+        "grid": grid,
+        "particles": particles,
+        "operators": ops,
+        "N": ops.N,
+        "Gx": ops.Gx,
+        "Gy": ops.Gy,
+        "M": consistent_mass(ops, m),
+        "mL": lumped_mass(ops, m),
+    }
+
+
+__all__.append("scene_matrices")

@@ -1,0 +1,121 @@
+"""Simulations from Python against `mpm run`, and errors raised as sparse_mpm.MpmError."""
+
+import csv
+
+import numpy as np
+import pytest
+
+import sparse_mpm as mpm
+
+
+def read_report(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, body = rows[0], rows[1:]
+    table = np.array([[float(v) for v in row] for row in body])
+    return {name: table[:, k] for k, name in enumerate(header)}
+
+
+@pytest.mark.parametrize("name", ["seed_problem", "vibrating_bar", "two_disks"])
+def test_run_equals_mpm_run_report(name, root, run_mpm, tmp_path):
+    scene = root / "scenes" / f"{name}.toml"
+    run_mpm("run", scene, "--out", tmp_path / "run")
+    expected = read_report(tmp_path / "run" / "report.csv")
+    sim = mpm.Simulation.from_scene(scene)
+    report = sim.run()
+    assert list(report) == list(mpm.REPORT_COLUMNS) == list(expected)
+    for key in expected:
+        np.testing.assert_array_equal(report[key], expected[key], err_msg=key)
+    assert sim.steps == len(expected["step"])
+    assert sim.time == expected["time"][-1]
+
+
+def test_step_by_step_equals_run(root):
+    scene = root / "scenes" / "vibrating_bar.toml"
+    whole = mpm.Simulation.from_scene(scene).run(2.0)
+    sim = mpm.Simulation.from_scene(scene)
+    rows = []
+    while sim.time < 2.0 * (1 - 1e-12):
+        rows.append(sim.step(max_dt=2.0 - sim.time))
+    assert isinstance(rows[0]["step"], int)
+    for key in mpm.REPORT_COLUMNS:
+        np.testing.assert_array_equal([r[key] for r in rows], whole[key], err_msg=key)
+
+
+def test_scene_from_dict_and_toml(root):
+    text = (root / "scenes" / "seed_problem.toml").read_text()
+    from_text = mpm.Simulation.from_toml(text, base_dir=root / "scenes")
+    scene = {
+        "grid": {"origin": [0.0, 0.0], "cell_size": [0.1, 0.1], "cells": [10, 10]},
+        "time": {"end": 0.05},
+        "loads": {"gravity": [0.0, -9.81]},
+        "bodies": [
+            {
+                "name": "block",
+                "material": {"model": "neo_hookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3},
+                "density": 1000.0,
+                "geometry": {"rectangle": {"min": [0.3, 0.3], "max": [0.7, 0.7]}},
+            }
+        ],
+    }
+    sim = mpm.Simulation.from_dict(scene)
+    assert sim.stable_time_step() > 0
+    report = sim.run()
+    p = sim.particles()
+    vy = (p["mass"] * p["vy"]).sum() / p["mass"].sum()
+    assert abs(vy - (-9.81 * sim.time)) < 1e-9  # free fall: v = g t
+    assert np.all(np.diff(report["time"]) > 0)
+    assert from_text.run()["step"][-1] == 1
+
+
+def test_particle_outside_grid_names_the_particle():
+    grid = mpm.Grid([0.0, 0.0], [1.0, 1.0], [2, 1])
+    particles = mpm.Particles([0.5, 2.5], [0.5, 0.5], [1.0, 1.0], [1.0, 1.0])
+    with pytest.raises(mpm.MpmError, match=r"particle 1 at \(2.5, 0.5\) lies outside the grid"):
+        mpm.Operators.assemble(grid, particles)
+    assert issubclass(mpm.MpmError, ValueError)
+
+
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: mpm.Grid([0.0, 0.0], [0.0, 1.0], [2, 1]), "cell size along x"),
+        (lambda: mpm.Grid([0.0, 0.0], [1.0, 1.0], [-1, 1]), "at least one cell along x"),
+        (lambda: mpm.Grid([0.0, 0.0], [1.0, 1.0], [10**6, 10**6]), "more than"),
+        (lambda: mpm.Grid.from_node_coordinates([0.0, 1.0, 3.0], [0.0, 0.0, 0.0]), "do not form a uniform grid"),
+        (lambda: mpm.Particles([0.5], [0.5], [-1.0], [1.0]), "mass"),
+        (lambda: mpm.Particles([0.5, 1.0], [0.5], [1.0], [1.0]), "`y` has 1 entries but 2 are required"),
+        (lambda: mpm.Particles([np.nan], [0.5], [1.0], [1.0]), "x"),
+        (lambda: mpm.Particles([0.5], [0.5], [1.0], [1.0], vx=[1.0, 2.0]), "`vx` has 2 entries but 1"),
+        (lambda: mpm.Simulation.from_toml("[grid]\ncells = 3"), "line 2, cells.*expected an array of length 2"),
+        (lambda: mpm.Simulation.from_dict({"grid": {"cells": [2, 2]}, "time": {"end": object()}}), "no TOML form"),
+        (lambda: mpm.Simulation.from_scene("no/such/scene.toml"), "no/such/scene.toml"),
+    ],
+)
+def test_bad_input_raises_mpm_error(make, message):
+    with pytest.raises(mpm.MpmError, match=message):
+        make()
+
+
+def test_bad_shape_and_masses():
+    grid = mpm.Grid([0.0, 0.0], [1.0, 1.0], [2, 1])
+    particles = mpm.Particles([0.5], [0.5], [1.0], [1.0])
+    with pytest.raises(mpm.MpmError, match="shape"):
+        mpm.Operators.assemble(grid, particles, shape="cubic")
+    with pytest.raises(mpm.MpmError, match="half_width"):
+        mpm.Operators.assemble(grid, particles, shape={"gimp": {"half_width": 2.0}})
+    ops = mpm.Operators.assemble(grid, particles)
+    with pytest.raises(mpm.MpmError, match="`m` has 2 entries but 1 are required"):
+        mpm.lumped_mass(ops, [1.0, 2.0])
+    with pytest.raises(mpm.MpmError, match="`m` has 0 entries but 1 are required"):
+        mpm.consistent_mass(ops, [])
+    with pytest.raises(mpm.MpmError, match="operator"):
+        ops.matrix("Gz")
+
+
+def test_failed_step_is_reported(root):
+    sim = mpm.Simulation.from_scene(root / "scenes" / "seed_problem.toml")
+    with pytest.raises(mpm.MpmError, match="until"):
+        sim.run(float("inf"))
+    with pytest.raises(mpm.MpmError, match="max_dt"):
+        sim.step(max_dt=-1.0)
