@@ -37,7 +37,10 @@ fn mpm_msg(msg: impl Into<String>) -> PyErr {
 
 /// A 1-D float64 array-like as a vector (copied).
 fn to_vec(a: &PyArrayLike1<'_, f64, AllowTypeChange>) -> Vec<f64> {
-    a.as_array().iter().copied().collect()
+    match a.as_slice() {
+        Ok(s) => s.to_vec(),
+        Err(_) => a.as_array().iter().copied().collect(),
+    }
 }
 
 fn f64_array<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {

@@ -119,3 +119,18 @@ def test_failed_step_is_reported(root):
         sim.run(float("inf"))
     with pytest.raises(mpm.MpmError, match="max_dt"):
         sim.step(max_dt=-1.0)
+
+
+def test_example_script_runs(root, tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "bar.png"
+    done = subprocess.run(
+        [sys.executable, str(root / "python" / "examples" / "seed_and_bar.py"), "--out", str(out)],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "m_L = N m: [0.    0.    0.927 1.073 1.013 0.987]" in done.stdout
+    assert "consistent" in done.stdout
