@@ -21,7 +21,7 @@ side never holds on to a NumPy buffer. Errors of the library are raised as ``Mpm
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, Mapping, Optional, Union
+from typing import Any, Dict, Mapping, Optional, Tuple, Union
 
 import numpy as np
 import scipy.sparse as sp
@@ -38,7 +38,19 @@ __all__ = [
     "lumped_mass",
     "consistent_mass",
     "REPORT_COLUMNS",
+    "momentum",
+    "external_force",
+    "internal_force",
+    "mass_diagnostics",
+    "critical_time_step",
+    "explicit_step",
+    "MASS_SCHEMES",
 ]
+
+#: Mass scheme names accepted where a function takes ``mass=``: ``"lumped"``, ``"consistent"``,
+#: ``"blended:γ"`` (``(1 − γ) M_L + γ M``), ``"series:k"`` (first k terms of the series of
+#: ``M⁻¹``), ``"cg"`` or ``"cg:tol"`` (conjugate gradient on ``M``, default tolerance 1e-10).
+MASS_SCHEMES = ("lumped", "consistent", "blended:γ", "series:k", "cg[:tol]")
 
 #: Columns of the step report (``StepReport::COLUMNS``), in order. Outcomes are coded
 #: 0 = solved, 1 = fell back to lumped, 2 = regularized; ``velocity_fallback_node`` is -1 when none.
@@ -149,6 +161,84 @@ def consistent_mass(ops: Operators, m) -> sp.csc_array:
     semi-definite, a 9-point stencil for linear shape functions; ``M @ ones = m_L``."""
     indptr, indices, data, n = _core.consistent_mass_csc(_core_ops(ops), m)
     return sp.csc_array((data, indices, indptr), shape=(n, n))
+
+
+def momentum(ops: Operators, m, vx, vy) -> Tuple[np.ndarray, np.ndarray]:
+    """Grid momentum ``q = N (m ∘ v)``: ``(qx, qy)`` with ``qx = N (m ∘ vx)``, ``qy = N (m ∘ vy)``,
+    one entry per node (``transfer::momentum``)."""
+    return _core.momentum(_core_ops(ops), m, vx, vy)
+
+
+def external_force(ops: Operators, m, bx, by) -> Tuple[np.ndarray, np.ndarray]:
+    """External grid force from body forces per unit mass ``b``: ``f_ext = N (m ∘ b)``, as
+    ``(fx, fy)`` (``transfer::external_force``)."""
+    return _core.external_force(_core_ops(ops), m, bx, by)
+
+
+def internal_force(ops: Operators, volume, sxx, syy, sxy) -> Tuple[np.ndarray, np.ndarray]:
+    """Internal grid force, the divergence of stress (``transfer::internal_force``)::
+
+        f_int,x = −( Gx (V ∘ σxx) + Gy (V ∘ σxy) )
+        f_int,y = −( Gx (V ∘ σxy) + Gy (V ∘ σyy) )
+
+    returned as ``(fx, fy)``, one entry per node; ``V``, ``σ`` have one entry per particle."""
+    return _core.internal_force(_core_ops(ops), volume, sxx, syy, sxy)
+
+
+def mass_diagnostics(ops: Operators, m, mass: str = "lumped") -> Dict[str, Any]:
+    """``MassDiagnostics::compute`` for the scheme ``mass`` (see ``MASS_SCHEMES``), no constraints,
+    as a dict: ``active_nodes``, ``min_nodal_mass``, ``max_nodal_mass``, ``tiny_mass_nodes``
+    (``m_L < 1e-3 max m_L``), ``nullity_estimate`` (small Cholesky pivots of the Jacobi-scaled
+    ``M_AA``), ``lambda_min_estimate`` (smallest eigenvalue of ``M_L⁻¹ M`` on the active nodes,
+    Lanczos) and ``condition_number`` (of the matrix the scheme solves with; inf if singular)."""
+    return _core.mass_diagnostics(_core_ops(ops), m, mass)
+
+
+def critical_time_step(
+    ops: Operators, m, volume, youngs_modulus: float, poisson_ratio: float, plane: str = "stress", mass: str = "lumped"
+) -> float:
+    """``Δt_crit = 2 / ω_max`` with ``ω²_max = λ_max(M⁻¹ K)`` (``stiffness::critical_time_step``):
+    ``K`` the stiffness of linear elasticity (``plane`` ``"stress"`` or ``"strain"``) on the
+    particle volumes, ``M`` the grid mass of scheme ``mass`` (see ``MASS_SCHEMES``, acceleration
+    role, no constraints); ``inf`` when there is no stiffness."""
+    return _core.critical_time_step(_core_ops(ops), m, volume, youngs_modulus, poisson_ratio, plane, mass)
+
+
+def explicit_step(
+    grid: Grid,
+    particles: Particles,
+    youngs_modulus: float,
+    poisson_ratio: float,
+    dt: float,
+    plane: str = "stress",
+    shape: Union[str, Mapping[str, Any]] = "linear",
+    mass: str = "lumped",
+    position_update: str = "grid_velocity",
+) -> Dict[str, Any]:
+    """One explicit MPM step (``step::explicit_step``, update-stress-last with a FLIP velocity
+    update) of ``particles`` (unchanged: the step runs on a copy) with linear elasticity::
+
+        (1) N, Gx, Gy              (2) m_L = N m, active nodes, M if the scheme needs it
+        (3) q = N (m ∘ v)          (4) f_ext = N (m ∘ b)
+        (5) f_int = −(Gx (V∘σxx) + Gy (V∘σxy), Gx (V∘σxy) + Gy (V∘σyy))
+        (6) v̄ = M⁻¹ q              (7) a = M⁻¹ (f_ext + f_int)
+        (8) v̄' = v̄ + Δt a (massless nodes in a support: mean particle velocity)
+        (9) x ← x + Δt Nᵀ v̄' ("grid_velocity") or x + Δt/2 (v_p + Nᵀ v̄') ("trapezoidal")
+        (10) v ← v + Δt Nᵀ a       (11) L = (Gxᵀ v̄', Gyᵀ v̄'), ε̇ = sym L
+        (12) σ ← σ + C : (ε̇ Δt)    (13) V ← V det(I + Δt L)
+
+    ``mass`` (see ``MASS_SCHEMES``) is used for both (6) and (7). Returns a dict of every
+    intermediate of the ``StepRecord``: ``operators`` (``Operators``), ``lumped_mass``,
+    ``active_nodes``; ``momentum_x/_y``, ``external_force_x/_y``, ``internal_force_x/_y``,
+    ``acceleration_x/_y``, ``grid_velocity_x/_y``, ``updated_grid_velocity_x/_y`` (nodal);
+    ``velocity_gradient_xx/_xy/_yx/_yy``, ``strain_rate_xx/_yy/_xy`` (per particle);
+    ``velocity_report``, ``acceleration_report`` (dicts: scheme, outcome, node, iterations,
+    relative_residual); and ``particles``, the ``Particles`` after the step."""
+    record = _core.explicit_step(
+        grid, particles, youngs_modulus, poisson_ratio, dt, plane, shape, mass, position_update
+    )
+    record["operators"] = Operators(record["operators"])
+    return record
 
 
 class Simulation:

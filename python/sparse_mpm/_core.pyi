@@ -51,6 +51,12 @@ class Particles:
         volume: ArrayLike,
         vx: Optional[ArrayLike] = None,
         vy: Optional[ArrayLike] = None,
+        *,
+        sxx: Optional[ArrayLike] = None,
+        syy: Optional[ArrayLike] = None,
+        sxy: Optional[ArrayLike] = None,
+        bx: Optional[ArrayLike] = None,
+        by: Optional[ArrayLike] = None,
     ) -> None: ...
     def __len__(self) -> int: ...
     def to_dict(self) -> Dict[str, np.ndarray]: ...
@@ -66,6 +72,16 @@ class Particles:
     def vx(self) -> npt.NDArray[np.float64]: ...
     @property
     def vy(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def sxx(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def syy(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def sxy(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def bx(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def by(self) -> npt.NDArray[np.float64]: ...
 
 class Operators:
     """``N_Ip = S_I(x_p)``, ``Gx_Ip = dS_I/dx (x_p)``, ``Gy_Ip = dS_I/dy (x_p)`` in CSC form."""
@@ -91,6 +107,44 @@ def consistent_mass_csc(
     ops: Operators, m: ArrayLike
 ) -> Tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64], int]:
     """``M = N diag(m) N^T`` as ``(indptr, indices, data, num_nodes)``."""
+
+Pair = Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]
+
+def momentum(ops: Operators, m: ArrayLike, vx: ArrayLike, vy: ArrayLike) -> Pair:
+    """``q = N (m ∘ v)`` as ``(qx, qy)``."""
+
+def external_force(ops: Operators, m: ArrayLike, bx: ArrayLike, by: ArrayLike) -> Pair:
+    """``f_ext = N (m ∘ b)`` as ``(fx, fy)``."""
+
+def internal_force(ops: Operators, volume: ArrayLike, sxx: ArrayLike, syy: ArrayLike, sxy: ArrayLike) -> Pair:
+    """``f_int,x = −(Gx (V ∘ σxx) + Gy (V ∘ σxy))``, ``f_int,y = −(Gx (V ∘ σxy) + Gy (V ∘ σyy))``."""
+
+def mass_diagnostics(ops: Operators, m: ArrayLike, mass: str = "lumped") -> Dict[str, Union[int, float]]:
+    """``MassDiagnostics::compute`` as a dict of its fields."""
+
+def critical_time_step(
+    ops: Operators,
+    m: ArrayLike,
+    volume: ArrayLike,
+    youngs_modulus: float,
+    poisson_ratio: float,
+    plane: str = "stress",
+    mass: str = "lumped",
+) -> float:
+    """``Δt_crit = 2 / ω_max``, ``ω²_max = λ_max(M⁻¹ K)``."""
+
+def explicit_step(
+    grid: Grid,
+    particles: Particles,
+    youngs_modulus: float,
+    poisson_ratio: float,
+    dt: float,
+    plane: str = "stress",
+    shape: ShapeSpec = None,
+    mass: str = "lumped",
+    position_update: str = "grid_velocity",
+) -> Dict[str, Any]:
+    """``step::explicit_step`` on a copy of ``particles``: every intermediate of its ``StepRecord``."""
 
 def report_columns() -> List[str]: ...
 def scene_operators(path: Union[str, PathLike[str]]) -> Tuple[Grid, Particles, Operators]: ...
