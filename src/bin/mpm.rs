@@ -75,7 +75,7 @@ enum Command {
 /// Where output goes and what may be replaced there.
 #[derive(Args, Debug)]
 struct OutputArgs {
-    /// Output folder [default: out/<scene name>].
+    /// Output folder [default: out/SCENE, SCENE the scene file name without .toml].
     #[arg(long, short = 'o', value_name = "DIR")]
     out: Option<PathBuf>,
     /// Replace the output of an earlier run in DIR (its snapshots, report, scene and
@@ -135,7 +135,7 @@ struct ResumeArgs {
 struct MatricesArgs {
     /// The scene file.
     scene: PathBuf,
-    /// Output folder [default: out/<scene name>/matrices].
+    /// Output folder [default: out/SCENE/matrices].
     #[arg(long, short = 'o', value_name = "DIR")]
     out: Option<PathBuf>,
     /// Replace matrix files already in DIR.
@@ -176,10 +176,10 @@ struct StudyArgs {
 
 #[derive(Args, Debug)]
 struct BenchArgs {
-    /// Shape functions: linear, gimp[:half_width], quadratic, cubic.
+    /// Shape functions: linear, gimp (or gimp:half_width), quadratic, cubic.
     #[arg(long, default_value = "quadratic", value_parser = names::shape)]
     shape: ShapeFunction,
-    /// Mass scheme: lumped, consistent, blended:γ, series:k, cg[:tolerance].
+    /// Mass scheme: lumped, consistent, blended:γ, series:k, cg (or cg:tolerance).
     #[arg(long, default_value = "lumped", value_parser = names::mass)]
     mass: MassScheme,
     /// Velocity transfer: pic, flip, apic, blend:α, xpic:k, fmpm:k.

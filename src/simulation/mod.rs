@@ -2,7 +2,7 @@
 //! per-step reports, on the sparse operators N, Gx, Gy.
 //!
 //! Every choice is an independent axis of [`Options`]: the shape function
-//! ([`ShapeFunction`]), the update scheme ([`UpdateScheme`]), the particle velocity transfer
+//! ([`ShapeFunction`](crate::ShapeFunction)), the update scheme ([`UpdateScheme`]), the particle velocity transfer
 //! ([`Transfer`]), the mass treatment of each solve ([`MassOptions`](crate::mass::MassOptions)), the position rule
 //! ([`PositionUpdate`](crate::step::PositionUpdate)), the time step ([`TimeStep`]), gravity and the boundary conditions
 //! ([`BoundaryCondition`](crate::boundary::BoundaryCondition)). Particles belong to bodies, each with its own [`Material`](crate::material::Material); bodies
