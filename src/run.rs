@@ -540,17 +540,7 @@ fn write_run_checkpoint(sim: &Simulation, state: &RunState, out: &Path) -> Resul
     create_dir(&dir)?;
     sim.write_checkpoint(&dir.join("simulation.ckpt"))?;
     let json = serde_json::to_string_pretty(state).expect("the run state always serializes");
-    let tmp = dir.join("run.json.tmp");
-    let path = dir.join("run.json");
-    std::fs::write(&tmp, json)
-        .and_then(|()| std::fs::rename(&tmp, &path))
-        .map_err(|source| {
-            let _ = std::fs::remove_file(&tmp);
-            MpmError::Io {
-                path: path.clone(),
-                source,
-            }
-        })?;
+    crate::io::write_atomically(&dir.join("run.json"), |w| std::io::Write::write_all(w, json.as_bytes()))?;
     Ok(dir)
 }
 
@@ -588,12 +578,10 @@ pub fn write_matrices(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
         crate::io::push_f64(&mut text, *v);
         text.push('\n');
     }
+    // Whole files only (temporary file, then rename), as the Matrix Market writer does.
     let write = |name: &str, text: String| -> Result<PathBuf> {
         let path = out.join(name);
-        std::fs::write(&path, text).map_err(|source| MpmError::Io {
-            path: path.clone(),
-            source,
-        })?;
+        crate::io::write_atomically(&path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
         Ok(path)
     };
     let mut files = vec![

@@ -84,16 +84,13 @@ struct OutputArgs {
     overwrite: bool,
 }
 
+/// How long a run goes and what it writes besides its output: shared by `run` and `resume`.
 #[derive(Args, Debug)]
-struct RunArgs {
-    /// The scene file [default: the built-in two-disk impact].
-    scene: Option<PathBuf>,
-    #[command(flatten)]
-    output: OutputArgs,
+struct StepArgs {
     /// Stop at this time instead of the scene's `time.end`.
     #[arg(long, value_name = "T", value_parser = positive)]
     end_time: Option<f64>,
-    /// Stop after this many steps.
+    /// Stop after this many steps in all (counted from the start of the run).
     #[arg(long, value_name = "N")]
     steps: Option<usize>,
     /// Write a checkpoint every K steps under DIR/checkpoints (resume with `mpm resume`).
@@ -107,28 +104,39 @@ struct RunArgs {
     quiet: bool,
 }
 
+impl StepArgs {
+    fn options(&self, output: OutputPolicy) -> RunOptions {
+        RunOptions {
+            limits: RunLimits {
+                end_time: self.end_time,
+                max_steps: self.steps,
+            },
+            output,
+            checkpoint_every: self.checkpoint_every.map(|k| k as usize),
+            allow_large: self.allow_large,
+        }
+    }
+}
+
+#[derive(Args, Debug)]
+struct RunArgs {
+    /// The scene file [default: the built-in two-disk impact].
+    scene: Option<PathBuf>,
+    #[command(flatten)]
+    output: OutputArgs,
+    #[command(flatten)]
+    run: StepArgs,
+}
+
 #[derive(Args, Debug)]
 struct ResumeArgs {
-    /// A checkpoint file written by `mpm run --checkpoint-every`.
+    /// A checkpoint folder (`checkpoints/step_NNNNNNNN`) written by `mpm run --checkpoint-every`.
     checkpoint: PathBuf,
     /// Output folder [default: the checkpoint's run folder].
     #[arg(long, short = 'o', value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Stop at this time instead of the scene's `time.end`.
-    #[arg(long, value_name = "T", value_parser = positive)]
-    end_time: Option<f64>,
-    /// Stop after this many steps in all (counted from the start of the run).
-    #[arg(long, value_name = "N")]
-    steps: Option<usize>,
-    /// Write a checkpoint every K steps.
-    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u64).range(1..))]
-    checkpoint_every: Option<u64>,
-    /// Accept a run whose estimated output exceeds the limits.
-    #[arg(long)]
-    allow_large: bool,
-    /// Print only the final throughput line.
-    #[arg(long, short = 'q')]
-    quiet: bool,
+    #[command(flatten)]
+    run: StepArgs,
 }
 
 #[derive(Args, Debug)]
@@ -362,45 +370,29 @@ fn run(args: &RunArgs) -> Result<(), String> {
     let (scene, name) = load_scene(args.scene.as_deref())?;
     let out = args.output.out.clone().unwrap_or_else(|| Path::new("out").join(&name));
     let title = scene.title.clone().unwrap_or_else(|| name.clone());
-    if !args.quiet {
+    if !args.run.quiet {
         println!("scene: {title}");
     }
-    let options = RunOptions {
-        limits: RunLimits {
-            end_time: args.end_time,
-            max_steps: args.steps,
-        },
-        output: if args.output.overwrite {
-            OutputPolicy::Overwrite
-        } else {
-            OutputPolicy::RefuseNonEmpty
-        },
-        checkpoint_every: args.checkpoint_every.map(|k| k as usize),
-        allow_large: args.allow_large,
-    };
-    let mut display = RunDisplay::new(args.quiet);
+    let options = args.run.options(if args.output.overwrite {
+        OutputPolicy::Overwrite
+    } else {
+        OutputPolicy::RefuseNonEmpty
+    });
+    let mut display = RunDisplay::new(args.run.quiet);
     let result = run_scene_with(&scene, &out, &options, |p| display.update(p));
     display.finish();
     let summary = result.map_err(|e| failure(e, &out))?;
-    print_summary(&summary, &out, args.quiet);
+    print_summary(&summary, &out, args.run.quiet);
     Ok(())
 }
 
 fn resume(args: &ResumeArgs) -> Result<(), String> {
-    let options = RunOptions {
-        limits: RunLimits {
-            end_time: args.end_time,
-            max_steps: args.steps,
-        },
-        output: OutputPolicy::Continue,
-        checkpoint_every: args.checkpoint_every.map(|k| k as usize),
-        allow_large: args.allow_large,
-    };
-    let mut display = RunDisplay::new(args.quiet);
+    let options = args.run.options(OutputPolicy::Continue);
+    let mut display = RunDisplay::new(args.run.quiet);
     let result = sparse_mpm::run::resume_run(&args.checkpoint, args.out.as_deref(), &options, |p| display.update(p));
     display.finish();
     let (summary, out) = result.map_err(|e| e.to_string())?;
-    print_summary(&summary, &out, args.quiet);
+    print_summary(&summary, &out, args.run.quiet);
     Ok(())
 }
 

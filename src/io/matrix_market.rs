@@ -2,13 +2,12 @@
 //! `%%MatrixMarket` that SciPy (`scipy.io.mmread`), MATLAB and Julia require, and read with
 //! nalgebra-sparse's reader.
 
-use std::fs::{self, File};
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use nalgebra_sparse::CscMatrix;
 
-use super::{io_error, push_f64};
+use super::{io_error, push_f64, write_atomically};
 use crate::error::Result;
 
 /// How the entries of a matrix are stored in the file.
@@ -206,34 +205,6 @@ fn check_symmetric(matrix: &CscMatrix<f64>, path: &Path) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// Writes `path` through `body` into `path` + `.tmp` in the same folder, then renames it to
-/// `path`. The temporary file is removed when anything fails; errors name `path`.
-fn write_atomically(path: &Path, body: impl FnOnce(&mut File) -> std::io::Result<()>) -> Result<()> {
-    let tmp = temporary_path(path)?;
-    let mut file = File::create(&tmp).map_err(|e| io_error(path, e))?;
-    let written = body(&mut file).and_then(|()| {
-        drop(file);
-        fs::rename(&tmp, path)
-    });
-    written.map_err(|e| {
-        let _ = fs::remove_file(&tmp);
-        io_error(path, e)
-    })
-}
-
-/// `path` + `.tmp`, in the same folder.
-fn temporary_path(path: &Path) -> Result<PathBuf> {
-    let file_name = path.file_name().ok_or_else(|| {
-        io_error(
-            path,
-            std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path does not name a file"),
-        )
-    })?;
-    let mut tmp_name = file_name.to_os_string();
-    tmp_name.push(".tmp");
-    Ok(path.with_file_name(tmp_name))
 }
 
 #[cfg(test)]

@@ -29,6 +29,36 @@ pub(crate) use matrix_market::{
     write_with_comment as write_matrix_market_with_comment, Storage as MatrixMarketStorage,
 };
 
+/// Writes `path` through `body` into `path` + `.tmp` in the same folder (buffered), then renames
+/// it to `path`, so that an interrupted write never leaves a half file under the final name. The
+/// temporary file is removed when anything fails; errors name `path`.
+pub(crate) fn write_atomically(
+    path: &Path,
+    body: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> crate::error::Result<()> {
+    let file_name = path.file_name().ok_or_else(|| {
+        io_error(
+            path,
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path does not name a file"),
+        )
+    })?;
+    let mut tmp_name = file_name.to_os_string();
+    tmp_name.push(".tmp");
+    let tmp = path.with_file_name(tmp_name);
+    let file = std::fs::File::create(&tmp).map_err(|e| io_error(path, e))?;
+    let mut w = std::io::BufWriter::with_capacity(1 << 16, file);
+    let written = body(&mut w)
+        .and_then(|()| w.into_inner().map_err(|e| e.into_error()))
+        .and_then(|file| {
+            drop(file);
+            std::fs::rename(&tmp, path)
+        });
+    written.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        io_error(path, e)
+    })
+}
+
 /// Wraps an I/O error with the file it concerns.
 pub(crate) fn io_error(path: &Path, source: std::io::Error) -> MpmError {
     MpmError::Io {

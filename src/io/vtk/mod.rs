@@ -105,11 +105,10 @@
 //! data is not `fsync`ed: this protects against the process stopping, not against the machine
 //! losing power.
 
-use std::fs::{self, File};
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::{io_error, push_f64};
+use super::{io_error, push_f64, write_atomically};
 
 mod base64;
 
@@ -282,32 +281,6 @@ fn start_array<W: Write>(w: &mut W, ty: &str, name: &str, components: usize) -> 
         "        <DataArray type=\"{ty}\" Name=\"{}\" NumberOfComponents=\"{components}\" format=\"binary\">",
         xml_escape(name)
     )
-}
-
-/// Writes `path` through `body` into `path.tmp`, then renames it to `path`. The temporary file is
-/// removed when anything fails.
-fn write_atomically(path: &Path, body: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>) -> Result<()> {
-    let file_name = path.file_name().ok_or_else(|| {
-        io_error(
-            path,
-            std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path does not name a file"),
-        )
-    })?;
-    let mut tmp_name = file_name.to_os_string();
-    tmp_name.push(".tmp");
-    let tmp = path.with_file_name(tmp_name);
-    let file = File::create(&tmp).map_err(|e| io_error(path, e))?;
-    let mut w = BufWriter::with_capacity(1 << 16, file);
-    let written = body(&mut w)
-        .and_then(|()| w.into_inner().map_err(|e| e.into_error()))
-        .and_then(|file| {
-            drop(file);
-            fs::rename(&tmp, path)
-        });
-    written.map_err(|e| {
-        let _ = fs::remove_file(&tmp);
-        io_error(path, e)
-    })
 }
 
 fn xml_escape(s: &str) -> std::borrow::Cow<'_, str> {
