@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::mass::Constraints;
-use crate::scene::num;
+use crate::numbers::exact;
 use crate::shape::ShapeFunction;
 
 /// A side of the grid.
@@ -242,11 +242,11 @@ impl BoundaryCondition {
             if self.condition != Condition::Velocity {
                 return Err(err(
                     name,
-                    format!("{}: `vx` and `vy` go with condition = \"velocity\"", num(v)),
+                    format!("{}: `vx` and `vy` go with condition = \"velocity\"", exact(v)),
                 ));
             }
             if !v.is_finite() {
-                return Err(err(name, format!("`{name}` = {} is not a finite number", num(v))));
+                return Err(err(name, format!("`{name}` = {} is not a finite number", exact(v))));
             }
         }
         let [nx, ny] = grid.nodes_per_axis();
@@ -270,10 +270,10 @@ impl BoundaryCondition {
                     format!(
                         "[[{}, {}], [{}, {}]] must be [[x_min, y_min], [x_max, y_max]] with finite values and min <= \
                          max",
-                        num(x0),
-                        num(y0),
-                        num(x1),
-                        num(y1)
+                        exact(x0),
+                        exact(y0),
+                        exact(x1),
+                        exact(y1)
                     ),
                 ));
             }
@@ -364,10 +364,10 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
                     key: format!("boundaries[{k}].rectangle"),
                     reason: format!(
                         "[[{}, {}], [{}, {}]] contains no grid node",
-                        num(x0),
-                        num(y0),
-                        num(x1),
-                        num(y1)
+                        exact(x0),
+                        exact(y0),
+                        exact(x1),
+                        exact(y1)
                     ),
                 });
             }

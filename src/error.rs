@@ -271,8 +271,8 @@ impl fmt::Display for MpmError {
                 "step {step}: particle {particle} (id {id}, body `{body}`) inverted: det(I + Δt L) = \
                  {}, det F = {}; reduce the time step (Courant number) or check the material \
                  and loads",
-                crate::run::human(*det_increment),
-                crate::run::human(*det_f)
+                crate::numbers::human(*det_increment),
+                crate::numbers::human(*det_f)
             ),
             MpmError::NonFinite {
                 step,
@@ -305,8 +305,8 @@ impl fmt::Display for MpmError {
                 "step {step}: the fixed time step {} exceeds the stable step {} of the update with \
                  {masses} mass (estimated from the operators, material stiffness and masses; {:.1}% over); use a \
                  smaller `dt`, a CFL step (`cfl = 0.5`), or set `allow_unstable = true`",
-                crate::run::human(*dt),
-                crate::run::human(*stable),
+                crate::numbers::human(*dt),
+                crate::numbers::human(*stable),
                 100.0 * (dt / stable - 1.0)
             ),
             MpmError::Checkpoint {

@@ -12,7 +12,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{MpmError, Result};
-use crate::transfer::StrainRate;
+use crate::fields::StrainRate;
 
 /// Which 2D idealisation a material uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

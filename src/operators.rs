@@ -38,7 +38,6 @@
 //!   [`Operators::gather`] (`opᵀ · Y`, grid → particle), moving `K` fields in one pass, and the
 //!   fused kernels of [`crate::kernels`], all over [`Stencil`]s.
 
-use std::path::Path;
 use std::sync::OnceLock;
 
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
@@ -633,42 +632,6 @@ impl Operators {
             assert_eq!(o.len(), np, "particle output length must equal the particle count");
         }
         with_support!(self, gather_columns::<S, K>(self, op, &y, &mut out));
-    }
-
-    /// Writes N, Gx and Gy to `dir/N.mtx`, `dir/Gx.mtx`, `dir/Gy.mtx` as Matrix Market
-    /// coordinate files with `general` storage (rows = nodes, columns = particles), as
-    /// [`crate::io::write_matrix_market`] does, with a comment line naming the operator:
-    ///
-    /// ```text
-    /// %%MatrixMarket matrix coordinate real general
-    /// % N: shape function values N[node, particle] of sparse-mpm (rows = grid nodes, columns = particles; 1-based)
-    /// nodes particles entries
-    /// row column value
-    /// …
-    /// ```
-    ///
-    /// Creates `dir` if needed.
-    ///
-    /// # Errors
-    /// [`MpmError::Io`] naming the file that could not be written.
-    pub fn write_matrix_market(&self, dir: &Path) -> Result<()> {
-        std::fs::create_dir_all(dir).map_err(|source| MpmError::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
-        for (op, name, what) in [
-            (Operator::N, "N", "shape function values N[node, particle]"),
-            (Operator::Gx, "Gx", "shape function x derivatives dN/dx[node, particle]"),
-            (Operator::Gy, "Gy", "shape function y derivatives dN/dy[node, particle]"),
-        ] {
-            crate::io::write_matrix_market_with_comment(
-                &self.matrix(op),
-                &dir.join(format!("{name}.mtx")),
-                crate::io::MatrixMarketStorage::General,
-                &format!("{name}: {what} of sparse-mpm (rows = grid nodes, columns = particles; 1-based)"),
-            )?;
-        }
-        Ok(())
     }
 }
 

@@ -18,34 +18,6 @@ use crate::operators::Operators;
 use crate::scene::Scene;
 use crate::simulation::{Simulation, StepReport};
 
-/// A number for people: shortest round-trip digits (`3.5`, `0.001`, `12500`) between 10⁻⁴ and
-/// 10⁶, six significant digits in exponent form outside (`1.23457e-9`), `0`, `inf`, `NaN`.
-pub fn human(x: f64) -> String {
-    let a = x.abs();
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    if (1e-4..1e6).contains(&a) {
-        // At most six significant digits, trailing zeros dropped.
-        let digits = (5 - a.log10().floor() as i32).max(0) as usize;
-        let text = format!("{x:.digits$}");
-        if text.contains('.') {
-            text.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            text
-        }
-    } else {
-        let text = format!("{x:.5e}");
-        let (mantissa, exponent) = text.split_once('e').unwrap_or((&text, "0"));
-        let mantissa = if mantissa.contains('.') {
-            mantissa.trim_end_matches('0').trim_end_matches('.')
-        } else {
-            mantissa
-        };
-        format!("{mantissa}e{exponent}")
-    }
-}
-
 /// What to do with an output folder that already holds files.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum OutputPolicy {
@@ -560,7 +532,7 @@ pub fn write_matrices(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
     let particles = scene.particles()?;
     let ops = Operators::assemble(&grid, scene.schemes.shape, &particles)?;
     create_dir(out)?;
-    ops.write_matrix_market(out)?;
+    crate::io::write_operators(&ops, out)?;
     let m = mass::consistent_mass(&ops, &particles.mass);
     crate::io::write_matrix_market_with_comment(
         &m,
@@ -575,7 +547,7 @@ pub fn write_matrices(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
         m_l.len()
     );
     for v in &m_l {
-        crate::io::push_f64(&mut text, *v);
+        crate::numbers::push_round_trip(&mut text, *v);
         text.push('\n');
     }
     // Whole files only (temporary file, then rename), as the Matrix Market writer does.
@@ -595,9 +567,9 @@ pub fn write_matrices(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
     for i in 0..grid.num_nodes() {
         let [x, y] = grid.node_position(i);
         nodes.push_str(&format!("{i},"));
-        crate::io::push_f64(&mut nodes, x);
+        crate::numbers::push_round_trip(&mut nodes, x);
         nodes.push(',');
-        crate::io::push_f64(&mut nodes, y);
+        crate::numbers::push_round_trip(&mut nodes, y);
         nodes.push('\n');
     }
     files.push(write("nodes.csv", nodes)?);
@@ -606,7 +578,7 @@ pub fn write_matrices(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
         table.push_str(&format!("{k}"));
         for v in [particles.x[k], particles.y[k], particles.mass[k], particles.volume[k]] {
             table.push(',');
-            crate::io::push_f64(&mut table, v);
+            crate::numbers::push_round_trip(&mut table, v);
         }
         table.push_str(&format!(",{}\n", particles.body[k]));
     }

@@ -78,10 +78,11 @@ use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::mass::{MassOptions, MassScheme, SingularityPolicy, Stabilization};
 use crate::material::Material;
+use crate::numbers::exact;
 use crate::particles::Particles;
+use crate::schemes::PositionUpdate;
 use crate::shape::ShapeFunction;
 use crate::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
-use crate::step::PositionUpdate;
 
 /// A complete simulation description.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -287,19 +288,9 @@ fn invalid(key: impl Into<String>, reason: impl Into<String>) -> MpmError {
     }
 }
 
-/// `v` as it reads back, short: `0.5`, `1e12`, `-1e-10`, `NaN`, `inf` (never hundreds of
-/// digits).
-pub(crate) fn num(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
-    }
-}
-
 /// `[x, y]` with [`num`].
 fn pair(v: [f64; 2]) -> String {
-    format!("[{}, {}]", num(v[0]), num(v[1]))
+    format!("[{}, {}]", exact(v[0]), exact(v[1]))
 }
 
 /// An [`MpmError::InvalidParameter`] of a part of the scene (a material, a mass scheme …)
@@ -308,7 +299,7 @@ fn parameter_error(prefix: &str, e: MpmError) -> MpmError {
     match e {
         MpmError::InvalidParameter { name, value, reason } => invalid(
             format!("{prefix}.{name}"),
-            format!("{} is invalid: {reason}", num(value)),
+            format!("{} is invalid: {reason}", exact(value)),
         ),
         e => invalid(prefix, e.to_string()),
     }
@@ -392,7 +383,7 @@ impl Scene {
             if !(h.is_finite() && *h > 0.0) {
                 return Err(invalid(
                     format!("grid.cell_size[{k}]"),
-                    format!("{} must be positive and finite", num(*h)),
+                    format!("{} must be positive and finite", exact(*h)),
                 ));
             }
         }
@@ -400,7 +391,7 @@ impl Scene {
             if !o.is_finite() {
                 return Err(invalid(
                     format!("grid.origin[{k}]"),
-                    format!("{} must be finite", num(*o)),
+                    format!("{} must be finite", exact(*o)),
                 ));
             }
             let h = g.cell_size[k];
@@ -410,9 +401,9 @@ impl Scene {
                     format!(
                         "{} is too far from zero for cells of {}: at most {} cell sizes are accepted (further out, \
                          positions within a cell lose their precision)",
-                        num(*o),
-                        num(h),
-                        num(MAX_ORIGIN_CELLS)
+                        exact(*o),
+                        exact(h),
+                        exact(MAX_ORIGIN_CELLS)
                     ),
                 ));
             }
@@ -444,9 +435,9 @@ impl Scene {
                     format!(
                         "{} cells of {} from the origin {} overflow (the far edge is at {})",
                         g.cells[k],
-                        num(g.cell_size[k]),
-                        num(g.origin[k]),
-                        num(far)
+                        exact(g.cell_size[k]),
+                        exact(g.origin[k]),
+                        exact(far)
                     ),
                 ));
             }
@@ -455,7 +446,7 @@ impl Scene {
         if !(t.end.is_finite() && t.end > 0.0) {
             return Err(invalid(
                 "time.end",
-                format!("{} must be positive and finite", num(t.end)),
+                format!("{} must be positive and finite", exact(t.end)),
             ));
         }
         if t.dt.is_some() && t.cfl.is_some() {
@@ -465,7 +456,7 @@ impl Scene {
             if !(s.is_finite() && s > 0.0) {
                 return Err(invalid(
                     "output.snapshot_interval",
-                    format!("{} must be positive and finite", num(s)),
+                    format!("{} must be positive and finite", exact(s)),
                 ));
             }
         }
@@ -488,8 +479,8 @@ impl Scene {
                             format!("boundaries[{k}].{name}"),
                             format!(
                                 "{} is too large: prescribed speeds of at most {} are accepted",
-                                num(v),
-                                num(MAX_SPEED)
+                                exact(v),
+                                exact(MAX_SPEED)
                             ),
                         ));
                     }
@@ -526,7 +517,7 @@ impl Scene {
             if !(0.0..1.0).contains(&value) {
                 return Err(invalid(
                     format!("schemes.mass.{name}"),
-                    format!("{} must be a number in [0, 1) ({meaning})", num(value)),
+                    format!("{} must be a number in [0, 1) ({meaning})", exact(value)),
                 ));
             }
         }
@@ -536,7 +527,7 @@ impl Scene {
                     "schemes.mass.singularity.regularize.epsilon",
                     format!(
                         "{} must lie in (0, 1] (the weight of the lumped mass in the regularized matrix)",
-                        num(epsilon)
+                        exact(epsilon)
                     ),
                 ));
             }
@@ -558,7 +549,7 @@ impl Scene {
         if !(b.density.is_finite() && b.density > 0.0) {
             return Err(invalid(
                 key("density"),
-                format!("{} must be positive and finite", num(b.density)),
+                format!("{} must be positive and finite", exact(b.density)),
             ));
         }
         let [hx, hy] = self.grid.cell_size;
@@ -567,9 +558,9 @@ impl Scene {
                 key("density"),
                 format!(
                     "{} is too large for cells of {} x {}: the mass of a cell's particles overflows",
-                    num(b.density),
-                    num(hx),
-                    num(hy)
+                    exact(b.density),
+                    exact(hx),
+                    exact(hy)
                 ),
             ));
         }
@@ -591,8 +582,8 @@ impl Scene {
                 key("material"),
                 format!(
                     "the wave speed of this material at `density` = {} is {}: it must be positive and finite",
-                    num(b.density),
-                    num(c)
+                    exact(b.density),
+                    exact(c)
                 ),
             ));
         }
@@ -618,7 +609,7 @@ impl Scene {
                         format!(
                             "center = {}, radius = {}: needs a finite centre and a positive finite radius",
                             pair(*center),
-                            num(*radius)
+                            exact(*radius)
                         ),
                     ));
                 }
@@ -642,8 +633,8 @@ impl Scene {
                 format!(
                     "{} is too large: its magnitude {} exceeds the {} this program accepts",
                     pair(v),
-                    num(magnitude),
-                    num(bound)
+                    exact(magnitude),
+                    exact(bound)
                 ),
             ));
         }
@@ -655,8 +646,8 @@ impl Scene {
                     format!(
                         "{} is too large: its magnitude {} times {what} ({}) overflows",
                         pair(v),
-                        num(magnitude),
-                        num(factor)
+                        exact(magnitude),
+                        exact(factor)
                     ),
                 ));
             }
@@ -1065,7 +1056,7 @@ fn read_particle_file(shown: &Path, path: &Path, density: f64) -> std::result::R
                 }
             })?;
             if !v.is_finite() {
-                return Err(format!("{}: {} is not a finite number", at(c), num(v)));
+                return Err(format!("{}: {} is not a finite number", at(c), exact(v)));
             }
             Ok(v)
         };
@@ -1073,14 +1064,14 @@ fn read_particle_file(shown: &Path, path: &Path, density: f64) -> std::result::R
         out.y.push(value(cy)?);
         let volume = value(cv)?;
         if volume <= 0.0 {
-            return Err(format!("{}: {} must be positive", at(cv), num(volume)));
+            return Err(format!("{}: {} must be positive", at(cv), exact(volume)));
         }
         if optional[2].is_none() && !(density * volume).is_finite() {
             return Err(format!(
                 "{}: {} times the body's density {} (its mass) overflows",
                 at(cv),
-                num(volume),
-                num(density)
+                exact(volume),
+                exact(density)
             ));
         }
         out.volume.push(volume);
@@ -1088,13 +1079,13 @@ fn read_particle_file(shown: &Path, path: &Path, density: f64) -> std::result::R
             if let (Some(c), Some(values)) = (*c, out.optional[k].as_mut()) {
                 let v = value(c)?;
                 match OPTIONAL_COLUMNS[k] {
-                    "mass" if v <= 0.0 => return Err(format!("{}: {} must be positive", at(c), num(v))),
+                    "mass" if v <= 0.0 => return Err(format!("{}: {} must be positive", at(c), exact(v))),
                     "vx" | "vy" if v.abs() > MAX_SPEED => {
                         return Err(format!(
                             "{}: {} is too large: speeds of at most {} are accepted",
                             at(c),
-                            num(v),
-                            num(MAX_SPEED)
+                            exact(v),
+                            exact(MAX_SPEED)
                         ))
                     }
                     _ => {}

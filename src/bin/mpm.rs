@@ -13,9 +13,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use sparse_mpm::bench::names;
 use sparse_mpm::limits;
 use sparse_mpm::mass::MassScheme;
-use sparse_mpm::run::{
-    human, prepare_output, run_scene_with, write_matrices, OutputPolicy, Progress, RunLimits, RunOptions,
-};
+use sparse_mpm::numbers::human;
+use sparse_mpm::run::{prepare_output, run_scene_with, write_matrices, OutputPolicy, Progress, RunLimits, RunOptions};
 use sparse_mpm::scene::Scene;
 use sparse_mpm::simulation::{Transfer, UpdateScheme};
 use sparse_mpm::ShapeFunction;

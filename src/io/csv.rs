@@ -37,8 +37,9 @@ use std::fs::{self, File};
 use std::io::{Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-use super::{invalid_data, io_error, push_f64};
+use super::{invalid_data, io_error};
 use crate::error::{MpmError, Result};
+use crate::numbers::push_round_trip;
 
 /// Writes a CSV file row by row (see the [module documentation](self) for the layout).
 ///
@@ -171,7 +172,7 @@ impl CsvWriter {
         }
         for &v in values {
             self.field.clear();
-            push_f64(&mut self.field, v);
+            push_round_trip(&mut self.field, v);
             self.out
                 .write_field(&self.field)
                 .map_err(|e| csv_error(&self.path, e))?;

@@ -7,8 +7,9 @@ use std::path::Path;
 
 use nalgebra_sparse::CscMatrix;
 
-use super::{io_error, push_f64, write_atomically};
+use super::{io_error, write_atomically};
 use crate::error::Result;
+use crate::numbers::push_round_trip;
 
 /// How the entries of a matrix are stored in the file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,9 +51,9 @@ impl Storage {
 /// magnitudes below `1e-5` or from `1e16` up use an exponent). Explicitly stored zeros are
 /// written like any other entry.
 ///
-/// The file is written to `path` + `.tmp` in the same folder and then renamed to `path`, so an
-/// interrupted write never leaves a partial file under the final name; on an error the
-/// temporary file is removed.
+/// The file is written to a temporary file in the same folder, synced and renamed to `path`
+/// ([`crate::io`]'s one atomic writer), so an interrupted write never leaves a partial file
+/// under the final name; on an error the temporary file is removed.
 ///
 /// # Errors
 /// [`MpmError::Io`](crate::MpmError::Io) naming `path` when it cannot be written (a missing folder, no permission, a
@@ -148,7 +149,7 @@ pub(crate) fn write_with_comment(matrix: &CscMatrix<f64>, path: &Path, storage: 
             text.push(' ');
             text.push_str(&(j + 1).to_string());
             text.push(' ');
-            push_f64(&mut text, v);
+            push_round_trip(&mut text, v);
             text.push('\n');
             if text.len() >= CHUNK {
                 file.write_all(text.as_bytes())?;

@@ -19,6 +19,7 @@
 use std::path::Path;
 
 use crate::error::MpmError;
+use crate::operators::{Operator, Operators};
 
 pub mod csv;
 mod matrix_market;
@@ -29,34 +30,98 @@ pub(crate) use matrix_market::{
     write_with_comment as write_matrix_market_with_comment, Storage as MatrixMarketStorage,
 };
 
-/// Writes `path` through `body` into `path` + `.tmp` in the same folder (buffered), then renames
-/// it to `path`, so that an interrupted write never leaves a half file under the final name. The
-/// temporary file is removed when anything fails; errors name `path`.
+/// Writes N, Gx and Gy to `dir/N.mtx`, `dir/Gx.mtx`, `dir/Gy.mtx` as Matrix Market
+/// coordinate files with `general` storage (rows = nodes, columns = particles), as
+/// [`write_matrix_market`] does, with a comment line naming the operator:
+///
+/// ```text
+/// %%MatrixMarket matrix coordinate real general
+/// % N: shape function values N[node, particle] of sparse-mpm (rows = grid nodes, columns = particles; 1-based)
+/// nodes particles entries
+/// row column value
+/// …
+/// ```
+///
+/// Creates `dir` if needed.
+///
+/// # Errors
+/// [`MpmError::Io`] naming the file that could not be written.
+pub fn write_operators(ops: &Operators, dir: &Path) -> crate::error::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|source| MpmError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    for (op, name, what) in [
+        (Operator::N, "N", "shape function values N[node, particle]"),
+        (Operator::Gx, "Gx", "shape function x derivatives dN/dx[node, particle]"),
+        (Operator::Gy, "Gy", "shape function y derivatives dN/dy[node, particle]"),
+    ] {
+        write_matrix_market_with_comment(
+            &ops.matrix(op),
+            &dir.join(format!("{name}.mtx")),
+            MatrixMarketStorage::General,
+            &format!("{name}: {what} of sparse-mpm (rows = grid nodes, columns = particles; 1-based)"),
+        )?;
+    }
+    Ok(())
+}
+
+/// Writes `path` whole or not at all: `body` writes into a new temporary file beside `path`
+/// (`.NAME.PID-N.tmp`, created exclusively, buffered), which is flushed, synced to disk and
+/// renamed over `path`; the folder is then synced too, so that after a crash `path` holds
+/// either its previous contents or the whole new file. The temporary file is removed when
+/// anything fails. Every whole-file output of the crate goes through here (snapshots, the
+/// `.pvd`, Matrix Market files, run records, checkpoints).
+///
+/// # Errors
+/// [`MpmError::Io`] naming `path` (kind `InvalidInput` when `path` names no file, such as `..`).
 pub(crate) fn write_atomically(
     path: &Path,
-    body: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+    body: impl FnOnce(&mut std::io::BufWriter<&std::fs::File>) -> std::io::Result<()>,
 ) -> crate::error::Result<()> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static COUNTER: AtomicUsize = AtomicUsize::new(0);
     let file_name = path.file_name().ok_or_else(|| {
         io_error(
             path,
             std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path does not name a file"),
         )
     })?;
-    let mut tmp_name = file_name.to_os_string();
-    tmp_name.push(".tmp");
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(file_name);
+    tmp_name.push(format!(
+        ".{}-{}.tmp",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
     let tmp = path.with_file_name(tmp_name);
-    let file = std::fs::File::create(&tmp).map_err(|e| io_error(path, e))?;
-    let mut w = std::io::BufWriter::with_capacity(1 << 16, file);
-    let written = body(&mut w)
-        .and_then(|()| w.into_inner().map_err(|e| e.into_error()))
-        .and_then(|file| {
-            drop(file);
-            std::fs::rename(&tmp, path)
-        });
-    written.map_err(|e| {
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&tmp)
+        .map_err(|e| io_error(path, e))?;
+    let written = (|| {
+        let mut w = std::io::BufWriter::with_capacity(1 << 16, &file);
+        body(&mut w)?;
+        w.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    drop(file);
+    if let Err(e) = written {
         let _ = std::fs::remove_file(&tmp);
-        io_error(path, e)
-    })
+        return Err(io_error(path, e));
+    }
+    // The rename reaches the disk with the folder (best effort: some systems cannot open a
+    // folder for this).
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if let Ok(d) = std::fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
 }
 
 /// Wraps an I/O error with the file it concerns.
@@ -73,19 +138,4 @@ pub(crate) fn invalid_data(path: &Path, message: impl Into<String>) -> MpmError 
         path,
         std::io::Error::new(std::io::ErrorKind::InvalidData, message.into()),
     )
-}
-
-/// Appends `value` in the shortest form that reads back bit-for-bit with `str::parse::<f64>`:
-/// Rust's `{}` for zero, non-finite values and magnitudes in `[1e-5, 1e16)`, and `{:e}` (also
-/// shortest round-trip, e.g. `1e-300`) outside it, where `{}` would spell out hundreds of zeros.
-/// NaN and the infinities are written `NaN`, `inf`, `-inf`; negative zero is `-0`.
-pub(crate) fn push_f64(out: &mut String, value: f64) {
-    use std::fmt::Write;
-    let magnitude = value.abs();
-    // Writing into a String cannot fail.
-    if value == 0.0 || !value.is_finite() || (1e-5..1e16).contains(&magnitude) {
-        let _ = write!(out, "{value}");
-    } else {
-        let _ = write!(out, "{value:e}");
-    }
 }

@@ -52,7 +52,7 @@ impl MassScheme {
         match self {
             MassScheme::Lumped => "lumped".into(),
             MassScheme::Consistent => "consistent".into(),
-            MassScheme::Blended { gamma } => format!("blended({})", short(*gamma)),
+            MassScheme::Blended { gamma } => format!("blended({})", crate::numbers::decimals(*gamma, 4)),
             MassScheme::TruncatedSeries { k } => format!("series({k})"),
             MassScheme::Iterative { tolerance, .. } => format!("cg({tolerance:e})"),
         }
@@ -217,11 +217,4 @@ pub struct SolveReport {
     /// `‖A u − r‖ / ‖r‖` over the free degrees of freedom, with `A` the matrix actually solved
     /// (for the truncated series, the consistent mass it approximates; 0 for lumped).
     pub relative_residual: f64,
-}
-
-/// `v` with at most four decimals, trailing zeros dropped (`0.5`, `0.7222`).
-pub(super) fn short(v: f64) -> String {
-    let s = format!("{v:.4}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    s.to_string()
 }

@@ -36,10 +36,9 @@
 //! [`CHECKPOINT_FORMAT_VERSION`].
 
 use std::borrow::Cow;
-use std::fs::{self, File, OpenOptions};
-use std::io::{self, BufWriter, Write};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::fs;
+use std::io::{self, Write};
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
@@ -87,36 +86,36 @@ impl Simulation {
     /// [`MpmError::Io`] naming `path` when the temporary file cannot be created, written or
     /// renamed; [`MpmError::Checkpoint`] when `path` names no file (a directory such as `..`).
     pub fn write_checkpoint(&self, path: &Path) -> Result<()> {
-        let io_error = |source: io::Error| MpmError::Io {
-            path: path.to_path_buf(),
-            source,
+        let encoding = |e: postcard::Error| MpmError::Checkpoint {
+            path: Some(path.to_path_buf()),
+            reason: format!("the state cannot be encoded: {e}"),
         };
-        let payload = Payload::of(self);
-        let payload_len =
-            postcard::serialize_with_flavor(&payload, postcard::ser_flavors::Size::default()).map_err(|e| {
-                MpmError::Checkpoint {
-                    path: Some(path.to_path_buf()),
-                    reason: format!("the state cannot be encoded: {e}"),
-                }
-            })?;
-        let temp = TempFile::create(path)?;
-        let mut out = ChecksumWriter::new(BufWriter::new(&temp.file));
-        out.write_all(&header(payload_len)).map_err(io_error)?;
-        if let Err(e) = postcard::to_io(&payload, &mut out) {
-            return Err(match out.error.take() {
-                Some(source) => io_error(source),
-                None => MpmError::Checkpoint {
-                    path: Some(path.to_path_buf()),
-                    reason: format!("the state cannot be encoded: {e}"),
-                },
+        if path.file_name().is_none() {
+            return Err(MpmError::Checkpoint {
+                path: Some(path.to_path_buf()),
+                reason: "the path names no file to write".into(),
             });
         }
-        let checksum = out.hasher.clone().finalize();
-        out.write_all(&checksum.to_le_bytes()).map_err(io_error)?;
-        out.inner.flush().map_err(io_error)?;
-        drop(out);
-        temp.file.sync_all().map_err(io_error)?;
-        temp.persist()
+        let payload = Payload::of(self);
+        let payload_len =
+            postcard::serialize_with_flavor(&payload, postcard::ser_flavors::Size::default()).map_err(encoding)?;
+        let mut failed_encoding = None;
+        let written = crate::io::write_atomically(path, |file| {
+            let mut out = ChecksumWriter::new(file);
+            out.write_all(&header(payload_len))?;
+            if let Err(e) = postcard::to_io(&payload, &mut out) {
+                return Err(out.error.take().unwrap_or_else(|| {
+                    failed_encoding = Some(e);
+                    io::Error::other("the state cannot be encoded")
+                }));
+            }
+            let checksum = out.hasher.clone().finalize();
+            out.write_all(&checksum.to_le_bytes())
+        });
+        match failed_encoding {
+            Some(e) => Err(encoding(e)),
+            None => written,
+        }
     }
 
     /// Reads a simulation written by [`Simulation::write_checkpoint`]; its next step continues
@@ -849,77 +848,5 @@ impl<W: Write> Write for ChecksumWriter<W> {
 
     fn flush(&mut self) -> io::Result<()> {
         self.inner.flush()
-    }
-}
-
-/// A file being written beside its destination, removed unless [`TempFile::persist`] renames
-/// it into place.
-struct TempFile {
-    file: File,
-    temp: PathBuf,
-    destination: PathBuf,
-    persisted: bool,
-}
-
-impl TempFile {
-    /// Creates a new, empty temporary file in the directory of `destination`.
-    fn create(destination: &Path) -> Result<TempFile> {
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let name = destination.file_name().ok_or_else(|| MpmError::Checkpoint {
-            path: Some(destination.to_path_buf()),
-            reason: "the path names no file to write".into(),
-        })?;
-        let mut temp_name = std::ffi::OsString::from(".");
-        temp_name.push(name);
-        temp_name.push(format!(
-            ".{}-{}.tmp",
-            std::process::id(),
-            COUNTER.fetch_add(1, Ordering::Relaxed)
-        ));
-        let temp = destination.with_file_name(temp_name);
-        let file = OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&temp)
-            .map_err(|source| MpmError::Io {
-                path: destination.to_path_buf(),
-                source,
-            })?;
-        Ok(TempFile {
-            file,
-            temp,
-            destination: destination.to_path_buf(),
-            persisted: false,
-        })
-    }
-
-    /// Renames the file over its destination.
-    fn persist(mut self) -> Result<()> {
-        fs::rename(&self.temp, &self.destination).map_err(|source| MpmError::Io {
-            path: self.destination.clone(),
-            source,
-        })?;
-        self.persisted = true;
-        // The rename itself reaches the disk with the directory (best effort: some systems
-        // cannot open a directory for this).
-        if let Some(dir) = self.destination.parent() {
-            let dir = if dir.as_os_str().is_empty() {
-                Path::new(".")
-            } else {
-                dir
-            };
-            if let Ok(d) = File::open(dir) {
-                let _ = d.sync_all();
-            }
-        }
-        Ok(())
-    }
-}
-
-impl Drop for TempFile {
-    fn drop(&mut self) {
-        if !self.persisted {
-            let _ = fs::remove_file(&self.temp);
-        }
     }
 }

@@ -258,25 +258,7 @@ fn tick_label(v: f64, log: bool, range: &Range<f64>) -> String {
             _ => format!("{m}e{e}"),
         };
     }
-    let (step, big) = ((range.end - range.start) / 10.0, range.start.abs().max(range.end.abs()));
-    let v = if v.abs() < step * 1e-6 { 0.0 } else { v + 0.0 }; // `+ 0.0` turns -0.0 into 0.0
-    if (1e-3..1e5).contains(&big) {
-        let decimals = (-step.log10().floor()).clamp(0.0, 12.0) as usize;
-        return format!("{v:.decimals$}");
-    }
-    let digits = (big / step).log10().ceil().clamp(0.0, 12.0) as usize;
-    let label = format!("{v:.digits$e}");
-    let (mantissa, exponent) = label.split_once('e').unwrap_or((&label, "0"));
-    let mantissa = if mantissa.contains('.') {
-        mantissa.trim_end_matches('0').trim_end_matches('.')
-    } else {
-        mantissa
-    };
-    if v == 0.0 {
-        "0".into()
-    } else {
-        format!("{mantissa}e{exponent}")
-    }
+    crate::numbers::axis_tick(v, range.clone())
 }
 
 /// Draws the whole chart (or a "no data" notice) onto `root`.

@@ -99,16 +99,16 @@
 //!
 //! # Never half-written
 //!
-//! Every file is written to `NAME.tmp` in the same directory and then renamed to `NAME`, so a
-//! run that is stopped at any moment leaves either the previous complete file or the new
-//! complete one, never a truncated one (the temporary file is removed when writing fails). The
-//! data is not `fsync`ed: this protects against the process stopping, not against the machine
-//! losing power.
+//! Every file is written to a temporary file (`.NAME.PID-N.tmp`) in the same directory, synced
+//! to disk and renamed to `NAME`, so a run that is stopped at any moment, or a machine that
+//! loses power, leaves either the previous complete file or the new complete one, never a
+//! truncated one (the temporary file is removed when writing fails).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::{io_error, push_f64, write_atomically};
+use super::{io_error, write_atomically};
+use crate::numbers::push_round_trip;
 
 mod base64;
 
@@ -184,7 +184,7 @@ impl<'a> Field<'a> {
 }
 
 /// Writes the particles at `(x, y)` and their `fields` as a VTK XML PolyData file (see the
-/// [module documentation](self) for the layout), atomically: to `path` + `.tmp`, then renamed.
+/// [module documentation](self) for the layout), atomically (a synced temporary file renamed to `path`).
 ///
 /// Non-finite coordinates and values are data and are written as they are.
 ///
@@ -359,7 +359,7 @@ impl PvdWriter {
         })?;
         let previous = self.lines.len();
         self.lines.push_str("    <DataSet timestep=\"");
-        push_f64(&mut self.lines, time);
+        push_round_trip(&mut self.lines, time);
         self.lines.push_str("\" group=\"\" part=\"0\" file=\"");
         self.lines.push_str(&xml_escape(name));
         self.lines.push_str("\"/>\n");
