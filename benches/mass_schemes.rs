@@ -174,7 +174,7 @@ fn run_size(target: usize) {
         .collect();
     let (active, nnz_m) = {
         let c = &masses[1];
-        (c.active.len(), c.matrix.as_ref().map_or(0, |mm| mm.nnz()))
+        (c.active_nodes().len(), c.consistent_matrix().map_or(0, |mm| mm.nnz()))
     };
 
     println!();

@@ -103,8 +103,8 @@ fn main() -> sparse_mpm::Result<()> {
             "    cond of the matrix solved {:.3e}; gravity: a_y in [{:.4}, {:.4}] (res. {:.1e}); \
              checkerboard +-m_L: max |a_y| = {:.3} (res. {:.1e})",
             solve_condition_number(&mass, &ops)?,
-            range(&mass.active, &a_g.y).0,
-            range(&mass.active, &a_g.y).1,
+            range(&mass.active_nodes(), &a_g.y).0,
+            range(&mass.active_nodes(), &a_g.y).1,
             report.relative_residual,
             max_abs(&a_c),
             report_c.relative_residual,

@@ -142,7 +142,7 @@ pub fn solve() -> Result<Homework> {
         &MassOptions::plain(MassScheme::Consistent),
         &Constraints::none(),
     )?;
-    let mass_matrix = DMatrix::from(consistent.matrix.as_ref().expect("consistent mass requested"));
+    let mass_matrix = DMatrix::from(&*consistent.consistent_matrix().expect("consistent mass requested"));
     let row_sums = (0..nodes).map(|i| mass_matrix.row(i).sum()).collect();
 
     // Questions 3 and 4: one explicit step with the assignment's position rule.
@@ -204,7 +204,7 @@ fn literal_stress_update(material: &LinearElastic, p: &Particles, rate: &StrainR
 impl Homework {
     /// Active nodes, 1-based as in the assignment.
     pub fn active_nodes_1_based(&self) -> Vec<usize> {
-        self.step.mass.active.iter().map(|i| i + 1).collect()
+        self.step.mass.active_nodes().iter().map(|i| i + 1).collect()
     }
 
     /// One JSON object with every quantity, keyed by question (`"2A_mass_matrix"` …).
@@ -236,7 +236,7 @@ impl Homework {
             "Gx": m(&self.gx),
             "Gy": m(&self.gy),
             "2A_mass_matrix": m(&self.mass_matrix),
-            "2B_lumped_mass": s.mass.lumped,
+            "2B_lumped_mass": s.mass.lumped(),
             "2C_row_sums": self.row_sums,
             "active_nodes": self.active_nodes_1_based(),
             "3A_external_force": v(&s.external_force),
@@ -323,12 +323,12 @@ impl Homework {
         )?;
         table(out, &self.mass_matrix, "n", "n'")?;
         section(out, "2(B) lumped mass M(n) = sum_p N(n,p) m(p)", "mass::lumped_mass")?;
-        for (i, m) in s.mass.lumped.iter().enumerate() {
+        for (i, m) in s.mass.lumped().iter().enumerate() {
             writeln!(out, "  n = {}: {:>13}", i + 1, sig(*m))?;
         }
         writeln!(out)?;
         section(out, "2(C) row sums of the mass matrix vs the lumped mass", "")?;
-        for (i, (rs, m)) in self.row_sums.iter().zip(&s.mass.lumped).enumerate() {
+        for (i, (rs, m)) in self.row_sums.iter().zip(s.mass.lumped()).enumerate() {
             writeln!(
                 out,
                 "  n = {}: sum_n' m(n,n') = {:>12}   M(n) = {:>12}   difference {:.1e}",

@@ -15,14 +15,10 @@
 //! | [`velocity_gradient_into`] | `L = [Gxᵀ u, Gyᵀ u]` |
 //! | [`g2p`] | (9)–(11): new particle velocities, APIC moments, position increments, `L` |
 //! | [`extend_to_inactive_nodes`] | (8b): massless support nodes take their particles' mean velocity |
-//! | [`series_velocity_into`] | XPIC / FMPM: `Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ u` by products |
-//! | [`weighted_product`] | `A diag(w) Bᵀ`, `A, B ∈ {N, Gx, Gy}`: the consistent mass, the stiffness |
-
-use nalgebra_sparse::CscMatrix;
 
 use crate::fields::VectorField;
 use crate::grid::Grid;
-use crate::operators::{Operator, Operators};
+use crate::operators::Operators;
 use crate::parallel::Workers;
 use crate::particles::Particles;
 use crate::schemes::PositionUpdate;
@@ -819,137 +815,4 @@ fn extend_columns<const S: usize>(
         }
     }
     any
-}
-
-/// Work arrays of [`series_velocity_into`], kept between calls so that it allocates nothing
-/// once they have grown to size.
-#[derive(Debug, Clone, Default)]
-pub struct SeriesScratch {
-    increment: VectorField,
-    at_particles: VectorField,
-    momentum: VectorField,
-}
-
-/// The truncated series of the full-mass inverse applied to a lumped grid velocity `u`, by
-/// particle–grid products only (Nairn's FMPM loop; `M` is never formed):
-///
-/// ```text
-/// v(k) = Σ_{ℓ=0}^{k−1} Δv_ℓ,   Δv_0 = u,   Δv_ℓ = Π₀ (Δv_{ℓ−1} − M_L⁻¹ N (m ∘ Nᵀ Δv_{ℓ−1}))
-/// ```
-///
-/// which is `Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ u = M_k⁻¹ M_L u`, `M_k⁻¹` the series of
-/// [`crate::mass::MassScheme::TruncatedSeries`], when no component is constrained. `inv_m` holds
-/// `1/m_L,I` on active nodes and 0 elsewhere; `constrain` (`Π₀`) zeroes the prescribed components
-/// of each increment, so that the velocity boundary conditions `u` satisfies hold for `v(k)`
-/// too. `k = 1` returns `u`.
-///
-/// # Panics
-/// On length mismatch, or `k = 0`.
-#[allow(clippy::too_many_arguments)]
-pub fn series_velocity_into(
-    ops: &Operators,
-    m: &[f64],
-    inv_m: &[f64],
-    k: usize,
-    constrain: &dyn Fn(&mut VectorField),
-    u: &VectorField,
-    out: &mut VectorField,
-    scratch: &mut SeriesScratch,
-) {
-    assert!(k >= 1, "the series needs at least one term");
-    let (n, np) = (ops.num_nodes(), ops.num_particles());
-    assert!(
-        u.len() == n && inv_m.len() == n,
-        "one velocity and one inverse mass per node"
-    );
-    let SeriesScratch {
-        increment: dv,
-        at_particles: up,
-        momentum: q,
-    } = scratch;
-    for (field, len) in [(&mut *out, n), (&mut *dv, n), (&mut *q, n), (&mut *up, np)] {
-        field.x.resize(len, 0.0);
-        field.y.resize(len, 0.0);
-    }
-    out.x.copy_from_slice(&u.x);
-    out.y.copy_from_slice(&u.y);
-    dv.x.copy_from_slice(&u.x);
-    dv.y.copy_from_slice(&u.y);
-    for _ in 1..k {
-        ops.gather(Operator::N, [&dv.x, &dv.y], [&mut up.x, &mut up.y]);
-        ops.scatter_scaled(Operator::N, Some(m), [&up.x, &up.y], [&mut q.x, &mut q.y]);
-        for i in 0..n {
-            dv.x[i] -= q.x[i] * inv_m[i];
-            dv.y[i] -= q.y[i] * inv_m[i];
-        }
-        constrain(dv);
-        for i in 0..n {
-            out.x[i] += dv.x[i];
-            out.y[i] += dv.y[i];
-        }
-    }
-}
-
-/// The weighted product of two of the operators, the building block of mass and stiffness:
-///
-/// ```text
-/// A diag(w) Bᵀ    (n × n sparse; A, B ∈ {N, Gx, Gy}, w a P-vector)
-/// ```
-///
-/// e.g. `weighted_product(ops, Gx, Gx, V ∘ C11)` is the xx block of the stiffness's normal
-/// part. Built column by column (Gustavson's product through the row pattern of B), with sorted
-/// row indices. Every pair of nodes sharing a particle is stored, even if the value is zero.
-///
-/// # Panics
-/// If `w.len()` is not the particle count.
-pub fn weighted_product(ops: &Operators, a: Operator, b: Operator, w: &[f64]) -> CscMatrix<f64> {
-    let (n, np) = (ops.num_nodes(), ops.num_particles());
-    assert_eq!(w.len(), np, "the weight must have one entry per particle");
-    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
-    let (av, bv) = (ops.values(a), ops.values(b));
-    // Row pattern of the operators: for each node, the stored entries touching it.
-    let mut row_ptr = vec![0usize; n + 1];
-    for &i in ri {
-        row_ptr[i + 1] += 1;
-    }
-    for i in 0..n {
-        row_ptr[i + 1] += row_ptr[i];
-    }
-    let mut fill = row_ptr.clone();
-    let mut row_entry = vec![0usize; ri.len()];
-    for e in 0..ri.len() {
-        let i = ri[e];
-        row_entry[fill[i]] = e;
-        fill[i] += 1;
-    }
-    let mut col_ptr = Vec::with_capacity(n + 1);
-    col_ptr.push(0);
-    let mut rows = Vec::new();
-    let mut vals = Vec::new();
-    let mut work = vec![0.0f64; n];
-    let mut marker = vec![usize::MAX; n];
-    let mut touched = Vec::new();
-    for j in 0..n {
-        touched.clear();
-        for &ej in &row_entry[row_ptr[j]..row_ptr[j + 1]] {
-            let p = cp.partition_point(|&c| c <= ej) - 1;
-            let scale = w[p] * bv[ej];
-            for e in cp[p]..cp[p + 1] {
-                let i = ri[e];
-                if marker[i] != j {
-                    marker[i] = j;
-                    work[i] = 0.0;
-                    touched.push(i);
-                }
-                work[i] += scale * av[e];
-            }
-        }
-        touched.sort_unstable();
-        for &i in &touched {
-            rows.push(i);
-            vals.push(work[i]);
-        }
-        col_ptr.push(rows.len());
-    }
-    CscMatrix::try_from_csc_data(n, n, col_ptr, rows, vals).expect("rows are sorted and in range")
 }

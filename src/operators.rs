@@ -727,3 +727,67 @@ fn fill_csc<const S: usize>(ops: &Operators, csc: &mut Csc) {
         }
     }
 }
+
+/// The weighted product of two of the operators, the building block of mass and stiffness:
+///
+/// ```text
+/// A diag(w) Bᵀ    (n × n sparse; A, B ∈ {N, Gx, Gy}, w a P-vector)
+/// ```
+///
+/// e.g. `weighted_product(ops, Gx, Gx, V ∘ C11)` is the xx block of the stiffness's normal
+/// part. Built column by column (Gustavson's product through the row pattern of B), with sorted
+/// row indices. Every pair of nodes sharing a particle is stored, even if the value is zero.
+///
+/// # Panics
+/// If `w.len()` is not the particle count.
+pub fn weighted_product(ops: &Operators, a: Operator, b: Operator, w: &[f64]) -> CscMatrix<f64> {
+    let (n, np) = (ops.num_nodes(), ops.num_particles());
+    assert_eq!(w.len(), np, "the weight must have one entry per particle");
+    let (cp, ri) = (ops.col_offsets(), ops.row_indices());
+    let (av, bv) = (ops.values(a), ops.values(b));
+    // Row pattern of the operators: for each node, the stored entries touching it.
+    let mut row_ptr = vec![0usize; n + 1];
+    for &i in ri {
+        row_ptr[i + 1] += 1;
+    }
+    for i in 0..n {
+        row_ptr[i + 1] += row_ptr[i];
+    }
+    let mut fill = row_ptr.clone();
+    let mut row_entry = vec![0usize; ri.len()];
+    for e in 0..ri.len() {
+        let i = ri[e];
+        row_entry[fill[i]] = e;
+        fill[i] += 1;
+    }
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    col_ptr.push(0);
+    let mut rows = Vec::new();
+    let mut vals = Vec::new();
+    let mut work = vec![0.0f64; n];
+    let mut marker = vec![usize::MAX; n];
+    let mut touched = Vec::new();
+    for j in 0..n {
+        touched.clear();
+        for &ej in &row_entry[row_ptr[j]..row_ptr[j + 1]] {
+            let p = cp.partition_point(|&c| c <= ej) - 1;
+            let scale = w[p] * bv[ej];
+            for e in cp[p]..cp[p + 1] {
+                let i = ri[e];
+                if marker[i] != j {
+                    marker[i] = j;
+                    work[i] = 0.0;
+                    touched.push(i);
+                }
+                work[i] += scale * av[e];
+            }
+        }
+        touched.sort_unstable();
+        for &i in &touched {
+            rows.push(i);
+            vals.push(work[i]);
+        }
+        col_ptr.push(rows.len());
+    }
+    CscMatrix::try_from_csc_data(n, n, col_ptr, rows, vals).expect("rows are sorted and in range")
+}

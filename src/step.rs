@@ -116,7 +116,7 @@ pub fn explicit_step(
     let (v, v_report) = mass.solve(Role::Velocity, &q, None, &ops)?; //                                  (6)
     let (a, a_report) = mass.solve(Role::Acceleration, &f_ext.add_scaled(1.0, &f_int), None, &ops)?; //  (7)
     let mut v_new = v.add_scaled(dt, &a); //                                                             (8)
-    extend_to_massless_nodes(&ops, &mass.active, &mut v_new); //                                        (8b)
+    extend_to_massless_nodes(&ops, mass.is_active(), &mut v_new); //                                        (8b)
     move_particles(&ops, p, &v_new, dt, options.position_update); //                                     (9)
     update_velocities(&ops, &mut p.vx, &mut p.vy, &a, dt); //                                           (10)
     let l = velocity_gradient(&ops, &v_new); //                                                         (11)

@@ -16,8 +16,9 @@
 use nalgebra_sparse::{CooMatrix, CscMatrix};
 
 use crate::error::Result;
-use crate::mass::{weighted_product, GridMass, Role};
+use crate::mass::{GridMass, Role};
 use crate::material::LinearElastic;
+use crate::operators::weighted_product;
 use crate::operators::{Operator, Operators};
 use crate::spectral::{lanczos_extremes, lanczos_max, start_vector, DEFAULT_LANCZOS_STEPS};
 use crate::transfer::{internal_force, velocity_gradient, VectorField};
@@ -130,7 +131,7 @@ pub fn max_frequency_squared(
     role: Role,
 ) -> Result<f64> {
     let n = ops.num_nodes();
-    let (fx, fy) = mass.free_dofs();
+    let [fx, fy] = mass.free_dofs();
     let mut is_free = vec![false; 2 * n];
     fx.iter().for_each(|&i| is_free[i] = true);
     fy.iter().for_each(|&i| is_free[n + i] = true);

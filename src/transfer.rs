@@ -4,8 +4,8 @@
 //! particle vector quantities are [`VectorField`]s (an x and a y component vector).
 
 pub use crate::fields::{deformation_increment, StrainRate, VectorField, VelocityGradient};
-pub use crate::kernels::{extend_to_inactive_nodes, series_velocity_into, ExtensionScratch, SeriesScratch};
-use crate::mass::ConsistentMassSolver;
+pub use crate::kernels::{extend_to_inactive_nodes, ExtensionScratch};
+pub use crate::mass::{series_velocity_into, SeriesScratch};
 use crate::operators::{Operator, Operators};
 
 /// Grid momentum (the numerator of the seed's 4(A)):
@@ -51,31 +51,6 @@ pub fn internal_force(ops: &Operators, volume: &[f64], sxx: &[f64], syy: &[f64],
     let mut f = VectorField::zeros(ops.num_nodes());
     crate::kernels::add_internal_force(ops, volume, sxx, syy, sxy, &mut f);
     f
-}
-
-/// Lumped-mass solve of `M_L u = r` (seed 3(C) and 4(A)):
-///
-/// ```text
-/// u_I = r_I / m_L,I    on active nodes,    u_I = 0 elsewhere
-/// ```
-///
-/// # Panics
-/// On length mismatch.
-pub fn divide_by_lumped(r: &VectorField, lumped: &[f64], active: &[usize]) -> VectorField {
-    VectorField {
-        x: crate::mass::divide_by_lumped_mass(&r.x, lumped, active),
-        y: crate::mass::divide_by_lumped_mass(&r.y, lumped, active),
-    }
-}
-
-/// Consistent-mass solve of `M_AA u_A = r_A` on the solver's active nodes, 0 elsewhere.
-///
-/// # Panics
-/// On length mismatch.
-pub fn solve_consistent(r: &VectorField, solver: &ConsistentMassSolver) -> VectorField {
-    let mut u = r.clone();
-    solver.solve_in_place([&mut u.x, &mut u.y]);
-    u
 }
 
 /// Grid → particle interpolation of a nodal vector field:
@@ -224,12 +199,11 @@ fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
 /// Interpolated values `Nᵀ v` are unchanged, because these nodes have zero weight at every
 /// particle touching them.
 ///
+/// `is_active` is the active set as a mask ([`crate::mass::GridMass::is_active`]).
+///
 /// # Panics
-/// If `v` does not have one entry per node or an active node is out of range.
-pub fn extend_to_massless_nodes(ops: &Operators, active: &[usize], v: &mut VectorField) {
-    let n = ops.num_nodes();
-    let mut is_active = vec![false; n];
-    active.iter().for_each(|&i| is_active[i] = true);
+/// If `v` or `is_active` does not have one entry per node.
+pub fn extend_to_massless_nodes(ops: &Operators, is_active: &[bool], v: &mut VectorField) {
     let mut scratch = ExtensionScratch::default();
-    extend_to_inactive_nodes(ops, &is_active, v, &mut scratch);
+    extend_to_inactive_nodes(ops, is_active, v, &mut scratch);
 }

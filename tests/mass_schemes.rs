@@ -307,8 +307,8 @@ fn fixed_dofs_are_eliminated_and_keep_their_prescribed_values() {
         // Free rows satisfy M u = r exactly (prescribed values included in u).
         let m = mass.consistent_matrix().unwrap();
         let mu = DMatrix::from(m.as_ref()) * nalgebra::DVector::from_vec(u.x.clone());
-        let (fx, _) = mass.free_dofs();
-        for &i in fx {
+        let [fx, _] = mass.free_dofs();
+        for &i in &fx {
             assert!(
                 (mu[i] - r.x[i]).abs() < 1e-8,
                 "{scheme:?} row {i}: {} vs {}",

@@ -3,9 +3,8 @@
 //! conjugate gradient on it solves the same systems as a Cholesky factorization.
 
 use sparse_mpm::mass::stabilization::partially_lumped;
-use sparse_mpm::mass::{
-    lumped_mass, weighted_product, Constraints, GridMass, MassOptions, MassScheme, Role, Stabilization, StencilMass,
-};
+use sparse_mpm::mass::{lumped_mass, Constraints, GridMass, MassOptions, MassScheme, Role, Stabilization, StencilMass};
+use sparse_mpm::operators::weighted_product;
 use sparse_mpm::transfer::VectorField;
 use sparse_mpm::{Grid, NodeOrder, Operator, Operators, Particles, ShapeFunction};
 

@@ -57,7 +57,7 @@ fn exact_omega_squared(grid: &Grid, shape: ShapeFunction, p: &Particles, options
     let ops = Operators::assemble(grid, shape, p).unwrap();
     let mass = GridMass::new(&ops, &p.mass, options, &Constraints::none()).unwrap();
     let n = ops.num_nodes();
-    let free: Vec<usize> = mass.active.clone();
+    let free: Vec<usize> = mass.active_nodes();
     let f = free.len();
     // S on the free nodes, one column per unit right-hand side (the same for x and y).
     let mut s = DMatrix::<f64>::zeros(f, f);

@@ -624,8 +624,8 @@ fn explicit_step<'py>(
         .detach(|| step::explicit_step(g, &mut after, &material, &options))
         .map_err(mpm_err)?;
     let d = PyDict::new(py);
-    d.set_item("lumped_mass", f64_array(py, &record.mass.lumped))?;
-    d.set_item("active_nodes", index_array(py, &record.mass.active))?;
+    d.set_item("lumped_mass", f64_array(py, record.mass.lumped()))?;
+    d.set_item("active_nodes", index_array(py, &record.mass.active_nodes()))?;
     let vectors: [(&str, &VectorField); 6] = [
         ("momentum", &record.momentum),
         ("external_force", &record.external_force),

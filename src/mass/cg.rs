@@ -1,121 +1,292 @@
-//! Preconditioned conjugate gradient through faer's matrix-free solver, with the operator and
-//! the diagonal (lumped-mass) preconditioner given as plain closures and vectors.
+//! The conjugate gradient of the iterative scheme, written once: preconditioned by the lumped
+//! mass, on `M_FF x = b` for the free nodes `F`, in the vector layout of the matrix form at
+//! hand ([`CgLayout`]: the padded grid-line layout of the stencil form, or node numbering for a
+//! compressed-column matrix such as the ghost-penalty-stabilised `M`).
+//!
+//! ```text
+//! r₀ = b − M x₀,  z₀ = M_L⁻¹ r₀,  p₀ = z₀
+//! α = (r·z) / (p·M p),  x += α p,  r −= α M p,  z = M_L⁻¹ r,  β = (r·z)_new / (r·z),  p = z + β p
+//! ```
+//!
+//! until `‖r‖ ≤ tolerance · scale`. Every sum runs in eight lanes added in a fixed order, so a
+//! solve gives the same bits on every run and any number of threads.
 
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::matrix_free::conjugate_gradient::{conjugate_gradient, conjugate_gradient_scratch, CgError, CgParams};
-use faer::matrix_free::{InitialGuessStatus, LinOp, Precond};
-use faer::{Mat, MatMut, MatRef, Par};
+use std::ops::Range;
 
-struct Operator<'a> {
-    n: usize,
-    apply: &'a (dyn Fn(&[f64]) -> Vec<f64> + Sync),
+use nalgebra_sparse::CscMatrix;
+
+use super::matrices::MassOperator;
+use super::options::MassScheme;
+use super::{GridMass, Role};
+use crate::fields::VectorField;
+
+/// The vector layout a matrix form applies itself in.
+pub(crate) trait CgLayout {
+    /// Length of a work vector.
+    fn layout_len(&self) -> usize;
+    /// The runs of positions that can hold values, ascending.
+    fn segments(&self) -> Vec<Range<usize>>;
+    /// The position of node `i`.
+    fn position(&self, i: usize) -> usize;
+    /// `out = mask ∘ M x` on the segments (elsewhere left as it was), with `mask` zero where
+    /// the product is to be dropped; returns `x · out`.
+    fn apply(&self, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64;
 }
 
-impl std::fmt::Debug for Operator<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "mass operator ({} unknowns)", self.n)
+impl CgLayout for CscMatrix<f64> {
+    fn layout_len(&self) -> usize {
+        self.nrows()
+    }
+    fn segments(&self) -> Vec<Range<usize>> {
+        std::iter::once(0..self.nrows()).collect()
+    }
+    fn position(&self, i: usize) -> usize {
+        i
+    }
+    fn apply(&self, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
+        let y = super::matrices::csc_times(self, x);
+        let mut dot = [0.0; 8];
+        for (k, ((o, y), (m, x))) in out.iter_mut().zip(&y).zip(mask.iter().zip(x)).enumerate() {
+            *o = if *m == 0.0 { 0.0 } else { *y };
+            dot[k % 8] += *o * x;
+        }
+        lanes_sum(&dot)
     }
 }
 
-impl LinOp<f64> for Operator<'_> {
-    fn apply_scratch(&self, _rhs_ncols: usize, _par: Par) -> StackReq {
-        StackReq::EMPTY
-    }
-    fn nrows(&self) -> usize {
-        self.n
-    }
-    fn ncols(&self) -> usize {
-        self.n
-    }
-    fn apply(&self, mut out: MatMut<'_, f64>, rhs: MatRef<'_, f64>, _par: Par, _stack: &mut MemStack) {
-        for c in 0..rhs.ncols() {
-            let x: Vec<f64> = (0..self.n).map(|i| rhs[(i, c)]).collect();
-            let y = (self.apply)(&x);
-            for i in 0..self.n {
-                out[(i, c)] = y[i];
+impl GridMass {
+    /// The conjugate gradient on each component (`cg.rs`) from the previous solution of the
+    /// same role and component (the lumped solution on nodes that were not free then): the
+    /// solution, the iterations and the largest relative residual; or the failing component,
+    /// the iterations before it, and the reason.
+    pub(super) fn solve_cg(
+        &self,
+        role: Role,
+        rhs: &VectorField,
+        tolerance: f64,
+        max_iterations: usize,
+        norm_r: f64,
+    ) -> std::result::Result<(VectorField, usize, f64), (usize, usize, String)> {
+        let m = self
+            .matrices
+            .operator(MassScheme::Consistent)
+            .expect("assembled for the iterative scheme");
+        let mut x = VectorField::default();
+        self.solve_lumped(rhs, None, &mut x);
+        let (mut iterations, mut worst) = (0, 0.0f64);
+        let mut state = self.cg.lock().expect("no solve panics holding it");
+        let CgState { warm, work } = &mut *state;
+        for (c, dofs) in self.dofs.iter().enumerate() {
+            let (b, xc) = if c == 0 { (&rhs.x, &mut x.x) } else { (&rhs.y, &mut x.y) };
+            let last = &mut warm[2 * (role as usize) + c];
+            if last.len() == self.lumped.len() {
+                for &i in dofs.free.iter().filter(|&&i| last[i].is_finite()) {
+                    xc[i] = last[i];
+                }
+            }
+            // With prescribed values the right-hand side is r − M_FD u_D: never below its own norm.
+            let own = dofs.free.iter().map(|&i| b[i] * b[i]).sum::<f64>().sqrt();
+            let scale = norm_r.max(own);
+            let args = (
+                &dofs.free[..],
+                &self.lumped[..],
+                &b[..],
+                tolerance,
+                max_iterations,
+                scale,
+            );
+            let solved = match m {
+                MassOperator::Stencil(s) => pcg(s, args.0, args.1, args.2, xc, args.3, args.4, args.5, work),
+                MassOperator::Csc(s) => pcg(s, args.0, args.1, args.2, xc, args.3, args.4, args.5, work),
+            };
+            let (its, residual) = solved.map_err(|reason| (c, iterations, reason))?;
+            iterations += its;
+            worst = worst.max(residual);
+            last.clear();
+            last.resize(self.lumped.len(), f64::NAN);
+            for &i in &dofs.free {
+                last[i] = xc[i];
             }
         }
-    }
-    fn conj_apply(&self, out: MatMut<'_, f64>, rhs: MatRef<'_, f64>, par: Par, stack: &mut MemStack) {
-        self.apply(out, rhs, par, stack)
+        Ok((x, iterations, worst))
     }
 }
 
-/// `x ↦ x / d`, the inverse of a positive diagonal.
-#[derive(Debug)]
-struct Diagonal {
-    d: Vec<f64>,
+/// What the conjugate gradient keeps between solves.
+#[derive(Debug, Default)]
+pub(crate) struct CgState {
+    /// The last solution per (role, component) over all nodes (NaN where a node was not free).
+    pub(crate) warm: [Vec<f64>; 4],
+    pub(crate) work: CgWork,
 }
 
-impl LinOp<f64> for Diagonal {
-    fn apply_scratch(&self, _rhs_ncols: usize, _par: Par) -> StackReq {
-        StackReq::EMPTY
-    }
-    fn nrows(&self) -> usize {
-        self.d.len()
-    }
-    fn ncols(&self) -> usize {
-        self.d.len()
-    }
-    fn apply(&self, mut out: MatMut<'_, f64>, rhs: MatRef<'_, f64>, _par: Par, _stack: &mut MemStack) {
-        for c in 0..rhs.ncols() {
-            for i in 0..self.d.len() {
-                out[(i, c)] = rhs[(i, c)] / self.d[i];
-            }
-        }
-    }
-    fn conj_apply(&self, out: MatMut<'_, f64>, rhs: MatRef<'_, f64>, par: Par, stack: &mut MemStack) {
-        self.apply(out, rhs, par, stack)
-    }
-}
+/// Work vectors of [`pcg`], kept between solves.
+#[derive(Debug, Default)]
+pub(crate) struct CgWork([Vec<f64>; 7]);
 
-impl Precond<f64> for Diagonal {}
-
-/// Solves `A x = b` from the initial guess `x0` with the preconditioner `diag(d)⁻¹`, to the
-/// residual `‖b − A x‖ ≤ tolerance · max(scale, ‖b‖)`. Returns the solution and the iteration count, or the reason
-/// for failure.
-pub(crate) fn solve(
-    apply: impl Fn(&[f64]) -> Vec<f64> + Sync,
-    d: Vec<f64>,
+/// Preconditioned conjugate gradient on `M_FF x = b` for the free nodes `free` (ascending),
+/// with the diagonal preconditioner `lumped` and the initial guess `x` (`b`, `x` and `lumped`
+/// over all nodes; only `F` is read and written), to the residual `‖b − M_FF x‖ ≤ tolerance ·
+/// scale` (the recurrence's residual; `scale` is `‖b_F‖` or the norm of the whole vector
+/// problem `b` is a component of). Returns the iterations and `‖b − M_FF x‖ / scale`, or the
+/// reason for failure.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn pcg(
+    m: &impl CgLayout,
+    free: &[usize],
+    lumped: &[f64],
     b: &[f64],
-    x0: Vec<f64>,
+    x: &mut [f64],
     tolerance: f64,
-    scale: f64,
     max_iterations: usize,
-) -> Result<(Vec<f64>, usize), String> {
-    let n = b.len();
-    if n == 0 {
-        return Ok((Vec::new(), 0));
+    scale: f64,
+    work: &mut CgWork,
+) -> std::result::Result<(usize, f64), String> {
+    if free.is_empty() || free.iter().all(|&i| b[i] == 0.0) {
+        free.iter().for_each(|&i| x[i] = 0.0);
+        return Ok((0, 0.0));
     }
-    let op = Operator { n, apply: &apply };
-    let precond = Diagonal { d };
-    let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
-    let mut x = Mat::<f64>::from_fn(n, 1, |i, _| x0[i]);
-    let params = CgParams {
-        // faer 0.24 reads uninitialised scratch with `Zero`: always pass MaybeNonZero.
-        initial_guess: InitialGuessStatus::MaybeNonZero,
-        abs_tolerance: tolerance * scale,
-        rel_tolerance: tolerance,
-        max_iters: max_iterations,
-        ..Default::default()
+    // Work vectors in the layout, zero outside F. They are zero outside the segments between
+    // solves (each solve clears what it wrote), so only a change of length needs a fill.
+    let len = m.layout_len();
+    for v in work.0.iter_mut() {
+        if v.len() != len {
+            v.clear();
+            v.resize(len, 0.0);
+        }
+    }
+    let segments = m.segments();
+    let problem = Problem {
+        m,
+        free,
+        segments: &segments,
+        tolerance,
+        max_iterations,
+        norm_b: scale,
     };
-    let mut mem = MemBuffer::new(conjugate_gradient_scratch(&precond, &op, 1, Par::Seq));
-    let result = conjugate_gradient(
-        x.as_mut(),
-        &precond,
-        &op,
-        rhs.as_ref(),
-        params,
-        |_| {},
-        Par::Seq,
-        MemStack::new(&mut mem),
-    );
-    match result {
-        Ok(info) => Ok(((0..n).map(|i| x[(i, 0)]).collect(), info.iter_count)),
-        Err(CgError::NoConvergence { rel_residual, .. }) => Err(format!(
-            "conjugate gradient did not reach the relative residual {tolerance:e} in {max_iterations} iterations (reached {rel_residual:.3e})"
-        )),
-        Err(CgError::NonPositiveDefiniteOperator) => Err("the mass matrix is not positive definite".into()),
-        Err(CgError::NonPositiveDefinitePreconditioner) => Err("the lumped mass is not positive".into()),
+    let result = problem.iterate(lumped, b, x, &mut work.0);
+    for v in work.0.iter_mut() {
+        for g in &segments {
+            v[g.clone()].fill(0.0);
+        }
     }
+    result
+}
+
+/// One conjugate-gradient problem: the matrix in its layout, the free nodes and the stopping
+/// rule.
+struct Problem<'a, L: CgLayout> {
+    m: &'a L,
+    free: &'a [usize],
+    segments: &'a [Range<usize>],
+    tolerance: f64,
+    max_iterations: usize,
+    norm_b: f64,
+}
+
+impl<L: CgLayout> Problem<'_, L> {
+    /// The iterations of the module docs, in the work vectors.
+    fn iterate(
+        &self,
+        lumped: &[f64],
+        b: &[f64],
+        x: &mut [f64],
+        work: &mut [Vec<f64>; 7],
+    ) -> std::result::Result<(usize, f64), String> {
+        let (m, segments) = (self.m, self.segments);
+        let [inv_d, xs, r, q, z, p, scratch] = work;
+        for &i in self.free {
+            let at = m.position(i);
+            inv_d[at] = 1.0 / lumped[i];
+            xs[at] = x[i];
+            r[at] = b[i];
+        }
+        let inv_d = &*inv_d;
+        // q = M_FF v (the product, zero off F) and v·q.
+        let apply = |v: &[f64], q: &mut [f64]| m.apply(v, q, inv_d);
+        apply(xs, q);
+        // r = b − M x0 (the update with q = M x0 and a unit step; the x it moves is scratch).
+        let (rr, rz) = fused_update(segments, scratch, r, z, q, q, inv_d, 1.0);
+        for g in segments {
+            p[g.clone()].copy_from_slice(&z[g.clone()]);
+        }
+        let (mut rz, mut residual) = (rz, rr.sqrt() / self.norm_b);
+        let mut it = 0;
+        while residual > self.tolerance {
+            if it == self.max_iterations {
+                return Err(format!(
+                    "conjugate gradient did not reach the relative residual {:e} in {} iterations (reached {residual:.3e})",
+                    self.tolerance, self.max_iterations
+                ));
+            }
+            let pq = apply(p, q);
+            if pq.is_nan() || pq <= 0.0 {
+                return Err("the mass matrix is not positive definite".into());
+            }
+            let alpha = rz / pq;
+            let (rr, rz_new) = fused_update(segments, xs, r, z, p, q, inv_d, alpha);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for g in segments {
+                for (p, z) in p[g.clone()].iter_mut().zip(&z[g.clone()]) {
+                    *p = z + beta * *p;
+                }
+            }
+            residual = rr.sqrt() / self.norm_b;
+            it += 1;
+        }
+        for &i in self.free {
+            x[i] = xs[m.position(i)];
+        }
+        Ok((it, residual))
+    }
+}
+
+/// Eight partial sums added in a fixed order (the same bits on every run).
+pub(crate) fn lanes_sum(a: &[f64; 8]) -> f64 {
+    ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
+}
+
+/// One CG update over the segments: `x += α p`, `r −= α q`, `z = r ∘ d`; returns `(r·r, r·z)`
+/// (each summed in eight lanes per segment position, a fixed order).
+#[allow(clippy::too_many_arguments)]
+fn fused_update(
+    segments: &[Range<usize>],
+    x: &mut [f64],
+    r: &mut [f64],
+    z: &mut [f64],
+    p: &[f64],
+    q: &[f64],
+    d: &[f64],
+    alpha: f64,
+) -> (f64, f64) {
+    let (mut rr, mut rz) = ([0.0; 8], [0.0; 8]);
+    for g in segments {
+        let g = g.clone();
+        let (x, r, z) = (&mut x[g.clone()], &mut r[g.clone()], &mut z[g.clone()]);
+        let (p, q, d) = (&p[g.clone()], &q[g.clone()], &d[g]);
+        let mut chunks = x
+            .chunks_exact_mut(8)
+            .zip(r.chunks_exact_mut(8))
+            .zip(z.chunks_exact_mut(8))
+            .zip(p.chunks_exact(8).zip(q.chunks_exact(8)).zip(d.chunks_exact(8)));
+        for (((x, r), z), ((p, q), d)) in &mut chunks {
+            for l in 0..8 {
+                x[l] += alpha * p[l];
+                r[l] -= alpha * q[l];
+                z[l] = r[l] * d[l];
+                rr[l] += r[l] * r[l];
+                rz[l] += r[l] * z[l];
+            }
+        }
+        let done = x.len() / 8 * 8;
+        for k in done..x.len() {
+            x[k] += alpha * p[k];
+            r[k] -= alpha * q[k];
+            z[k] = r[k] * d[k];
+            rr[k - done] += r[k] * r[k];
+            rz[k - done] += r[k] * z[k];
+        }
+    }
+    (lanes_sum(&rr), lanes_sum(&rz))
 }

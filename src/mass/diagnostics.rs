@@ -65,7 +65,7 @@ impl MassDiagnostics {
             &start,
             DEFAULT_LANCZOS_STEPS,
             |v| {
-                let mv = super::spmv(&matrix, v);
+                let mv = super::csc_times(&matrix, v);
                 (0..n)
                     .map(|i| if on_active(i) { mv[i] / lumped[i] } else { 0.0 })
                     .collect()
@@ -110,7 +110,7 @@ impl MassDiagnostics {
 /// Those of [`GridMass::solve`].
 pub fn solve_condition_number(mass: &GridMass, ops: &Operators) -> Result<f64> {
     let n = mass.lumped.len();
-    let (fx, _) = mass.free_dofs();
+    let [fx, _] = mass.free_dofs();
     if fx.is_empty() {
         return Ok(1.0);
     }

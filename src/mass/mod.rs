@@ -20,22 +20,27 @@
 use nalgebra_sparse::CscMatrix;
 
 use crate::error::{MpmError, Result};
-pub use crate::kernels::weighted_product;
 use crate::operators::{Operator, Operators};
 
 mod cg;
 mod cholesky;
 mod diagnostics;
+mod direct;
+mod grid_mass;
+mod lumped;
+mod matrices;
 mod options;
-mod schemes;
+mod series;
+mod solve;
 pub mod stabilization;
 mod stencil;
 
 pub(crate) use cholesky::SparseCholesky;
 pub use diagnostics::{solve_condition_number, MassDiagnostics, TINY_MASS_FRACTION};
+pub use grid_mass::{GridMass, Role};
+pub(crate) use matrices::csc_times;
 pub use options::{Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome, SolveReport};
-pub(crate) use schemes::spmv;
-pub use schemes::{GridMass, Role};
+pub use series::{series_velocity_into, SeriesScratch};
 pub use stabilization::Stabilization;
 pub use stencil::StencilMass;
 
@@ -75,7 +80,7 @@ pub fn lumped_mass_into(ops: &Operators, m: &[f64], out: &mut [f64]) {
 /// ```
 ///
 /// Nodes touched by no particle have empty rows and columns. Assembled in stencil form
-/// ([`StencilMass`]) from the operators' factored columns; [`weighted_product`] with
+/// ([`StencilMass`]) from the operators' factored columns; [`crate::operators::weighted_product`] with
 /// `(N, N, m)` gives the same matrix by a general sparse product (equal up to the order of the
 /// sums).
 ///
@@ -113,19 +118,6 @@ pub fn mark_active(lumped: &[f64], tolerance: f64, is_active: &mut [bool]) -> us
         count += usize::from(*flag);
     }
     count
-}
-
-/// `a_I = f_I / m_L,I` on active nodes, 0 elsewhere: the lumped solve of `M_L a = f`.
-///
-/// # Panics
-/// On length mismatch.
-pub fn divide_by_lumped_mass(f: &[f64], lumped: &[f64], active: &[usize]) -> Vec<f64> {
-    assert_eq!(f.len(), lumped.len(), "one value per node");
-    let mut a = vec![0.0; f.len()];
-    for &i in active {
-        a[i] = f[i] / lumped[i];
-    }
-    a
 }
 
 /// Options of the consistent-mass solve.

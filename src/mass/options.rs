@@ -184,9 +184,10 @@ impl MassOptions {
 }
 
 /// What a solve did.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum SolveOutcome {
     /// Solved with the requested scheme.
+    #[default]
     Solved,
     /// The matrix was singular at `node`; the lumped mass was used instead.
     FellBackToLumped {

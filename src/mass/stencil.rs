@@ -14,6 +14,7 @@
 
 use nalgebra_sparse::CscMatrix;
 
+use super::cg::lanes_sum;
 use crate::operators::Operators;
 use crate::with_support;
 
@@ -213,174 +214,24 @@ impl StencilMass {
             }
         }
     }
+}
 
-    /// Preconditioned conjugate gradient on `M_FF x = b` for the free nodes `free` (ascending),
-    /// with the diagonal preconditioner `lumped` and the initial guess `x` (both on F), to the
-    /// residual `‖b − M_FF x‖ ≤ tolerance · scale` (the recurrence's residual; `scale` is `‖b‖`
-    /// or the norm of the whole vector problem `b` is a component of). Returns the iterations
-    /// and `‖b − M_FF x‖ / scale`, or the reason for failure.
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn pcg(
-        &self,
-        free: &[usize],
-        lumped: &[f64],
-        b: &[f64],
-        x: &mut [f64],
-        tolerance: f64,
-        max_iterations: usize,
-        scale: f64,
-        work: &mut CgWork,
-    ) -> std::result::Result<(usize, f64), String> {
-        let norm_b = scale;
-        if free.is_empty() || b.iter().all(|&v| v == 0.0) {
-            x.fill(0.0);
-            return Ok((0, 0.0));
-        }
-        // Work vectors in the padded span layout, zero outside F. They are zero outside the
-        // segments between solves (each solve clears what it wrote), so only a change of
-        // length needs a fill.
-        let plen = self.len + 2 * self.pad;
-        for v in work.0.iter_mut() {
-            if v.len() != plen {
-                v.clear();
-                v.resize(plen, 0.0);
-            }
-        }
-        let segments: Vec<std::ops::Range<usize>> = self
-            .segments
+impl super::cg::CgLayout for StencilMass {
+    fn layout_len(&self) -> usize {
+        self.len + 2 * self.pad
+    }
+    fn segments(&self) -> Vec<std::ops::Range<usize>> {
+        self.segments
             .iter()
             .map(|&(lo, hi)| lo + self.pad..hi + self.pad)
-            .collect();
-        let result = self.pcg_in(
-            free,
-            lumped,
-            b,
-            x,
-            tolerance,
-            max_iterations,
-            norm_b,
-            &mut work.0,
-            &segments,
-        );
-        for v in work.0.iter_mut() {
-            for g in &segments {
-                v[g.clone()].fill(0.0);
-            }
-        }
-        result
+            .collect()
     }
-
-    #[allow(clippy::too_many_arguments)]
-    fn pcg_in(
-        &self,
-        free: &[usize],
-        lumped: &[f64],
-        b: &[f64],
-        x: &mut [f64],
-        tolerance: f64,
-        max_iterations: usize,
-        norm_b: f64,
-        work: &mut [Vec<f64>; 7],
-        segments: &[std::ops::Range<usize>],
-    ) -> std::result::Result<(usize, f64), String> {
-        let at = |i: usize| i - self.start + self.pad;
-        let [inv_d, xs, r, q, z, p, scratch] = work;
-        for (k, &i) in free.iter().enumerate() {
-            inv_d[at(i)] = 1.0 / lumped[i];
-            xs[at(i)] = x[k];
-            r[at(i)] = b[k];
-        }
-        let inv_d = &*inv_d;
-        // q = M_FF v (the product, zero off F) and v·q.
-        let apply = |v: &[f64], q: &mut [f64]| self.apply_padded(v, q, inv_d);
-        apply(xs, q);
-        // r = b − M x0 (the update with q = M x0 and a unit step; the x it moves is scratch).
-        let (rr, rz) = fused_update(segments, scratch, r, z, q, q, inv_d, 1.0);
-        for g in segments {
-            p[g.clone()].copy_from_slice(&z[g.clone()]);
-        }
-        let (mut rz, mut residual) = (rz, rr.sqrt() / norm_b);
-        let mut it = 0;
-        while residual > tolerance {
-            if it == max_iterations {
-                return Err(format!(
-                    "conjugate gradient did not reach the relative residual {tolerance:e} in {max_iterations} iterations (reached {residual:.3e})"
-                ));
-            }
-            let pq = apply(p, q);
-            if pq.is_nan() || pq <= 0.0 {
-                return Err("the mass matrix is not positive definite".into());
-            }
-            let alpha = rz / pq;
-            let (rr, rz_new) = fused_update(segments, xs, r, z, p, q, inv_d, alpha);
-            let beta = rz_new / rz;
-            rz = rz_new;
-            for g in segments {
-                for (p, z) in p[g.clone()].iter_mut().zip(&z[g.clone()]) {
-                    *p = z + beta * *p;
-                }
-            }
-            residual = rr.sqrt() / norm_b;
-            it += 1;
-        }
-        for (k, &i) in free.iter().enumerate() {
-            x[k] = xs[at(i)];
-        }
-        Ok((it, residual))
+    fn position(&self, i: usize) -> usize {
+        i - self.start + self.pad
     }
-}
-
-/// Work vectors of [`StencilMass::pcg`], kept between solves.
-#[derive(Debug, Default)]
-pub(crate) struct CgWork([Vec<f64>; 7]);
-
-/// Eight partial sums added in a fixed order (the same bits on every run).
-fn lanes_sum(a: &[f64; 8]) -> f64 {
-    ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
-}
-
-/// One CG update over the segments: `x += α p`, `r −= α q`, `z = r ∘ d`; returns `(r·r, r·z)`
-/// (each summed in eight lanes per segment position, a fixed order).
-#[allow(clippy::too_many_arguments)]
-fn fused_update(
-    segments: &[std::ops::Range<usize>],
-    x: &mut [f64],
-    r: &mut [f64],
-    z: &mut [f64],
-    p: &[f64],
-    q: &[f64],
-    d: &[f64],
-    alpha: f64,
-) -> (f64, f64) {
-    let (mut rr, mut rz) = ([0.0; 8], [0.0; 8]);
-    for g in segments {
-        let g = g.clone();
-        let (x, r, z) = (&mut x[g.clone()], &mut r[g.clone()], &mut z[g.clone()]);
-        let (p, q, d) = (&p[g.clone()], &q[g.clone()], &d[g]);
-        let mut chunks = x
-            .chunks_exact_mut(8)
-            .zip(r.chunks_exact_mut(8))
-            .zip(z.chunks_exact_mut(8))
-            .zip(p.chunks_exact(8).zip(q.chunks_exact(8)).zip(d.chunks_exact(8)));
-        for (((x, r), z), ((p, q), d)) in &mut chunks {
-            for l in 0..8 {
-                x[l] += alpha * p[l];
-                r[l] -= alpha * q[l];
-                z[l] = r[l] * d[l];
-                rr[l] += r[l] * r[l];
-                rz[l] += r[l] * z[l];
-            }
-        }
-        let done = x.len() / 8 * 8;
-        for k in done..x.len() {
-            x[k] += alpha * p[k];
-            r[k] -= alpha * q[k];
-            z[k] = r[k] * d[k];
-            rr[k - done] += r[k] * r[k];
-            rz[k - done] += r[k] * z[k];
-        }
+    fn apply(&self, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
+        self.apply_padded(x, out, mask)
     }
-    (lanes_sum(&rr), lanes_sum(&rz))
 }
 
 /// `out[r] = mask[r] Σ_o M_o[r] x[r + offset_o]` over the segments, padded layout: the centre,

@@ -55,10 +55,10 @@ use crate::boundary::{self, Prescribed};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::kernels::{
-    self, extend_to_inactive_nodes, series_velocity_into, ApicInertia, ExtensionScratch, G2pRule, GridField, GridState,
-    ParticleScratch, SeriesScratch, Stress,
+    self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, G2pRule, GridField, GridState, ParticleScratch,
+    Stress,
 };
-use crate::mass::{mark_active, GridMass, MassScheme, Role, SolveOutcome, SolveReport};
+use crate::mass::{series_velocity_into, GridMass, Role, SeriesScratch, SolveReport};
 use crate::material::Prepared;
 use crate::operators::Operators;
 use crate::parallel::Workers;
@@ -479,47 +479,30 @@ impl Simulation {
         p.permute(&s.order, &mut s.values, &mut s.indices);
     }
 
-    /// The active nodes ([`mark_active`] of `m_L`, the one active set of every solve) and `1/m_L`;
-    /// the consistent mass and its factorizations when a scheme needs them.
+    /// The active nodes (the one active set of every solve) and `1/m_L`; the consistent mass
+    /// and its factorizations when a scheme needs them.
     fn prepare_mass(&mut self) -> Result<()> {
-        let uses_grid_mass = self.uses_grid_mass();
         let g = &mut self.nodes;
-        if uses_grid_mass {
-            self.grid_mass.update_with_lumped(
-                &self.ops,
-                &self.particles.mass,
-                &g.mass,
-                &self.options.mass,
-                &self.prescribed.constraints,
-            )?;
-            g.active.copy_from_slice(self.grid_mass.is_active());
-        } else {
-            mark_active(&g.mass, self.options.mass.active_tolerance, &mut g.active);
-        }
-        for i in 0..g.mass.len() {
-            g.inverse_mass[i] = if g.active[i] { 1.0 / g.mass[i] } else { 0.0 };
-        }
+        self.grid_mass.lumped_mut().clone_from(&g.mass);
+        self.grid_mass.prepare(
+            &self.ops,
+            &self.particles.mass,
+            &self.options.mass,
+            &self.prescribed.constraints,
+        )?;
+        g.active.copy_from_slice(self.grid_mass.is_active());
+        g.inverse_mass.copy_from_slice(self.grid_mass.inverse_lumped());
         Ok(())
-    }
-
-    fn uses_grid_mass(&self) -> bool {
-        let m = &self.options.mass;
-        m.velocity != MassScheme::Lumped || m.acceleration != MassScheme::Lumped
     }
 
     /// (6) `v = Π M_v⁻¹ q`.
     fn project_velocity(&mut self) -> Result<SolveReport> {
         let g = &mut self.nodes;
-        let masses = Masses {
-            scheme: self.options.mass.velocity,
-            grid_mass: &self.grid_mass,
-            inverse_lumped: &g.inverse_mass,
-        };
-        let report = masses.solve(
+        let report = self.grid_mass.solve_into(
             Role::Velocity,
-            &self.ops,
             &g.momentum,
             Some(&self.prescribed_velocity),
+            &self.ops,
             &mut g.projected,
         )?;
         self.prescribed.apply_velocity(&mut g.projected.x, &mut g.projected.y);
@@ -529,12 +512,9 @@ impl Simulation {
     /// (7) `a = Π₀ M_a⁻¹ f`.
     fn solve_acceleration(&mut self) -> Result<SolveReport> {
         let g = &mut self.nodes;
-        let masses = Masses {
-            scheme: self.options.mass.acceleration,
-            grid_mass: &self.grid_mass,
-            inverse_lumped: &g.inverse_mass,
-        };
-        let report = masses.solve(Role::Acceleration, &self.ops, &g.force, None, &mut g.acceleration)?;
+        let report = self
+            .grid_mass
+            .solve_into(Role::Acceleration, &g.force, None, &self.ops, &mut g.acceleration)?;
         self.prescribed.zero(&mut g.acceleration.x, &mut g.acceleration.y);
         Ok(report)
     }
@@ -717,45 +697,5 @@ impl Simulation {
         self.strain_energy = energy;
         self.speeds.wave = stability::wave_speed(wave_squared, 1.0, 1.0);
         Ok(())
-    }
-}
-
-/// The mass of one grid solve: the scheme, and what it solves with.
-struct Masses<'a> {
-    scheme: MassScheme,
-    /// The consistent mass and its factorizations (schemes other than lumped).
-    grid_mass: &'a GridMass,
-    /// `1 / m_L,I` on active nodes, 0 elsewhere (the lumped scheme).
-    inverse_lumped: &'a [f64],
-}
-
-impl Masses<'_> {
-    /// `u = M⁻¹ r` with this scheme, into `u`: for the lumped mass `u_I = r_I / m_L,I` on active
-    /// nodes and 0 elsewhere, without allocating; otherwise [`GridMass::solve`] of `role`, with
-    /// `prescribed` values on the prescribed components.
-    fn solve(
-        &self,
-        role: Role,
-        ops: &Operators,
-        r: &VectorField,
-        prescribed: Option<&VectorField>,
-        u: &mut VectorField,
-    ) -> Result<SolveReport> {
-        if self.scheme != MassScheme::Lumped {
-            let (solution, report) = self.grid_mass.solve(role, r, prescribed, ops)?;
-            *u = solution;
-            return Ok(report);
-        }
-        let inv_m = self.inverse_lumped;
-        for i in 0..inv_m.len() {
-            u.x[i] = r.x[i] * inv_m[i];
-            u.y[i] = r.y[i] * inv_m[i];
-        }
-        Ok(SolveReport {
-            scheme: MassScheme::Lumped,
-            outcome: SolveOutcome::Solved,
-            iterations: 0,
-            relative_residual: 0.0,
-        })
     }
 }

@@ -3,8 +3,7 @@
 
 use super::{Simulation, TimeStep, Transfer};
 use crate::error::{MpmError, Result};
-use crate::kernels::{series_velocity_into, SeriesScratch};
-use crate::mass::{MassScheme, Role};
+use crate::mass::{series_velocity_into, Role, SeriesScratch};
 use crate::stiffness::{self, FrequencyEstimate};
 use crate::transfer::VectorField;
 
@@ -104,47 +103,33 @@ impl Simulation {
         let grid_mass = &self.grid_mass;
         let transfer = self.options.transfer;
         let inverse = |role: Role| {
-            let scheme = match role {
-                Role::Velocity => self.options.mass.velocity,
-                Role::Acceleration => self.options.mass.acceleration,
-            };
             move |r: &VectorField| -> Result<VectorField> {
-                if scheme != MassScheme::Lumped {
-                    return grid_mass.solve(role, r, None, ops).map(|(u, _)| u);
-                }
                 let mut u = VectorField::zeros(n);
-                for i in 0..n {
-                    u.x[i] = if free[i] { r.x[i] * nodes.inverse_mass[i] } else { 0.0 };
-                    u.y[i] = if free[n + i] {
-                        r.y[i] * nodes.inverse_mass[i]
-                    } else {
-                        0.0
-                    };
-                }
-                if let Transfer::Fmpm { k } = transfer {
-                    // FMPM's particle velocity and stress update read M_k⁻¹ M_L of the lumped
-                    // velocity: the series is the mass of both halves of the update.
-                    let constrain = |v: &mut VectorField| {
-                        for i in 0..n {
-                            v.x[i] = if free[i] { v.x[i] } else { 0.0 };
-                            v.y[i] = if free[n + i] { v.y[i] } else { 0.0 };
-                        }
-                    };
-                    let mut out = VectorField::default();
-                    let mut scratch = SeriesScratch::default();
-                    series_velocity_into(
-                        ops,
-                        &p.mass,
-                        &nodes.inverse_mass,
-                        k,
-                        &constrain,
-                        &u,
-                        &mut out,
-                        &mut scratch,
-                    );
-                    return Ok(out);
-                }
-                Ok(u)
+                grid_mass.solve_into(role, r, None, ops, &mut u)?;
+                let Transfer::Fmpm { k } = transfer else {
+                    return Ok(u);
+                };
+                // FMPM's particle velocity and stress update read M_k⁻¹ M_L of the lumped
+                // velocity: the series is the mass of both halves of the update.
+                let constrain = |v: &mut VectorField| {
+                    for i in 0..n {
+                        v.x[i] = if free[i] { v.x[i] } else { 0.0 };
+                        v.y[i] = if free[n + i] { v.y[i] } else { 0.0 };
+                    }
+                };
+                let mut out = VectorField::default();
+                let mut scratch = SeriesScratch::default();
+                series_velocity_into(
+                    ops,
+                    &p.mass,
+                    grid_mass.inverse_lumped(),
+                    k,
+                    &constrain,
+                    &u,
+                    &mut out,
+                    &mut scratch,
+                );
+                Ok(out)
             }
         };
         let mut velocity = inverse(Role::Velocity);

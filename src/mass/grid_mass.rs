@@ -1,0 +1,378 @@
+//! [`GridMass`]: the grid mass of one configuration, prepared for the two solves of a step.
+//!
+//! | scheme | grid solve `u = M⁻¹ r` with | file |
+//! |---|---|---|
+//! | [`MassScheme::Lumped`] | `M_L = diag(N m)`: `u = r ∘ m_L⁻¹` | `lumped.rs` |
+//! | [`MassScheme::Consistent`] | `M = N diag(m) Nᵀ`, sparse Cholesky | `direct.rs` |
+//! | [`MassScheme::Blended`] | `(1 − γ) M_L + γ M`, sparse Cholesky | `direct.rs` |
+//! | [`MassScheme::TruncatedSeries`] | `Σ_{l<k} (I − M_L⁻¹M)^l M_L⁻¹` (FMPM(k)) | `series.rs` |
+//! | [`MassScheme::Iterative`] | `M`, conjugate gradient preconditioned by `M_L` | `cg.rs` |
+//!
+//! Degrees of freedom: for each component (x, y) a solve runs on `F = A \ D`, the active nodes
+//! `A` less the nodes `D` whose component is prescribed ([`Constraints`]). Prescribed values
+//! `u_D` enter the right-hand side as `r_F − M_FD u_D`; the solution takes `u_D` on `D ∩ A` and
+//! 0 on inactive nodes. The active set is one mask ([`GridMass::is_active`]); every list of
+//! nodes is derived from it.
+
+use nalgebra_sparse::CscMatrix;
+
+use super::cholesky::SparseCholesky;
+use super::matrices::Matrices;
+use super::options::{Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome};
+use super::{local_index, lumped_mass_into, mark_active, singular_error, StencilMass};
+use crate::error::{MpmError, Result};
+use crate::operators::Operators;
+
+/// Which of the two solves of a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The velocity projection `v̄ = M⁻¹ q`.
+    Velocity,
+    /// The acceleration solve `a = M⁻¹ f`.
+    Acceleration,
+}
+
+/// One component's free degrees of freedom: `free` (ascending) and `local[i]`, the position of
+/// node `i` in `free` or `usize::MAX`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub(super) struct Dofs {
+    pub(super) free: Vec<usize>,
+    pub(super) local: Vec<usize>,
+}
+
+impl Dofs {
+    /// The active nodes less `fixed`, reusing the buffers (`is_fixed` is work space).
+    fn update(&mut self, is_active: &[bool], fixed: &[usize], is_fixed: &mut Vec<bool>) {
+        let n = is_active.len();
+        is_fixed.clear();
+        is_fixed.resize(n, false);
+        for &i in fixed.iter().filter(|&&i| i < n) {
+            is_fixed[i] = true;
+        }
+        self.free.clear();
+        self.free.extend((0..n).filter(|&i| is_active[i] && !is_fixed[i]));
+        self.local = local_index(n, &self.free);
+    }
+
+    /// Whether node `i` is active but not free (its component is prescribed).
+    pub(super) fn is_prescribed(&self, i: usize, is_active: &[bool]) -> bool {
+        is_active[i] && self.local[i] == usize::MAX
+    }
+}
+
+/// The factorizations of one scheme and what preparing them found.
+#[derive(Debug, Default)]
+pub(super) struct SchemeSolver {
+    /// The matrix weight γ actually factorized (after a regularization), if factorized.
+    pub(super) gamma: Option<f64>,
+    /// Factors of the x and y components (y unused when both have the same free nodes).
+    pub(super) factors: [SparseCholesky; 2],
+    pub(super) outcome: SolveOutcome,
+}
+
+/// The grid mass of one step: lumped mass, its inverse and the active nodes, and for schemes
+/// other than lumped the consistent matrix and a prepared solver for each of the velocity and
+/// acceleration solves ([`GridMass::solve`]).
+///
+/// [`GridMass::update`] prepares it for a new particle configuration, reusing every buffer:
+/// with the lumped mass in both solves nothing is allocated after the first step; the symbolic
+/// Cholesky analysis is reused while the sparsity pattern of the matrix is unchanged.
+#[derive(Debug, Default)]
+pub struct GridMass {
+    pub(super) options: MassOptions,
+    /// `m_L = N m` at every node.
+    pub(super) lumped: Vec<f64>,
+    /// `1 / m_L,I` on active nodes, 0 elsewhere.
+    pub(super) inverse: Vec<f64>,
+    /// The one active set: `m_L,I > tolerance · max m_L` ([`mark_active`]).
+    pub(super) is_active: Vec<bool>,
+    /// The prescribed degrees of freedom of the last update.
+    pub(super) constraints: Constraints,
+    /// Free degrees of freedom of the x and y components (schemes other than lumped).
+    pub(super) dofs: [Dofs; 2],
+    is_fixed: Vec<bool>,
+    /// The consistent mass in the forms the schemes apply it in.
+    pub(super) matrices: Matrices,
+    pub(super) velocity: SchemeSolver,
+    pub(super) acceleration: SchemeSolver,
+    /// What the conjugate gradient keeps between solves.
+    pub(super) cg: std::sync::Mutex<super::cg::CgState>,
+}
+
+impl GridMass {
+    /// Prepares the grid mass for particles with masses `m` and operators `ops`.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidParameter`] for an invalid scheme parameter;
+    /// [`MpmError::SingularMassMatrix`] when a factorized matrix is singular and the policy is
+    /// [`SingularityPolicy::Error`].
+    ///
+    /// # Panics
+    /// If `m.len()` is not the particle count.
+    pub fn new(ops: &Operators, m: &[f64], options: &MassOptions, constraints: &Constraints) -> Result<GridMass> {
+        let mut mass = GridMass::default();
+        mass.update(ops, m, options, constraints)?;
+        Ok(mass)
+    }
+
+    /// Re-prepares for a new configuration: `m_L = N m`, then [`GridMass::prepare`].
+    ///
+    /// # Errors
+    /// As [`GridMass::new`]. On error the previous state is not usable for solves.
+    ///
+    /// # Panics
+    /// If `m.len()` is not the particle count.
+    pub fn update(
+        &mut self,
+        ops: &Operators,
+        m: &[f64],
+        options: &MassOptions,
+        constraints: &Constraints,
+    ) -> Result<()> {
+        self.lumped.resize(ops.num_nodes(), 0.0);
+        lumped_mass_into(ops, m, &mut self.lumped);
+        self.prepare(ops, m, options, constraints)
+    }
+
+    /// The lumped mass `m_L` to be filled in place (by the time loop's particle-to-grid pass);
+    /// [`GridMass::prepare`] then prepares the solves for it.
+    pub fn lumped_mut(&mut self) -> &mut Vec<f64> {
+        &mut self.lumped
+    }
+
+    /// Prepares the solves for the lumped mass this grid mass holds (from
+    /// [`GridMass::update`] or written through [`GridMass::lumped_mut`]): the active set
+    /// ([`mark_active`]), `1/m_L` on it, and for schemes other than lumped the free degrees of
+    /// freedom, the consistent matrix in the forms the schemes need, and the factorizations.
+    ///
+    /// # Errors
+    /// As [`GridMass::new`].
+    ///
+    /// # Panics
+    /// If `m.len()` is not the particle count or the lumped mass does not have one entry per
+    /// node of `ops`.
+    pub fn prepare(
+        &mut self,
+        ops: &Operators,
+        m: &[f64],
+        options: &MassOptions,
+        constraints: &Constraints,
+    ) -> Result<()> {
+        let n = ops.num_nodes();
+        assert_eq!(self.lumped.len(), n, "one lumped mass per node");
+        validate(options)?;
+        self.options = *options;
+        self.constraints.fixed_x.clone_from(&constraints.fixed_x);
+        self.constraints.fixed_y.clone_from(&constraints.fixed_y);
+        self.is_active.resize(n, false);
+        mark_active(&self.lumped, options.active_tolerance, &mut self.is_active);
+        self.inverse.resize(n, 0.0);
+        for i in 0..n {
+            self.inverse[i] = if self.is_active[i] { 1.0 / self.lumped[i] } else { 0.0 };
+        }
+        self.velocity.outcome = SolveOutcome::Solved;
+        self.acceleration.outcome = SolveOutcome::Solved;
+        if options.velocity == MassScheme::Lumped && options.acceleration == MassScheme::Lumped {
+            self.matrices.clear();
+            return Ok(());
+        }
+        let [dx, dy] = &mut self.dofs;
+        dx.update(&self.is_active, &constraints.fixed_x, &mut self.is_fixed);
+        dy.update(&self.is_active, &constraints.fixed_y, &mut self.is_fixed);
+        self.matrices.assemble(ops, m, options, &self.lumped, &self.is_active);
+        self.factorize(Role::Velocity, ops)?;
+        if !self.shares_solver() {
+            self.factorize(Role::Acceleration, ops)?;
+        }
+        Ok(())
+    }
+
+    /// The options in force.
+    pub fn options(&self) -> MassOptions {
+        self.options
+    }
+
+    /// The lumped mass `m_L = N m`, one entry per node.
+    pub fn lumped(&self) -> &[f64] {
+        &self.lumped
+    }
+
+    /// `1 / m_L,I` on active nodes, 0 elsewhere.
+    pub fn inverse_lumped(&self) -> &[f64] {
+        &self.inverse
+    }
+
+    /// The active set as a mask, one flag per node ([`mark_active`] of the lumped mass).
+    pub fn is_active(&self) -> &[bool] {
+        &self.is_active
+    }
+
+    /// The active nodes, ascending (derived from [`GridMass::is_active`]).
+    pub fn active_nodes(&self) -> Vec<usize> {
+        (0..self.is_active.len()).filter(|&i| self.is_active[i]).collect()
+    }
+
+    /// Free degrees of freedom of the x and y components: the active nodes less the prescribed
+    /// ones, ascending.
+    pub fn free_dofs(&self) -> [Vec<usize>; 2] {
+        let n = self.is_active.len();
+        [&self.constraints.fixed_x, &self.constraints.fixed_y].map(|fixed| {
+            let mut is_fixed = vec![false; n];
+            fixed.iter().filter(|&&i| i < n).for_each(|&i| is_fixed[i] = true);
+            (0..n).filter(|&i| self.is_active[i] && !is_fixed[i]).collect()
+        })
+    }
+
+    /// The plain consistent mass `M = N diag(m) Nᵀ` in compressed-column form, from whichever
+    /// form was assembled (built on each call from the stencil form); `None` when no scheme
+    /// needed it.
+    pub fn consistent_matrix(&self) -> Option<std::borrow::Cow<'_, CscMatrix<f64>>> {
+        self.matrices.plain_csc()
+    }
+
+    /// The stabilised consistent mass the factorized schemes solve with, when a stabilisation
+    /// is in force and the compressed-column matrix was assembled.
+    pub fn stabilized_matrix(&self) -> Option<&CscMatrix<f64>> {
+        self.matrices.stabilized_csc.as_ref()
+    }
+
+    /// The consistent mass in stencil form, when the schemes in use apply it that way (the
+    /// conjugate gradient and the truncated series with no or partial-lumping stabilisation).
+    pub fn stencil(&self) -> Option<&StencilMass> {
+        self.matrices.stencil.as_ref()
+    }
+
+    /// Symbolic Cholesky analyses done so far by the solver of `role` (x and y components).
+    pub fn symbolic_analyses(&self, role: Role) -> usize {
+        let s = self.solver(role);
+        s.factors[0].symbolic_analyses() + s.factors[1].symbolic_analyses()
+    }
+
+    /// The scheme of `role`.
+    pub fn scheme(&self, role: Role) -> MassScheme {
+        match role {
+            Role::Velocity => self.options.velocity,
+            Role::Acceleration => self.options.acceleration,
+        }
+    }
+
+    pub(super) fn solver(&self, role: Role) -> &SchemeSolver {
+        match role {
+            Role::Acceleration if !self.shares_solver() => &self.acceleration,
+            _ => &self.velocity,
+        }
+    }
+
+    /// Whether both solves use the same scheme, and so one factorization.
+    fn shares_solver(&self) -> bool {
+        self.options.velocity == self.options.acceleration
+    }
+
+    /// Whether the y component has free nodes of its own (else it shares the x factor).
+    pub(super) fn y_has_own_dofs(&self) -> bool {
+        self.dofs[1].free != self.dofs[0].free
+    }
+
+    /// Factorizes what the scheme of `role` needs, applying the singularity policy.
+    fn factorize(&mut self, role: Role, ops: &Operators) -> Result<()> {
+        let gamma = match self.scheme(role) {
+            MassScheme::Consistent => Some(1.0),
+            MassScheme::Blended { gamma } if gamma > 0.0 => Some(gamma),
+            MassScheme::Blended { .. }
+            | MassScheme::Lumped
+            | MassScheme::TruncatedSeries { .. }
+            | MassScheme::Iterative { .. } => None,
+        };
+        let (policy, pivot_tolerance) = (self.options.singularity, self.options.pivot_tolerance);
+        let GridMass {
+            lumped,
+            dofs,
+            matrices,
+            velocity,
+            acceleration,
+            ..
+        } = self;
+        let solver = match role {
+            Role::Velocity => velocity,
+            Role::Acceleration => acceleration,
+        };
+        solver.gamma = None;
+        let Some(gamma) = gamma else { return Ok(()) };
+        // Factorized schemes are never the series: the stabilised matrix when there is one.
+        let matrix = matrices.factorized_csc().expect("assembled for factorized schemes");
+        let own_y = dofs[1].free != dofs[0].free;
+        let factor_both = |s: &mut SchemeSolver, g: f64| -> std::result::Result<(), (usize, f64)> {
+            for c in 0..if own_y { 2 } else { 1 } {
+                let d = &dofs[c];
+                s.factors[c]
+                    .factor(matrix, lumped, g, &d.free, &d.local, pivot_tolerance)
+                    .map_err(|b| (d.free[b.local], b.pivot))?;
+            }
+            Ok(())
+        };
+        match factor_both(solver, gamma) {
+            Ok(()) => solver.gamma = Some(gamma),
+            Err((node, pivot)) => match policy {
+                SingularityPolicy::Error => return Err(singular_error(node, pivot, ops)),
+                SingularityPolicy::FallbackToLumped => {
+                    solver.outcome = SolveOutcome::FellBackToLumped {
+                        node: Some(node),
+                        relative_pivot: pivot,
+                    };
+                }
+                SingularityPolicy::Regularize { epsilon } => {
+                    let g = gamma * (1.0 - epsilon);
+                    factor_both(solver, g).map_err(|(node, pivot)| singular_error(node, pivot, ops))?;
+                    solver.gamma = Some(g);
+                    solver.outcome = SolveOutcome::Regularized {
+                        node: Some(node),
+                        epsilon,
+                    };
+                }
+            },
+        }
+        Ok(())
+    }
+
+    /// The conjugate gradient's warm-start vectors, one per (role, component): the last
+    /// solution over all nodes (NaN where a node was not free), empty before the first solve.
+    /// The next solves start from them, so they are part of a checkpoint.
+    pub(crate) fn warm_start(&self) -> [Vec<f64>; 4] {
+        self.cg
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .warm
+            .clone()
+    }
+
+    /// Sets the warm-start vectors of [`GridMass::warm_start`] (resuming from a checkpoint).
+    pub(crate) fn set_warm_start(&mut self, warm: [Vec<f64>; 4]) {
+        self.cg
+            .get_mut()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .warm = warm;
+    }
+
+    /// Replaces the lumped mass (resuming from a checkpoint: what [`GridMass::lumped`] shows
+    /// until the next step prepares the grid mass again).
+    pub(crate) fn set_lumped(&mut self, lumped: Vec<f64>) {
+        self.lumped = lumped;
+    }
+}
+
+/// Checks the scheme parameters and the singularity policy.
+fn validate(options: &MassOptions) -> Result<()> {
+    options.velocity.validate()?;
+    options.acceleration.validate()?;
+    options.stabilization.validate()?;
+    if let SingularityPolicy::Regularize { epsilon } = options.singularity {
+        if !(epsilon > 0.0 && epsilon <= 1.0) {
+            return Err(MpmError::InvalidParameter {
+                name: "epsilon",
+                value: epsilon,
+                reason: "the regularization weight must lie in (0, 1]",
+            });
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,198 @@
+//! The consistent mass of a step in the forms the schemes apply it in: compressed columns for
+//! the factorized schemes (and the ghost penalty, and the singularity policies that may need a
+//! factorization), the stencil form for the conjugate gradient and the truncated series
+//! otherwise; each plain, and stabilised where a scheme solves with the stabilised matrix.
+
+use std::borrow::Cow;
+
+use nalgebra::{DMatrix, DMatrixView};
+use nalgebra_sparse::ops::serial::spmm_csc_dense;
+use nalgebra_sparse::ops::Op;
+use nalgebra_sparse::CscMatrix;
+
+use super::options::{MassOptions, MassScheme, SingularityPolicy};
+use super::stabilization::Stabilization;
+use super::{consistent_mass, StencilMass};
+use crate::operators::Operators;
+
+/// The consistent mass of one configuration, as the schemes in use need it.
+#[derive(Debug, Default)]
+pub(super) struct Matrices {
+    /// `M = N diag(m) Nᵀ` in compressed columns, when a factorized scheme (consistent,
+    /// blended), the ghost penalty or a singularity policy other than an error needs it.
+    pub(super) csc: Option<CscMatrix<f64>>,
+    /// The stabilised `M` in compressed columns (a stabilisation other than none, with `csc`).
+    pub(super) stabilized_csc: Option<CscMatrix<f64>>,
+    /// `M` in stencil form, when only the conjugate gradient and the series apply it.
+    pub(super) stencil: Option<StencilMass>,
+    /// The partially lumped `M` in stencil form, for the conjugate gradient.
+    stencil_stabilized: Option<StencilMass>,
+    /// Buffers of the stencil assembly of the factorized schemes.
+    buffers: Option<StencilMass>,
+}
+
+/// The matrix a scheme solves with, in whichever form it was assembled.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum MassOperator<'a> {
+    Csc(&'a CscMatrix<f64>),
+    Stencil(&'a StencilMass),
+}
+
+impl<'a> MassOperator<'a> {
+    /// `y = M x` over all nodes.
+    pub(super) fn mul(&self, x: &[f64]) -> Vec<f64> {
+        match self {
+            MassOperator::Csc(m) => csc_times(m, x),
+            MassOperator::Stencil(m) => m.mul(x),
+        }
+    }
+
+    /// The matrix in compressed-column form.
+    pub(super) fn csc(self) -> Cow<'a, CscMatrix<f64>> {
+        match self {
+            MassOperator::Csc(m) => Cow::Borrowed(m),
+            MassOperator::Stencil(m) => Cow::Owned(m.to_csc()),
+        }
+    }
+}
+
+/// `y = M x` by nalgebra-sparse's product of a compressed-column matrix and a dense vector.
+pub(crate) fn csc_times(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
+    let mut y = DMatrix::zeros(m.nrows(), 1);
+    spmm_csc_dense(
+        0.0,
+        &mut y,
+        1.0,
+        Op::NoOp(m),
+        Op::NoOp(DMatrixView::from_slice(x, x.len(), 1)),
+    );
+    y.data.into()
+}
+
+/// Whether `scheme` solves by a Cholesky factorization.
+fn factorized(scheme: MassScheme) -> bool {
+    match scheme {
+        MassScheme::Consistent => true,
+        MassScheme::Blended { gamma } => gamma > 0.0,
+        MassScheme::Lumped | MassScheme::TruncatedSeries { .. } | MassScheme::Iterative { .. } => false,
+    }
+}
+
+impl Matrices {
+    /// No matrix (both solves lumped).
+    pub(super) fn clear(&mut self) {
+        self.csc = None;
+        self.stabilized_csc = None;
+        self.stencil = None;
+        self.stencil_stabilized = None;
+    }
+
+    /// Assembles `M` for particles with masses `m` in the forms `options` need, reusing the
+    /// buffers of the last assembly.
+    pub(super) fn assemble(
+        &mut self,
+        ops: &Operators,
+        m: &[f64],
+        options: &MassOptions,
+        lumped: &[f64],
+        is_active: &[bool],
+    ) {
+        let needs_matrix = options.velocity.needs_consistent_matrix()
+            || options.acceleration.needs_consistent_matrix()
+            || options.singularity != SingularityPolicy::Error;
+        let in_stencil = match options.stabilization {
+            Stabilization::None | Stabilization::PartialLumping { .. } => true,
+            Stabilization::GhostPenalty { .. } => false,
+        };
+        let stencil_only = needs_matrix
+            && !factorized(options.velocity)
+            && !factorized(options.acceleration)
+            && options.singularity == SingularityPolicy::Error
+            && in_stencil;
+        if stencil_only {
+            self.assemble_stencil(ops, m, options, lumped);
+        } else if needs_matrix && in_stencil {
+            self.assemble_csc_from_stencil(ops, m, options, lumped);
+        } else {
+            self.clear();
+            self.csc = needs_matrix.then(|| consistent_mass(ops, m));
+            self.stabilized_csc = match &self.csc {
+                Some(matrix) => options.stabilization.apply(ops, matrix, lumped, is_active),
+                None => None,
+            };
+        }
+    }
+
+    /// The factorized schemes' matrices: assembled in stencil form, handed over in compressed
+    /// columns (the stencil kept for its buffers only).
+    fn assemble_csc_from_stencil(&mut self, ops: &Operators, m: &[f64], options: &MassOptions, lumped: &[f64]) {
+        let mut stencil = self.buffers.take().or(self.stencil.take()).unwrap_or_default();
+        stencil.reassemble(ops, m);
+        self.csc = Some(stencil.to_csc());
+        self.stabilized_csc = match options.stabilization {
+            Stabilization::PartialLumping { threshold } => {
+                stencil.partially_lump(lumped, threshold);
+                Some(stencil.to_csc())
+            }
+            Stabilization::None | Stabilization::GhostPenalty { .. } => None,
+        };
+        self.buffers = Some(stencil);
+        self.stencil = None;
+        self.stencil_stabilized = None;
+    }
+
+    /// The conjugate gradient's and the series' matrices, in stencil form only.
+    fn assemble_stencil(&mut self, ops: &Operators, m: &[f64], options: &MassOptions, lumped: &[f64]) {
+        if self.stencil.is_none() {
+            self.stencil = self.buffers.take();
+        }
+        self.csc = None;
+        self.stabilized_csc = None;
+        let mut stencil = self.stencil.take().unwrap_or_default();
+        stencil.reassemble(ops, m);
+        let iterative = |s: MassScheme| matches!(s, MassScheme::Iterative { .. });
+        self.stencil_stabilized = match options.stabilization {
+            Stabilization::PartialLumping { threshold }
+                if iterative(options.velocity) || iterative(options.acceleration) =>
+            {
+                let mut lumped_stencil = self.stencil_stabilized.take().unwrap_or_default();
+                lumped_stencil.clone_from(&stencil);
+                lumped_stencil.partially_lump(lumped, threshold);
+                Some(lumped_stencil)
+            }
+            _ => None,
+        };
+        self.stencil = Some(stencil);
+    }
+
+    /// The plain `M` in compressed columns, from whichever form was assembled.
+    pub(super) fn plain_csc(&self) -> Option<Cow<'_, CscMatrix<f64>>> {
+        match (&self.csc, &self.stencil) {
+            (Some(m), _) => Some(Cow::Borrowed(m)),
+            (None, Some(s)) => Some(Cow::Owned(s.to_csc())),
+            _ => None,
+        }
+    }
+
+    /// What the factorized schemes factorize: the stabilised matrix when there is one.
+    pub(super) fn factorized_csc(&self) -> Option<&CscMatrix<f64>> {
+        self.stabilized_csc.as_ref().or(self.csc.as_ref())
+    }
+
+    /// The matrix `scheme` solves with: the plain consistent mass for the truncated series
+    /// (which is defined with it), the stabilised one otherwise.
+    pub(super) fn operator(&self, scheme: MassScheme) -> Option<MassOperator<'_>> {
+        let series = matches!(scheme, MassScheme::TruncatedSeries { .. });
+        let csc = if series {
+            self.csc.as_ref()
+        } else {
+            self.factorized_csc()
+        };
+        let stencil = if series {
+            self.stencil.as_ref()
+        } else {
+            self.stencil_stabilized.as_ref().or(self.stencil.as_ref())
+        };
+        csc.map(MassOperator::Csc).or(stencil.map(MassOperator::Stencil))
+    }
+}
