@@ -100,3 +100,44 @@ pub enum PositionUpdate {
     /// `x ← x + (Δt/2)(v_p + Nᵀ v̄')`: the seed's 4(C) as read in docs/homework.md.
     Trapezoidal,
 }
+
+/// Where an update scheme puts the stress update in a step: the one place that says so, read
+/// by the time loop ([`UpdateScheme::schedule`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Schedule {
+    /// The stress is updated right after the velocity projection (6), from `v`, and its internal
+    /// force added then (USF); otherwise the particle-to-grid pass adds the internal force of
+    /// the stress as it stands.
+    pub stress_first: bool,
+    /// The stress update after the grid-to-particle pass, if any.
+    pub stress_last: Option<StressFrom>,
+}
+
+/// Which grid velocity the stress update after the grid-to-particle pass reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StressFrom {
+    /// The updated grid velocity `w` (USL), whose gradient the grid-to-particle pass computes.
+    Updated,
+    /// The grid velocity re-projected from the updated particle velocities (MUSL).
+    Reprojected,
+}
+
+impl UpdateScheme {
+    /// The scheme's place for the stress update.
+    pub fn schedule(self) -> Schedule {
+        match self {
+            UpdateScheme::Usf => Schedule {
+                stress_first: true,
+                stress_last: None,
+            },
+            UpdateScheme::Usl => Schedule {
+                stress_first: false,
+                stress_last: Some(StressFrom::Updated),
+            },
+            UpdateScheme::Musl => Schedule {
+                stress_first: false,
+                stress_last: Some(StressFrom::Reprojected),
+            },
+        }
+    }
+}

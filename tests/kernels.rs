@@ -101,23 +101,35 @@ fn p2g_equals_the_single_products_for_every_shape_function_with_and_without_apic
         };
         for apic in [None, Some(ApicInertia::of(shape, &grid))] {
             let mut state = GridState::new(&grid);
+            let mut lumped = vec![0.0; grid.num_nodes()];
             kernels::p2g(
                 &ops,
                 &p,
                 apic,
                 gravity,
                 Stress::Include,
+                &mut lumped,
                 &mut state,
                 &Workers::default(),
             );
-            close(&state.mass, &m_l, "m_L");
+            close(&lumped, &m_l, "m_L");
             let expected_q = match apic {
                 None => q.clone(),
                 Some(kind) => q.add_scaled(1.0, &apic_term(&ops, &grid, &p, kind)),
             };
             close_field(&state.momentum, &expected_q, &format!("{} q", shape.name()));
             close_field(&state.force, &with_gravity(&f_ext.add_scaled(1.0, &f_int)), "f");
-            kernels::p2g(&ops, &p, apic, gravity, Stress::Omit, &mut state, &Workers::default());
+            let omit = Stress::Omit;
+            kernels::p2g(
+                &ops,
+                &p,
+                apic,
+                gravity,
+                omit,
+                &mut lumped,
+                &mut state,
+                &Workers::default(),
+            );
             close_field(&state.force, &with_gravity(&f_ext), "f without stress");
             // USF adds the internal force afterwards.
             kernels::add_internal_force(&ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut state.force);

@@ -139,24 +139,24 @@ impl Simulation {
     pub fn profile(&self) -> Option<&Profile> {
         self.profile.as_ref()
     }
+}
 
-    /// Runs `f` as `phase`, timing it when profiling is on.
-    pub(super) fn timed<T>(&mut self, phase: Phase, f: impl FnOnce(&mut Simulation) -> T) -> T {
-        if self.profile.is_none() {
-            return f(self);
-        }
-        let start = Instant::now();
-        let result = f(self);
-        if let Some(p) = &mut self.profile {
-            p.seconds[phase.index()] += start.elapsed().as_secs_f64();
-        }
-        result
+/// Runs `f` as `phase`, timing it into `profile` when profiling is on.
+pub(super) fn timed<T>(profile: &mut Option<Profile>, phase: Phase, f: impl FnOnce() -> T) -> T {
+    if profile.is_none() {
+        return f();
     }
+    let start = Instant::now();
+    let result = f();
+    if let Some(p) = profile {
+        p.seconds[phase.index()] += start.elapsed().as_secs_f64();
+    }
+    result
+}
 
+impl Profile {
     /// Counts a profiled step.
-    pub(super) fn count_profiled_step(&mut self) {
-        if let Some(p) = &mut self.profile {
-            p.steps += 1;
-        }
+    pub(super) fn count_step(&mut self) {
+        self.steps += 1;
     }
 }

@@ -1,8 +1,11 @@
 //! What one step did: [`StepReport`], and its CSV columns.
 
-use super::Simulation;
+use super::{Options, Scratch, Setup, State};
 use crate::error::{MpmError, Result};
-use crate::mass::{SolveOutcome, SolveReport};
+use crate::kernels::GridState;
+use crate::mass::{GridMass, SolveOutcome, SolveReport};
+use crate::parallel::Workers;
+use crate::particles::Particles;
 
 /// What one step did and the state after it: data, not log lines.
 #[derive(Debug, Clone, PartialEq)]
@@ -140,99 +143,108 @@ pub(super) struct Sums {
     non_finite: Option<usize>,
 }
 
-impl Simulation {
-    /// The report of the step just taken: energies, momenta and mass summed over the particles and
-    /// the grid, after checking every particle velocity is finite.
-    pub(super) fn report(
-        &mut self,
-        dt: f64,
-        stable_time_step: f64,
-        velocity_solve: SolveReport,
-        acceleration_solve: SolveReport,
-    ) -> Result<StepReport> {
-        let mut blocks = std::mem::take(&mut self.scratch.report_blocks);
-        let (p, g, kinetic) = (&self.particles, &self.nodes, &self.particle_scratch.kinetic);
-        let [gx, gy] = self.options.gravity;
-        let strain = self.strain_energy;
-        // Sums in fixed blocks of particles, so that they do not depend on the threads.
-        self.workers.blocks(p.len(), &mut blocks, |range| {
-            let mut s = Sums::default();
-            for k in range {
-                let m = p.mass[k];
-                let (vx, vy) = (p.vx[k], p.vy[k]);
-                let mut speed = (vx * vx + vy * vy).sqrt();
-                if speed == f64::INFINITY && vx.is_finite() && vy.is_finite() {
-                    // Finite but beyond 1e154: the squares overflowed, the speed did not.
-                    speed = vx.hypot(vy);
-                }
-                if !speed.is_finite() {
-                    s.non_finite.get_or_insert(k);
-                    continue;
-                }
-                s.max_speed = s.max_speed.max(speed);
-                s.mass += m;
-                s.kinetic += 0.5 * m * (vx * vx + vy * vy);
-                s.momentum[0] += m * vx;
-                s.momentum[1] += m * vy;
-                s.angular += m * (p.x[k] * vy - p.y[k] * vx);
-                s.potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
-            }
-            s
+/// The report of the step just taken: energies, momenta and mass summed over the particles and
+/// the grid, after checking every particle velocity is finite. `solves` are the velocity and
+/// acceleration solves' reports.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn report(
+    setup: &Setup,
+    options: &Options,
+    state: &State,
+    mass: &GridMass,
+    nodes: &GridState,
+    scratch: &mut Scratch,
+    dt: f64,
+    stable_time_step: f64,
+    solves: [SolveReport; 2],
+) -> Result<StepReport> {
+    let p = &state.particles;
+    let t = particle_sums(&setup.workers, p, options.gravity, &mut scratch.report_blocks);
+    if let Some(k) = t.non_finite {
+        return Err(MpmError::NonFinite {
+            step: state.steps,
+            stage: "particle velocity",
+            particle: k,
+            id: p.id[k],
+            value: [p.vx[k], p.vy[k]],
         });
-        let mut t = Sums::default();
-        for b in &blocks {
-            t.non_finite = t.non_finite.or(b.non_finite);
-            t.max_speed = t.max_speed.max(b.max_speed);
-            t.mass += b.mass;
-            t.kinetic += b.kinetic;
-            t.momentum[0] += b.momentum[0];
-            t.momentum[1] += b.momentum[1];
-            t.angular += b.angular;
-            t.potential += b.potential;
-        }
-        if let Some(k) = t.non_finite {
-            return Err(MpmError::NonFinite {
-                step: self.steps,
-                stage: "particle velocity",
-                particle: k,
-                id: p.id[k],
-                value: [p.vx[k], p.vy[k]],
-            });
-        }
-        let Sums {
-            kinetic: ke,
-            potential,
-            angular: ang,
-            mass,
-            max_speed,
-            momentum: [px, py],
-            ..
-        } = t;
-        let ke_l: f64 = (0..g.mass.len())
-            .map(|i| 0.5 * g.mass[i] * (g.updated.x[i].powi(2) + g.updated.y[i].powi(2)))
-            .sum();
-        let report = StepReport {
-            step: self.steps,
-            time: self.time,
-            dt,
-            stable_time_step,
-            kinetic_energy: ke,
-            particle_grid_gap: kinetic.before - kinetic.projected,
-            transfer_loss: self.transfer_loss,
-            grid_kinetic_energy_lumped: ke_l,
-            grid_kinetic_energy_consistent: kinetic.updated,
-            strain_energy: strain,
-            potential_energy: potential,
-            total_energy: ke + strain + potential,
-            momentum: [px, py],
-            angular_momentum: ang,
-            grid_angular_momentum: g.angular_momentum,
-            mass,
-            max_speed,
-            velocity_solve,
-            acceleration_solve,
-        };
-        self.scratch.report_blocks = blocks;
-        Ok(report)
     }
+    let Sums {
+        kinetic: ke,
+        potential,
+        angular: ang,
+        mass: total_mass,
+        max_speed,
+        momentum: [px, py],
+        ..
+    } = t;
+    let (m_l, w) = (mass.lumped(), &nodes.updated);
+    let ke_l: f64 = (0..m_l.len())
+        .map(|i| 0.5 * m_l[i] * (w.x[i].powi(2) + w.y[i].powi(2)))
+        .sum();
+    let kinetic = &scratch.particle.kinetic;
+    let [velocity_solve, acceleration_solve] = solves;
+    Ok(StepReport {
+        step: state.steps,
+        time: state.time,
+        dt,
+        stable_time_step,
+        kinetic_energy: ke,
+        particle_grid_gap: kinetic.before - kinetic.projected,
+        transfer_loss: state.transfer_loss,
+        grid_kinetic_energy_lumped: ke_l,
+        grid_kinetic_energy_consistent: kinetic.updated,
+        strain_energy: state.strain_energy,
+        potential_energy: potential,
+        total_energy: ke + state.strain_energy + potential,
+        momentum: [px, py],
+        angular_momentum: ang,
+        grid_angular_momentum: nodes.angular_momentum,
+        mass: total_mass,
+        max_speed,
+        velocity_solve,
+        acceleration_solve,
+    })
+}
+
+/// The particles' sums for the report, in fixed blocks of particles so that they do not depend
+/// on the threads (`blocks` is work space).
+fn particle_sums(workers: &Workers, p: &Particles, gravity: [f64; 2], blocks: &mut Vec<Sums>) -> Sums {
+    let [gx, gy] = gravity;
+    workers.blocks(p.len(), blocks, |range| {
+        let mut s = Sums::default();
+        for k in range {
+            let m = p.mass[k];
+            let (vx, vy) = (p.vx[k], p.vy[k]);
+            let mut speed = (vx * vx + vy * vy).sqrt();
+            if speed == f64::INFINITY && vx.is_finite() && vy.is_finite() {
+                // Finite but beyond 1e154: the squares overflowed, the speed did not.
+                speed = vx.hypot(vy);
+            }
+            if !speed.is_finite() {
+                s.non_finite.get_or_insert(k);
+                continue;
+            }
+            s.max_speed = s.max_speed.max(speed);
+            s.mass += m;
+            s.kinetic += 0.5 * m * (vx * vx + vy * vy);
+            s.momentum[0] += m * vx;
+            s.momentum[1] += m * vy;
+            s.angular += m * (p.x[k] * vy - p.y[k] * vx);
+            s.potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
+        }
+        s
+    });
+    let mut t = Sums::default();
+    for b in blocks.iter() {
+        t.non_finite = t.non_finite.or(b.non_finite);
+        t.max_speed = t.max_speed.max(b.max_speed);
+        t.mass += b.mass;
+        t.kinetic += b.kinetic;
+        t.momentum[0] += b.momentum[0];
+        t.momentum[1] += b.momentum[1];
+        t.angular += b.angular;
+        t.potential += b.potential;
+    }
+    t
 }

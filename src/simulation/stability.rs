@@ -1,11 +1,14 @@
 //! The stable time step: the frequency estimate of the update with the simulation's masses,
 //! kept between estimates, and the choice of the next step from it.
 
-use super::{Simulation, TimeStep, Transfer};
+use super::series::SeriesTransfer;
+use super::{Cache, Options, Setup, Simulation, State, TimeStep};
 use crate::error::{MpmError, Result};
+use crate::fields::VectorField;
+use crate::grid::Grid;
 use crate::mass::{series_velocity_into, Role, SeriesScratch};
+use crate::particles::Particles;
 use crate::stiffness::{self, FrequencyEstimate};
-use crate::transfer::VectorField;
 
 /// The stable step found by the last frequency estimate.
 #[derive(Debug, Clone, Copy)]
@@ -47,141 +50,153 @@ impl Simulation {
     /// operators, tangent stiffness and masses, by Lanczos), estimated when the simulation is
     /// made and again every [`Options::stability_interval`](super::Options::stability_interval) steps; between estimates the step
     /// shrinks if the largest tangent P-wave speed `c = √(C11/ρ)` over the particles rises above
-    /// its value at the estimate. `α` is the transfer's [`Transfer::flip_weight`] (FLIP is stable
+    /// its value at the estimate. `α` is the transfer's [`Transfer::flip_weight`](super::Transfer::flip_weight) (FLIP is stable
     /// up to `2/ω_max`, PIC-type updates up to `√2/ω_max`). The particle-speed term keeps particles
     /// from crossing more than a cell per step.
     pub fn stable_time_step(&self) -> f64 {
-        let Some(s) = self.stability else {
-            return f64::INFINITY;
-        };
-        let (max_speed, c_now) = (self.speeds.particle, self.speeds.wave);
-        let wave = if c_now > s.wave_speed {
-            s.wave_step * s.wave_speed / c_now
-        } else {
-            s.wave_step
-        };
-        let [hx, hy] = self.grid.cell_size();
-        1.0 / (1.0 / wave + max_speed / hx.min(hy))
+        stable_time_step(&self.setup.grid, &self.state)
     }
 
     /// The last frequency estimate behind [`Simulation::stable_time_step`] and the number of
     /// steps completed when it was made.
     pub fn frequency_estimate(&self) -> Option<(FrequencyEstimate, usize)> {
-        self.stability.map(|s| (s.estimate, s.at_step))
+        self.state.stability.map(|s| (s.estimate, s.at_step))
     }
+}
 
-    /// The largest particle speed and tangent P-wave speed `√(C11_p / ρ_p)`, `ρ_p = m_p / V_p`,
-    /// over the particles, by a pass over them (the time loop keeps them up to date as it goes).
-    pub(super) fn measure_speeds(&self) -> Speeds {
-        let p = &self.particles;
-        let mut speeds = Speeds::default();
-        for k in 0..p.len() {
-            let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
-            let c11 = self.bodies[p.body[k]].material.tangent(f)[0];
-            speeds.wave = speeds.wave.max(wave_speed(c11, p.volume[k], p.mass[k]));
-            speeds.particle = speeds.particle.max((p.vx[k] * p.vx[k] + p.vy[k] * p.vy[k]).sqrt());
+/// [`Simulation::stable_time_step`] of `state` on `grid`.
+pub(super) fn stable_time_step(grid: &Grid, state: &State) -> f64 {
+    let Some(s) = state.stability else {
+        return f64::INFINITY;
+    };
+    let (max_speed, c_now) = (state.speeds.particle, state.speeds.wave);
+    let wave = if c_now > s.wave_speed {
+        s.wave_step * s.wave_speed / c_now
+    } else {
+        s.wave_step
+    };
+    let [hx, hy] = grid.cell_size();
+    1.0 / (1.0 / wave + max_speed / hx.min(hy))
+}
+
+/// The largest particle speed and tangent P-wave speed `√(C11_p / ρ_p)`, `ρ_p = m_p / V_p`,
+/// over the particles, by a pass over them (the time loop keeps them up to date as it goes).
+pub(super) fn measure_speeds(setup: &Setup, p: &Particles) -> Speeds {
+    let mut speeds = Speeds::default();
+    for k in 0..p.len() {
+        let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
+        let c11 = setup.bodies[p.body[k]].material.tangent(f)[0];
+        speeds.wave = speeds.wave.max(wave_speed(c11, p.volume[k], p.mass[k]));
+        speeds.particle = speeds.particle.max((p.vx[k] * p.vx[k] + p.vy[k] * p.vy[k]).sqrt());
+    }
+    speeds
+}
+
+/// Whether the stable step is to be estimated at this step: before the first step, then every
+/// [`Options::stability_interval`] steps.
+pub(super) fn estimate_due(options: &Options, state: &State) -> bool {
+    match state.stability {
+        None => true,
+        Some(s) => {
+            let interval = options.stability_interval;
+            interval > 0 && state.steps >= s.at_step + interval
         }
-        speeds
     }
+}
 
-    /// Estimates `ω²_max` of the update with the grid prepared for the current configuration
-    /// ((1)–(5) and the mass) and keeps it.
-    pub(super) fn estimate_stability(&mut self) -> Result<()> {
-        let (ops, p, nodes) = (&self.ops, &self.particles, &self.nodes);
-        let n = ops.num_nodes();
-        let tangent: Vec<[f64; 3]> = (0..p.len())
-            .map(|k| {
-                let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
-                self.bodies[p.body[k]].material.tangent(f)
-            })
-            .collect();
-        let mut free: Vec<bool> = nodes.active.iter().chain(&nodes.active).copied().collect();
-        let c = &self.prescribed.constraints;
-        c.fixed_x.iter().for_each(|&i| free[i] = false);
-        c.fixed_y.iter().for_each(|&i| free[n + i] = false);
-        let free = &free;
-        let grid_mass = &self.grid_mass;
-        let transfer = self.options.transfer;
-        let inverse = |role: Role| {
-            move |r: &VectorField| -> Result<VectorField> {
-                let mut u = VectorField::zeros(n);
-                grid_mass.solve_into(role, r, None, ops, &mut u)?;
-                let Transfer::Fmpm { k } = transfer else {
-                    return Ok(u);
-                };
-                // FMPM's particle velocity and stress update read M_k⁻¹ M_L of the lumped
-                // velocity: the series is the mass of both halves of the update.
-                let constrain = |v: &mut VectorField| {
-                    for i in 0..n {
-                        v.x[i] = if free[i] { v.x[i] } else { 0.0 };
-                        v.y[i] = if free[n + i] { v.y[i] } else { 0.0 };
-                    }
-                };
-                let mut out = VectorField::default();
-                let mut scratch = SeriesScratch::default();
-                series_velocity_into(
-                    ops,
-                    &p.mass,
-                    grid_mass.inverse_lumped(),
-                    k,
-                    &constrain,
-                    &u,
-                    &mut out,
-                    &mut scratch,
-                );
-                Ok(out)
-            }
-        };
-        let mut velocity = inverse(Role::Velocity);
-        let mut acceleration = inverse(Role::Acceleration);
-        let same = self.options.mass.velocity == self.options.mass.acceleration;
-        let estimate = stiffness::mpm_max_frequency_squared(
-            ops,
-            &p.mass,
-            &p.volume,
-            &tangent,
-            free,
-            &mut velocity,
-            if same { None } else { Some(&mut acceleration) },
-        )?;
-        let wave_speed = self.speeds.wave;
-
-        self.stability = Some(Stability {
-            wave_step: stiffness::mpm_critical_time_step(&estimate, self.options.transfer.flip_weight()),
-            wave_speed,
-            at_step: self.steps,
-            estimate,
-        });
-        Ok(())
-    }
-
-    /// The step to take now: the fixed one (refused above the stable step unless allowed) or
-    /// the Courant number times the stable step.
-    pub(super) fn next_time_step(&self, stable: f64) -> Result<f64> {
-        match self.options.time_step {
-            TimeStep::Cfl { number } => {
-                if stable.is_finite() {
-                    Ok(number * stable)
-                } else {
-                    Err(MpmError::NoStableTimeStep { step: self.steps })
+/// Estimates `ω²_max` of the update with the grid prepared for the current configuration
+/// ((1)–(5) and the mass): the masses of both solves as [`crate::mass::GridMass::solve`]
+/// applies them, followed by FMPM's series when the transfer is FMPM (its particle velocity and
+/// stress update read `M_k⁻¹ M_L` of the lumped velocity: the series is the mass of both halves
+/// of the update).
+pub(super) fn estimate(setup: &Setup, options: &Options, state: &State, cache: &Cache) -> Result<Stability> {
+    let (ops, p, mass) = (&cache.ops, &state.particles, &cache.mass);
+    let n = ops.num_nodes();
+    let tangent: Vec<[f64; 3]> = (0..p.len())
+        .map(|k| {
+            let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
+            setup.bodies[p.body[k]].material.tangent(f)
+        })
+        .collect();
+    let mut free: Vec<bool> = mass.is_active().iter().chain(mass.is_active()).copied().collect();
+    let c = &setup.prescribed.constraints;
+    c.fixed_x.iter().for_each(|&i| free[i] = false);
+    c.fixed_y.iter().for_each(|&i| free[n + i] = false);
+    let free = &free;
+    let series = SeriesTransfer::of(options.transfer).and_then(SeriesTransfer::stress_terms);
+    let inverse = |role: Role| {
+        move |r: &VectorField| -> Result<VectorField> {
+            let mut u = VectorField::zeros(n);
+            mass.solve_into(role, r, None, ops, &mut u)?;
+            let Some(k) = series else {
+                return Ok(u);
+            };
+            let constrain = |v: &mut VectorField| {
+                for i in 0..n {
+                    v.x[i] = if free[i] { v.x[i] } else { 0.0 };
+                    v.y[i] = if free[n + i] { v.y[i] } else { 0.0 };
                 }
+            };
+            let (mut out, mut scratch) = (VectorField::default(), SeriesScratch::default());
+            series_velocity_into(
+                ops,
+                &p.mass,
+                mass.inverse_lumped(),
+                k,
+                &constrain,
+                &u,
+                &mut out,
+                &mut scratch,
+            );
+            Ok(out)
+        }
+    };
+    let mut velocity = inverse(Role::Velocity);
+    let mut acceleration = inverse(Role::Acceleration);
+    let same = options.mass.velocity == options.mass.acceleration;
+    let estimate = stiffness::mpm_max_frequency_squared(
+        ops,
+        &p.mass,
+        &p.volume,
+        &tangent,
+        free,
+        &mut velocity,
+        if same { None } else { Some(&mut acceleration) },
+    )?;
+    Ok(Stability {
+        wave_step: stiffness::mpm_critical_time_step(&estimate, options.transfer.flip_weight()),
+        wave_speed: state.speeds.wave,
+        at_step: state.steps,
+        estimate,
+    })
+}
+
+/// The step to take now: the fixed one (refused above the stable step unless allowed) or the
+/// Courant number times the stable step.
+pub(super) fn next_time_step(options: &Options, steps: usize, stable: f64) -> Result<f64> {
+    match options.time_step {
+        TimeStep::Cfl { number } => {
+            if stable.is_finite() {
+                Ok(number * stable)
+            } else {
+                Err(MpmError::NoStableTimeStep { step: steps })
             }
-            TimeStep::Fixed { dt } => {
-                if dt > stable && !self.options.allow_unstable_time_step {
-                    let m = &self.options.mass;
-                    Err(MpmError::TimeStepAboveStable {
-                        step: self.steps,
-                        dt,
-                        stable,
-                        masses: if m.velocity == m.acceleration {
-                            m.velocity.label()
-                        } else {
-                            format!("{} / {}", m.velocity.label(), m.acceleration.label())
-                        },
-                    })
-                } else {
-                    Ok(dt)
-                }
+        }
+        TimeStep::Fixed { dt } => {
+            if dt > stable && !options.allow_unstable_time_step {
+                let m = &options.mass;
+                Err(MpmError::TimeStepAboveStable {
+                    step: steps,
+                    dt,
+                    stable,
+                    masses: if m.velocity == m.acceleration {
+                        m.velocity.label()
+                    } else {
+                        format!("{} / {}", m.velocity.label(), m.acceleration.label())
+                    },
+                })
+            } else {
+                Ok(dt)
             }
         }
     }

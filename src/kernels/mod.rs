@@ -1,0 +1,249 @@
+//! The fused particle ↔ grid kernels: tier 2 of the products with N, Gx, Gy.
+//!
+//! Tier 1 ([`crate::transfer`], [`crate::mass`]) writes one product per call, as the equations
+//! read: `m_L = N m`, `q = N (m ∘ v)`, `L = [Gxᵀ v, Gyᵀ v]` … The time loop makes the same products
+//! in fewer passes over the shared pattern of N, Gx, Gy: these kernels, each a named phase with
+//! its inputs by `&` and its outputs by `&mut`. Together with [`crate::operators`] this is the
+//! one place that indexes the compressed-column arrays; `tests/kernels.rs` holds the two tiers
+//! equal to round-off for every shape function, transfer and update scheme.
+//!
+//! | kernel | equations (docs/formulation.md) |
+//! |---|---|
+//! | [`p2g`] | (2)–(5): `m_L = N m`, `q = N (m ∘ v) [+ APIC]`, `f = N (m ∘ b) + m_L g − G (V σ)` |
+//! | [`add_internal_force`] | (5) alone: `f −= [Gx (V∘σxx) + Gy (V∘σxy); Gx (V∘σxy) + Gy (V∘σyy)]` |
+//! | [`reproject_momentum`] | MUSL's `q' = N (m ∘ v_p) [+ APIC]` |
+//! | [`velocity_gradient_into`] | `L = [Gxᵀ u, Gyᵀ u]` |
+//! | [`g2p`] | (9)–(11): new particle velocities, APIC moments, position increments, `L` |
+//! | [`extend_to_inactive_nodes`] | (8b): massless support nodes take their particles' mean velocity |
+
+mod extend;
+mod g2p;
+mod p2g;
+
+pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
+pub use g2p::{g2p, velocity_gradient_into, G2pRule};
+pub use p2g::{add_internal_force, p2g, reproject_momentum};
+
+use crate::fields::VectorField;
+use crate::grid::Grid;
+use crate::operators::Operators;
+use crate::particles::Particles;
+use crate::shape::ShapeFunction;
+
+/// Which grid velocity a phase reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GridField {
+    /// `v`: projected from the particles, (6).
+    Projected,
+    /// `w = v + Δt a`: updated, (8).
+    Updated,
+    /// `v*`: the series velocity of XPIC and FMPM.
+    Series,
+}
+
+/// The grid fields of one step, one entry per node (the lumped mass, its inverse and the
+/// active set are the grid mass's: [`crate::mass::GridMass`]).
+#[derive(Debug, Clone, Default)]
+pub struct GridState {
+    /// Momentum `q`.
+    pub momentum: VectorField,
+    /// Force `f = f_ext + f_int`.
+    pub force: VectorField,
+    /// Projected velocity `v`.
+    pub projected: VectorField,
+    /// Acceleration `a`.
+    pub acceleration: VectorField,
+    /// Updated velocity `w`.
+    pub updated: VectorField,
+    /// XPIC's or FMPM's series velocity `v*`.
+    pub series: VectorField,
+    /// Node coordinates.
+    pub node_x: Vec<f64>,
+    /// Node coordinates.
+    pub node_y: Vec<f64>,
+    /// `Σ_I x_I × q_I` of the last [`p2g`].
+    pub angular_momentum: f64,
+    /// Nodes outside this range hold zero mass, momentum and force ([`Operators::node_span`]
+    /// at the last [`p2g`]).
+    pub span: std::ops::Range<usize>,
+    /// Per node of `span`, what [`p2g`] accumulates, `[m_L, q_x, q_y, f_x, f_y]`, interleaved so
+    /// that one particle's contributions to a node land in one cache line.
+    accumulator: Vec<[f64; 5]>,
+}
+
+impl GridState {
+    /// Zeroed fields for the nodes of `grid`.
+    pub fn new(grid: &Grid) -> GridState {
+        let n = grid.num_nodes();
+        let zero = VectorField::zeros(n);
+        GridState {
+            momentum: zero.clone(),
+            force: zero.clone(),
+            projected: zero.clone(),
+            acceleration: zero.clone(),
+            updated: zero.clone(),
+            series: zero,
+            node_x: grid.node_x(),
+            node_y: grid.node_y(),
+            angular_momentum: 0.0,
+            span: 0..n,
+            // Reserved for the whole grid (address space only: pages are touched as the span
+            // needs them), so that a growing span never reallocates.
+            accumulator: Vec::with_capacity(n),
+        }
+    }
+
+    /// The velocity field `field`.
+    pub fn field(&self, field: GridField) -> &VectorField {
+        match field {
+            GridField::Projected => &self.projected,
+            GridField::Updated => &self.updated,
+            GridField::Series => &self.series,
+        }
+    }
+
+    /// The velocity field `source` to read and the series field to write, at once.
+    ///
+    /// # Panics
+    /// If `source` is the series field itself.
+    pub fn source_and_series(&mut self, source: GridField) -> (&VectorField, &mut VectorField) {
+        match source {
+            GridField::Projected => (&self.projected, &mut self.series),
+            GridField::Updated => (&self.updated, &mut self.series),
+            GridField::Series => panic!("the series is taken of a projected or updated velocity"),
+        }
+    }
+
+    /// The velocity field `field`, to write.
+    pub fn field_mut(&mut self, field: GridField) -> &mut VectorField {
+        match field {
+            GridField::Projected => &mut self.projected,
+            GridField::Updated => &mut self.updated,
+            GridField::Series => &mut self.series,
+        }
+    }
+}
+
+/// Kinetic energies measured at the particles by [`g2p`]:
+/// `K(u) = ½ Σ_p m_p |(Nᵀu)_p|²`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct KineticEnergies {
+    /// The particles' own, before the update.
+    pub before: f64,
+    /// `K(v)`, of the projected velocity.
+    pub projected: f64,
+    /// `K(w)`, of the updated velocity.
+    pub updated: f64,
+}
+
+/// Per-particle fields of one step.
+#[derive(Debug, Clone, Default)]
+pub struct ParticleScratch {
+    /// `L = [[Lxx, Lxy], [Lyx, Lyy]]` as `[Lxx, Lxy, Lyx, Lyy]`, one vector each.
+    pub velocity_gradient: [Vec<f64>; 4],
+    /// Position increments of [`g2p`].
+    pub displacement: VectorField,
+    /// Kinetic energies of the last [`g2p`].
+    pub kinetic: KineticEnergies,
+    /// The grid velocities [`g2p`] reads, packed node by node over the operators' node span:
+    /// `[w, v, target, gradient field]`, two components each.
+    packed: Vec<[f64; 8]>,
+    /// Kinetic energies of each block of particles of the last [`g2p`].
+    kinetic_blocks: Vec<KineticEnergies>,
+}
+
+impl ParticleScratch {
+    fn resize(&mut self, np: usize) {
+        for l in self.velocity_gradient.iter_mut() {
+            l.resize(np, 0.0);
+        }
+        self.displacement.x.resize(np, 0.0);
+        self.displacement.y.resize(np, 0.0);
+    }
+}
+
+/// How a kernel's APIC inertia `D_p` is obtained.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ApicInertia {
+    /// Linear kernels: the particle stores `C_p` itself (their `D_p` vanishes on grid lines).
+    StoredC,
+    /// B-splines: `D_p = diag(dxx, dyy)`, the same for every particle.
+    Constant([f64; 2]),
+    /// GIMP: summed over the particle's column.
+    Column,
+}
+
+impl ApicInertia {
+    /// The inertia of `shape` on `grid` (`h²/4` quadratic, `h²/3` cubic B-splines).
+    pub fn of(shape: ShapeFunction, grid: &Grid) -> ApicInertia {
+        let [hx, hy] = grid.cell_size();
+        match shape {
+            ShapeFunction::Linear => ApicInertia::StoredC,
+            ShapeFunction::QuadraticBSpline => ApicInertia::Constant([hx * hx / 4.0, hy * hy / 4.0]),
+            ShapeFunction::CubicBSpline => ApicInertia::Constant([hx * hx / 3.0, hy * hy / 3.0]),
+            ShapeFunction::Gimp { .. } => ApicInertia::Column,
+        }
+    }
+}
+
+/// Whether [`p2g`] adds the internal force (USF adds it after its stress update instead).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stress {
+    /// `f` includes `f_int`.
+    Include,
+    /// `f` is the external force only.
+    Omit,
+}
+
+/// The APIC affine velocity matrix of one particle, `C_p`.
+#[derive(Clone, Copy)]
+struct Affine {
+    c: [f64; 4],
+}
+
+impl Affine {
+    /// `C_p (x_I − x_p)` at a node `(dx, dy) = x_I − x_p` away, weighted by `n`.
+    #[inline(always)]
+    fn velocity(&self, dx: f64, dy: f64, n: f64) -> [f64; 2] {
+        [
+            n * (self.c[0] * dx + self.c[1] * dy),
+            n * (self.c[2] * dx + self.c[3] * dy),
+        ]
+    }
+}
+
+/// Particle `k`'s APIC affine velocity matrix at its current position: `C_p = B_p D_p⁻¹` with
+/// `D_p = diag(Σ_I N_I dx², Σ_I N_I dy²)` (the off-diagonal part vanishes for tensor-product
+/// kernels). Linear kernels store `C_p = Σ_I w_I ∇N_Iᵀ` itself (`∇N_I = D_p⁻¹ N_I (x_I − x_p)` at
+/// the old position).
+#[inline(always)]
+fn apic_affine(p: &Particles, k: usize, ops: &Operators, kind: ApicInertia) -> Affine {
+    let b = [p.affine_xx[k], p.affine_xy[k], p.affine_yx[k], p.affine_yy[k]];
+    let at = [p.x[k], p.y[k]];
+    let [dxx, dyy] = match kind {
+        ApicInertia::StoredC => return Affine { c: b },
+        ApicInertia::Constant(d) => d,
+        ApicInertia::Column => crate::with_support!(ops, column_inertia::<S>(ops, k, at)),
+    };
+    Affine {
+        c: [b[0] / dxx, b[1] / dyy, b[2] / dxx, b[3] / dyy],
+    }
+}
+
+/// `D_p = diag(Σ_I N_I dx², Σ_I N_I dy²)` over particle `k`'s column (GIMP), `dx = x_I − x_p`.
+fn column_inertia<const S: usize>(ops: &Operators, k: usize, at: [f64; 2]) -> [f64; 2] {
+    let st = ops.stencil::<S>(k);
+    let offsets = st.offsets(at[0], at[1]);
+    let (mut dxx, mut dyy) = (0.0, 0.0);
+    for b in 0..S {
+        let (_, n) = st.n_row(b);
+        let (dxs, dys) = st.run_offsets(&offsets, b);
+        for a in 0..S {
+            let (dx, dy) = (dxs[a], dys[a]);
+            dxx += n[a] * dx * dx;
+            dyy += n[a] * dy * dy;
+        }
+    }
+    // D_p > 0 for GIMP: its weights always spread over more than one node.
+    [dxx, dyy]
+}

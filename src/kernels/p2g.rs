@@ -1,0 +1,222 @@
+//! (2)–(5) and MUSL's re-projection: the particle-to-grid passes, into interleaved per-node
+//! accumulators over bands of grid lines (one band per worker, see [`crate::parallel`]).
+
+use super::{apic_affine, ApicInertia, GridState, Stress};
+use crate::fields::VectorField;
+use crate::operators::Operators;
+use crate::parallel::Workers;
+use crate::particles::Particles;
+
+/// (2)–(5) in one pass over the shared pattern of N, Gx, Gy, into `lumped` (`m_L`),
+/// `grid.momentum`, `grid.force` and `grid.angular_momentum`:
+///
+/// ```text
+/// m_L = N m,   q = N (m ∘ v) [+ APIC: Σ_p N_Ip m_p C_p (x_I − x_p)],
+/// f = N (m ∘ b) + m_L g − [Gx (V∘σxx) + Gy (V∘σxy); Gx (V∘σxy) + Gy (V∘σyy)]   (Stress::Include)
+/// ```
+///
+/// # Panics
+/// If `lumped` or `grid` does not have one entry per node of the operators.
+#[allow(clippy::too_many_arguments)]
+pub fn p2g(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    gravity: [f64; 2],
+    stress: Stress,
+    lumped: &mut [f64],
+    grid: &mut GridState,
+    workers: &Workers,
+) {
+    let n = ops.num_nodes();
+    assert!(
+        lumped.len() == n && grid.momentum.len() == n,
+        "grid mass and state sized for the operators' nodes"
+    );
+    let span = ops.node_span();
+    // Zero what the last p2g left outside the new span.
+    let old = grid.span.clone();
+    let below = old.start..old.end.min(span.start);
+    let above = old.start.max(span.end)..old.end;
+    for range in [below, above].into_iter().filter(|r| r.start < r.end) {
+        lumped[range.clone()].fill(0.0);
+        for field in [&mut grid.momentum, &mut grid.force] {
+            field.x[range.clone()].fill(0.0);
+            field.y[range.clone()].fill(0.0);
+        }
+    }
+    let internal = if stress == Stress::Include { 1.0 } else { 0.0 };
+    let (acc, base) = scatter_bands(ops, &mut grid.accumulator, workers, |acc, base, lines| {
+        crate::with_support!(ops, p2g_columns::<S>(ops, p, apic, internal, acc, base, lines))
+    });
+    let [gx, gy] = gravity;
+    let mut angular = 0.0;
+    for i in span.clone() {
+        let r = acc[i - base];
+        lumped[i] = r[0];
+        grid.momentum.x[i] = r[1];
+        grid.momentum.y[i] = r[2];
+        grid.force.x[i] = r[3] + r[0] * gx;
+        grid.force.y[i] = r[4] + r[0] * gy;
+        angular += grid.node_x[i] * r[2] - grid.node_y[i] * r[1];
+    }
+    grid.angular_momentum = angular;
+    grid.span = span;
+}
+
+/// A deterministic scatter into the interleaved accumulator: zeroes it over the operators'
+/// whole lines ([`Operators::line_span`]), cuts it into one band of lines per worker and runs
+/// `fill(band, first node of the band, lines of the band)` on each (see [`crate::parallel`]).
+/// Returns the accumulator and the node number of its first entry.
+fn scatter_bands<'a>(
+    ops: &Operators,
+    acc: &'a mut Vec<[f64; 5]>,
+    workers: &Workers,
+    fill: impl Fn(&mut [[f64; 5]], usize, std::ops::Range<usize>) + Sync,
+) -> (&'a [[f64; 5]], usize) {
+    let (line_len, lines) = (ops.line_length(), ops.line_span());
+    acc.clear();
+    acc.resize(lines.len() * line_len, [0.0; 5]);
+    let per_band = lines.len().div_ceil(workers.threads()).max(1);
+    workers.chunks(acc, per_band * line_len, |t, band| {
+        let first = lines.start + t * per_band;
+        fill(band, first * line_len, first..(first + per_band).min(lines.end));
+    });
+    (acc, lines.start * line_len)
+}
+
+/// The particle loop of [`p2g`] for a support of `S` nodes per axis, into the interleaved
+/// accumulator of the nodes from `lo`.
+fn p2g_columns<const S: usize>(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    internal: f64,
+    acc: &mut [[f64; 5]],
+    base: usize,
+    lines: std::ops::Range<usize>,
+) {
+    for k in 0..p.len() {
+        let l0 = ops.first_line(k);
+        if l0 + S <= lines.start || l0 >= lines.end {
+            continue;
+        }
+        let m = p.mass[k];
+        let (mvx, mvy) = (m * p.vx[k], m * p.vy[k]);
+        let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
+        let v = internal * p.volume[k];
+        let (vsxx, vsyy, vsxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
+        let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
+        let st = ops.stencil::<S>(k);
+        let offsets = st.offsets(p.x[k], p.y[k]);
+        for b in 0..S {
+            if !lines.contains(&(l0 + b)) {
+                continue;
+            }
+            let (start, n, gx, gy) = st.row(b);
+            let (dx, dy) = st.run_offsets(&offsets, b);
+            let r = &mut acc[start - base..start - base + S];
+            for a in 0..S {
+                let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(dx[a], dy[a], n[a]));
+                let r = &mut r[a];
+                r[0] += n[a] * m;
+                r[1] += n[a] * mvx + m * ax;
+                r[2] += n[a] * mvy + m * ay;
+                r[3] += n[a] * mbx - (gx[a] * vsxx + gy[a] * vsxy);
+                r[4] += n[a] * mby - (gx[a] * vsxy + gy[a] * vsyy);
+            }
+        }
+    }
+}
+
+/// (5) added to `f`:
+///
+/// ```text
+/// f_x −= Gx (V∘σxx) + Gy (V∘σxy),   f_y −= Gx (V∘σxy) + Gy (V∘σyy)
+/// ```
+///
+/// # Panics
+/// If `f` does not have one entry per node.
+pub fn add_internal_force(ops: &Operators, volume: &[f64], sxx: &[f64], syy: &[f64], sxy: &[f64], f: &mut VectorField) {
+    let np = ops.num_particles();
+    for field in [volume, sxx, syy, sxy] {
+        assert_eq!(field.len(), np, "particle field length must equal the particle count");
+    }
+    assert_eq!(f.len(), ops.num_nodes(), "one force per node");
+    crate::with_support!(ops, internal_force_columns::<S>(ops, [volume, sxx, syy, sxy], f));
+}
+
+fn internal_force_columns<const S: usize>(ops: &Operators, [volume, sxx, syy, sxy]: [&[f64]; 4], f: &mut VectorField) {
+    for k in 0..ops.num_particles() {
+        let (txx, tyy, txy) = (volume[k] * sxx[k], volume[k] * syy[k], volume[k] * sxy[k]);
+        let st = ops.stencil::<S>(k);
+        for b in 0..S {
+            let (start, _, gx, gy) = st.row(b);
+            let (fx, fy) = (&mut f.x[start..start + S], &mut f.y[start..start + S]);
+            for a in 0..S {
+                fx[a] -= gx[a] * txx + gy[a] * txy;
+                fy[a] -= gx[a] * txy + gy[a] * tyy;
+            }
+        }
+    }
+}
+
+/// MUSL's re-projection of the updated particle velocities into `grid.momentum`, with the
+/// operators and positions of the start of the step:
+///
+/// ```text
+/// q' = N (m ∘ v_p) [+ APIC: Σ_p N_Ip m_p C_p (x_I − x_p)]
+/// ```
+pub fn reproject_momentum(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    grid: &mut GridState,
+    workers: &Workers,
+) {
+    let span = ops.node_span();
+    assert!(
+        span.end <= grid.momentum.len() && grid.span == span,
+        "reproject_momentum follows a p2g with the same operators"
+    );
+    let (acc, base) = scatter_bands(ops, &mut grid.accumulator, workers, |acc, base, lines| {
+        crate::with_support!(ops, reproject_columns::<S>(ops, p, apic, acc, base, lines))
+    });
+    for i in span {
+        grid.momentum.x[i] = acc[i - base][1];
+        grid.momentum.y[i] = acc[i - base][2];
+    }
+}
+
+fn reproject_columns<const S: usize>(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    acc: &mut [[f64; 5]],
+    base: usize,
+    lines: std::ops::Range<usize>,
+) {
+    for k in 0..p.len() {
+        let l0 = ops.first_line(k);
+        if l0 + S <= lines.start || l0 >= lines.end {
+            continue;
+        }
+        let m = p.mass[k];
+        let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
+        let st = ops.stencil::<S>(k);
+        let offsets = st.offsets(p.x[k], p.y[k]);
+        for b in 0..S {
+            if !lines.contains(&(l0 + b)) {
+                continue;
+            }
+            let (start, n) = st.n_row(b);
+            let (dx, dy) = st.run_offsets(&offsets, b);
+            let r = &mut acc[start - base..start - base + S];
+            for a in 0..S {
+                let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(dx[a], dy[a], n[a]));
+                r[a][1] += n[a] * m * p.vx[k] + m * ax;
+                r[a][2] += n[a] * m * p.vy[k] + m * ay;
+            }
+        }
+    }
+}

@@ -1,0 +1,193 @@
+//! The one constructor of a [`Simulation`]: [`Simulation::new`] (time 0) and a checkpoint's
+//! restore (a saved state) both go through [`Simulation::build`], which validates the parts,
+//! resolves the boundary conditions, starts the workers and assembles the operators.
+
+use super::stability::Speeds;
+use super::{Body, Cache, Options, Scratch, Setup, Simulation, State};
+use crate::boundary::{self, Prescribed};
+use crate::error::{MpmError, Result};
+use crate::fields::VectorField;
+use crate::grid::Grid;
+use crate::kernels::GridState;
+use crate::mass::GridMass;
+use crate::operators::Operators;
+use crate::parallel::Workers;
+use crate::particles::Particles;
+
+/// What a simulation continues from instead of time 0: a checkpoint's saved state.
+pub(super) struct Resume {
+    /// Each body's reference density (from the initial state, not recomputable).
+    pub(super) density: Vec<f64>,
+    /// Time, steps, failure, energies, speeds and stable-step estimate (particles aside).
+    pub(super) state: State,
+    /// `m_L` of the last step.
+    pub(super) lumped: Vec<f64>,
+    /// `w` of the last step.
+    pub(super) updated: VectorField,
+    /// The conjugate gradient's warm-start vectors.
+    pub(super) warm_start: [Vec<f64>; 4],
+}
+
+impl Simulation {
+    /// A simulation of `particles` (each with `particles.body[p]` an index into `bodies`) on
+    /// `grid` with `options`, at time 0.
+    ///
+    /// # Errors
+    /// The errors of [`Particles::validate`], [`Material::validate`](crate::material::Material::validate),
+    /// [`Options::validate`] and [`boundary::resolve`]; [`MpmError::InvalidParticleValue`] for a
+    /// particle naming a body that does not exist;
+    /// [`MpmError::ParticleOutsideGrid`] / [`MpmError::SupportOutsideGrid`] for particles
+    /// outside the region the shape function allows; [`MpmError::TimeStepAboveStable`] for a
+    /// fixed step above the stable step.
+    pub fn new(grid: Grid, particles: Particles, bodies: Vec<Body>, options: Options) -> Result<Simulation> {
+        let mut sim = Simulation::build(grid, particles, bodies, options, None)?;
+        sim.state.speeds = super::stability::measure_speeds(&sim.setup, &sim.state.particles);
+        // The stable step before the first step, so that a fixed step above it is refused now.
+        sim.prepare_grid()?;
+        super::stability::next_time_step(&sim.options, sim.state.steps, sim.stable_time_step())?;
+        Ok(sim)
+    }
+
+    /// The simulation of these parts, at time 0 or resuming a saved state.
+    ///
+    /// # Errors
+    /// As [`Simulation::new`] (the stable-step check aside), and
+    /// [`MpmError::InvalidParameter`] for a saved state whose node fields or densities do not
+    /// fit the grid and bodies.
+    pub(super) fn build(
+        grid: Grid,
+        particles: Particles,
+        bodies: Vec<Body>,
+        options: Options,
+        resume: Option<Resume>,
+    ) -> Result<Simulation> {
+        validate_parts(&particles, &bodies, &options)?;
+        let prescribed = boundary::resolve(&grid, options.shape, &options.boundaries)?;
+        let workers = Workers::new(options.threads)?;
+        let mut ops = Operators::default();
+        ops.reassemble_with(&grid, options.shape, &particles.x, &particles.y, &workers)?;
+        let mut nodes = GridState::new(&grid);
+        let mut mass = GridMass::default();
+        mass.lumped_mut().resize(grid.num_nodes(), 0.0);
+        let (density, state) = match resume {
+            None => (reference_densities(&particles, bodies.len()), State::start(particles)),
+            Some(saved) => {
+                check_saved(&saved, grid.num_nodes(), bodies.len())?;
+                mass.set_lumped(saved.lumped);
+                mass.set_warm_start(saved.warm_start);
+                nodes.updated = saved.updated;
+                (
+                    saved.density,
+                    State {
+                        particles,
+                        ..saved.state
+                    },
+                )
+            }
+        };
+        let setup = Setup {
+            materials: bodies.iter().map(|b| b.material.prepared()).collect(),
+            prescribed_velocity: prescribed_velocity_field(&prescribed),
+            grid,
+            bodies,
+            density,
+            prescribed,
+            workers,
+        };
+        Ok(Simulation {
+            scratch: Scratch::for_grid(&setup.grid),
+            setup,
+            options,
+            state,
+            cache: Cache { ops, mass, nodes },
+            profile: None,
+        })
+    }
+}
+
+impl State {
+    /// The state at time 0 of `particles`.
+    fn start(particles: Particles) -> State {
+        State {
+            particles,
+            time: 0.0,
+            steps: 0,
+            failed: None,
+            transfer_loss: 0.0,
+            strain_energy: 0.0,
+            speeds: Speeds::default(),
+            stability: None,
+        }
+    }
+}
+
+/// The checks of every part before anything is built from them.
+fn validate_parts(particles: &Particles, bodies: &[Body], options: &Options) -> Result<()> {
+    particles.validate()?;
+    options.validate()?;
+    for body in bodies {
+        body.material.validate()?;
+    }
+    if let Some(p) = (0..particles.len()).find(|&p| particles.body[p] >= bodies.len()) {
+        return Err(MpmError::InvalidParticleValue {
+            particle: p,
+            field: "body",
+            value: particles.body[p] as f64,
+            reason: "names a body that does not exist (the simulation's bodies are numbered from 0)",
+        });
+    }
+    Ok(())
+}
+
+/// A saved state's node fields and densities against the grid and the bodies.
+fn check_saved(saved: &Resume, num_nodes: usize, num_bodies: usize) -> Result<()> {
+    let fields = [
+        ("lumped mass", saved.lumped.len()),
+        ("grid velocity x", saved.updated.x.len()),
+        ("grid velocity y", saved.updated.y.len()),
+    ];
+    let warm = saved
+        .warm_start
+        .iter()
+        .map(|w| ("warm start", w.len()))
+        .filter(|&(_, len)| len != 0);
+    for (name, len) in fields.into_iter().chain(warm) {
+        if len != num_nodes {
+            return Err(MpmError::InvalidParameter {
+                name,
+                value: len as f64,
+                reason: "values for a grid of another node count",
+            });
+        }
+    }
+    if saved.density.len() != num_bodies {
+        return Err(MpmError::InvalidParameter {
+            name: "reference densities",
+            value: saved.density.len() as f64,
+            reason: "densities for another number of bodies",
+        });
+    }
+    Ok(())
+}
+
+/// Reference density of each body: the largest `m / V₀` among its particles
+/// (`V₀ = V / det F`).
+fn reference_densities(particles: &Particles, num_bodies: usize) -> Vec<f64> {
+    let p = particles;
+    let mut density = vec![0.0f64; num_bodies];
+    for k in 0..p.len() {
+        let j = p.fxx[k] * p.fyy[k] - p.fxy[k] * p.fyx[k];
+        let rho0 = p.mass[k] / (p.volume[k] / j);
+        density[p.body[k]] = density[p.body[k]].max(rho0);
+    }
+    density
+}
+
+/// The prescribed velocities as a grid field, 0 where free.
+fn prescribed_velocity_field(prescribed: &Prescribed) -> VectorField {
+    let zero_free = |v: &[f64]| v.iter().map(|v| if v.is_nan() { 0.0 } else { *v }).collect();
+    VectorField {
+        x: zero_free(&prescribed.vx),
+        y: zero_free(&prescribed.vy),
+    }
+}

@@ -1,0 +1,494 @@
+//! The step of the time loop, as the numbered lines of the [module docs](super): each phase
+//! takes what it reads by `&` and what it writes by `&mut`.
+
+use super::profile::{timed, Phase};
+use super::series::{series_of, SeriesTransfer};
+use super::{stability, Body, Cache, Options, Scratch, Setup, Simulation, State, StepReport, Transfer};
+use crate::boundary::Prescribed;
+use crate::error::{MpmError, Result};
+use crate::fields::{deformation_increment, VectorField};
+use crate::grid::Grid;
+use crate::kernels::{
+    self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, G2pRule, GridField, GridState, Stress,
+};
+use crate::mass::{GridMass, Role, SolveReport};
+use crate::material::Prepared;
+use crate::operators::Operators;
+use crate::particles::Particles;
+use crate::schemes::StressFrom;
+
+impl Simulation {
+    /// (1)–(5) and the grid mass for the current particle configuration (re-sorting the
+    /// particles first when due), and the stable-step estimate when due.
+    pub(super) fn prepare_grid(&mut self) -> Result<()> {
+        let Simulation {
+            setup,
+            options,
+            state,
+            cache,
+            scratch,
+            profile,
+        } = self;
+        let (grid, workers) = (&setup.grid, &setup.workers);
+        let interval = options.sort_interval;
+        if interval > 0 && state.steps.is_multiple_of(interval) {
+            timed(profile, Phase::Sort, || {
+                sort_particles(grid, &mut state.particles, &mut scratch.sorting)
+            });
+        }
+        let p = &state.particles;
+        timed(profile, Phase::Assemble, || {
+            cache.ops.reassemble_with(grid, options.shape, &p.x, &p.y, workers)
+        })?; // (1)
+        let stress = if options.update.schedule().stress_first {
+            Stress::Omit
+        } else {
+            Stress::Include
+        };
+        let apic = apic_inertia(options, grid);
+        let (ops, mass, nodes) = (&cache.ops, &mut cache.mass, &mut cache.nodes);
+        timed(profile, Phase::P2g, || {
+            kernels::p2g(ops, p, apic, options.gravity, stress, mass.lumped_mut(), nodes, workers)
+        }); // (2)–(5)
+        let constraints = &setup.prescribed.constraints;
+        timed(profile, Phase::Mass, || {
+            mass.prepare(ops, &p.mass, &options.mass, constraints)
+        })?;
+        if stability::estimate_due(options, state) {
+            let estimate = timed(profile, Phase::StableStep, || {
+                stability::estimate(setup, options, state, cache)
+            })?;
+            state.stability = Some(estimate);
+        }
+        Ok(())
+    }
+
+    /// One step no longer than `max_dt`: the lines of the [module docs](super) in order.
+    pub(super) fn phases(&mut self, max_dt: f64) -> Result<StepReport> {
+        self.prepare_grid()?; // (1)–(5), mass
+        let Simulation {
+            setup,
+            options,
+            state,
+            cache,
+            scratch,
+            profile,
+        } = self;
+        let schedule = options.update.schedule();
+        let series = SeriesTransfer::of(options.transfer);
+        let stable = timed(profile, Phase::StableStep, || {
+            stability::stable_time_step(&setup.grid, state)
+        });
+        let dt = stability::next_time_step(options, state.steps, stable)?.min(max_dt);
+        let Cache { ops, mass, nodes } = cache;
+        let (prescribed, workers) = (&setup.prescribed, &setup.workers);
+        let velocity_solve = timed(profile, Phase::Project, || {
+            project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)
+        })?; // (6)
+        if schedule.stress_first {
+            timed(profile, Phase::StressFirst, || {
+                let m = &state.particles.mass;
+                stress_gradient(setup, ops, mass, m, series, GridField::Projected, nodes, scratch);
+                update_stress(
+                    setup,
+                    state,
+                    &scratch.particle.velocity_gradient,
+                    dt,
+                    &mut scratch.stress_blocks,
+                )?;
+                let p = &state.particles;
+                kernels::add_internal_force(ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut nodes.force);
+                Ok::<_, MpmError>(())
+            })?; // USF: (11)–(13), (5)
+        }
+        let acceleration_solve = timed(profile, Phase::Accelerate, || {
+            solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)
+        })?; // (7)
+        timed(profile, Phase::GridVelocity, || {
+            update_grid_velocity(
+                prescribed,
+                mass.is_active(),
+                &nodes.projected,
+                &nodes.acceleration,
+                dt,
+                &mut nodes.updated,
+            )
+        }); // (8)
+        timed(profile, Phase::Extend, || {
+            extend(
+                ops,
+                prescribed,
+                mass.is_active(),
+                &mut nodes.updated,
+                &mut scratch.extension,
+            )
+        }); // (8b)
+        if let Some(series) = series {
+            timed(profile, Phase::Series, || {
+                let p = &state.particles;
+                series.particle_velocity(
+                    ops,
+                    &p.mass,
+                    mass,
+                    prescribed,
+                    &nodes.projected,
+                    &nodes.updated,
+                    &mut nodes.series,
+                    &mut scratch.series,
+                );
+                extend(
+                    ops,
+                    prescribed,
+                    mass.is_active(),
+                    &mut nodes.series,
+                    &mut scratch.extension,
+                );
+            }); // XPIC, FMPM
+        }
+        let rule = G2pRule {
+            transfer: options.transfer,
+            position: options.position_update,
+            inertia: ApicInertia::of(options.shape, &setup.grid),
+            gradient: (schedule.stress_last == Some(StressFrom::Updated))
+                .then(|| SeriesTransfer::stress_field(series, GridField::Updated)),
+        };
+        timed(profile, Phase::G2p, || {
+            kernels::g2p(
+                ops,
+                nodes,
+                &rule,
+                dt,
+                &mut state.particles,
+                &mut scratch.particle,
+                workers,
+            )
+        }); // (9)–(11)
+        match schedule.stress_last {
+            Some(StressFrom::Updated) => timed(profile, Phase::Stress, || {
+                update_stress(
+                    setup,
+                    state,
+                    &scratch.particle.velocity_gradient,
+                    dt,
+                    &mut scratch.stress_blocks,
+                )
+            })?, // (12)–(13)
+            Some(StressFrom::Reprojected) => timed(profile, Phase::Stress, || {
+                let apic = apic_inertia(options, &setup.grid);
+                kernels::reproject_momentum(ops, &state.particles, apic, nodes, workers); // (11)
+                project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?;
+                let m = &state.particles.mass;
+                stress_gradient(setup, ops, mass, m, series, GridField::Projected, nodes, scratch);
+                update_stress(
+                    setup,
+                    state,
+                    &scratch.particle.velocity_gradient,
+                    dt,
+                    &mut scratch.stress_blocks,
+                )
+            })?, // (11)–(13)
+            None => {}
+        }
+        timed(profile, Phase::Move, || {
+            move_particles(&scratch.particle.displacement, &mut state.particles)
+        }); // (9)
+        state.time += dt;
+        state.steps += 1;
+        let mut report = timed(profile, Phase::Report, || {
+            let solves = [velocity_solve, acceleration_solve];
+            super::report::report(setup, options, state, mass, nodes, scratch, dt, stable, solves)
+        })?;
+        state.speeds.particle = report.max_speed;
+        let k = &scratch.particle.kinetic;
+        state.transfer_loss += k.before + (k.updated - k.projected) - report.kinetic_energy;
+        report.transfer_loss = state.transfer_loss;
+        if let Some(p) = profile {
+            p.count_step();
+        }
+        Ok(report)
+    }
+}
+
+/// The APIC inertia of the shape functions, when the transfer is APIC.
+fn apic_inertia(options: &Options, grid: &Grid) -> Option<ApicInertia> {
+    (options.transfer == Transfer::Apic).then(|| ApicInertia::of(options.shape, grid))
+}
+
+/// (6) `v = Π M_v⁻¹ q`.
+fn project_velocity(
+    setup: &Setup,
+    ops: &Operators,
+    mass: &GridMass,
+    q: &VectorField,
+    v: &mut VectorField,
+) -> Result<SolveReport> {
+    let report = mass.solve_into(Role::Velocity, q, Some(&setup.prescribed_velocity), ops, v)?;
+    setup.prescribed.apply_velocity(&mut v.x, &mut v.y);
+    Ok(report)
+}
+
+/// (7) `a = Π₀ M_a⁻¹ f`.
+fn solve_acceleration(
+    prescribed: &Prescribed,
+    ops: &Operators,
+    mass: &GridMass,
+    f: &VectorField,
+    a: &mut VectorField,
+) -> Result<SolveReport> {
+    let report = mass.solve_into(Role::Acceleration, f, None, ops, a)?;
+    prescribed.zero(&mut a.x, &mut a.y);
+    Ok(report)
+}
+
+/// (8) `w = Π (v + Δt a)` on active nodes, 0 elsewhere.
+fn update_grid_velocity(
+    prescribed: &Prescribed,
+    is_active: &[bool],
+    v: &VectorField,
+    a: &VectorField,
+    dt: f64,
+    w: &mut VectorField,
+) {
+    for i in 0..is_active.len() {
+        let s = if is_active[i] { 1.0 } else { 0.0 };
+        w.x[i] = s * (v.x[i] + dt * a.x[i]);
+        w.y[i] = s * (v.y[i] + dt * a.y[i]);
+    }
+    prescribed.apply_velocity(&mut w.x, &mut w.y);
+}
+
+/// (8b) in the grid velocity `u`; prescribed components keep their values.
+fn extend(
+    ops: &Operators,
+    prescribed: &Prescribed,
+    is_active: &[bool],
+    u: &mut VectorField,
+    scratch: &mut ExtensionScratch,
+) {
+    if extend_to_inactive_nodes(ops, is_active, u, scratch) {
+        prescribed.apply_velocity(&mut u.x, &mut u.y);
+    }
+}
+
+/// (11) `L = [Gxᵀ u, Gyᵀ u]` into the particle scratch, for the grid velocity the stress update
+/// reads when the update scheme gives it `field`: `field` itself, or under FMPM(k) its series
+/// (into the series field); extended to the massless support nodes first (8b). Returns the
+/// field read.
+#[allow(clippy::too_many_arguments)]
+fn stress_gradient(
+    setup: &Setup,
+    ops: &Operators,
+    mass: &GridMass,
+    m: &[f64],
+    series: Option<SeriesTransfer>,
+    field: GridField,
+    nodes: &mut GridState,
+    scratch: &mut Scratch,
+) -> GridField {
+    let prescribed = &setup.prescribed;
+    let read = SeriesTransfer::stress_field(series, field);
+    if let Some(k) = series.and_then(SeriesTransfer::stress_terms) {
+        let (u, out) = nodes.source_and_series(field);
+        series_of(ops, m, mass, prescribed, k, u, out, &mut scratch.series);
+    }
+    extend(
+        ops,
+        prescribed,
+        mass.is_active(),
+        nodes.field_mut(read),
+        &mut scratch.extension,
+    );
+    kernels::velocity_gradient_into(
+        ops,
+        nodes.field(read),
+        &mut scratch.particle.velocity_gradient,
+        &setup.workers,
+    );
+    read
+}
+
+/// (9) `x_p ← x_p + Δx_p` with the increments of the grid-to-particle pass.
+fn move_particles(d: &VectorField, p: &mut Particles) {
+    for k in 0..p.len() {
+        p.x[k] += d.x[k];
+        p.y[k] += d.y[k];
+    }
+}
+
+/// What one block of particles of the stress update returns: its strain energy, the largest
+/// `C11 V / m`, and the first inverted particle (index, `det(I + Δt L)`, `det F`).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct StressBlock {
+    energy: f64,
+    wave_squared: f64,
+    inverted: Option<(usize, f64, f64)>,
+}
+
+/// (12) `F ← (I + Δt L) F`, `σ ← material(σ, L, F)`; (13) `V ← V det(I + Δt L)`, with the
+/// velocity gradient `l`; the strain energy and the wave speed into `state`.
+fn update_stress(
+    setup: &Setup,
+    state: &mut State,
+    l: &[Vec<f64>; 4],
+    dt: f64,
+    blocks: &mut Vec<StressBlock>,
+) -> Result<()> {
+    let p = &mut state.particles;
+    let (materials, body, mass) = (&setup.materials[..], &p.body[..], &p.mass[..]);
+    let out = StressOutput {
+        f: [&mut p.fxx[..], &mut p.fxy[..], &mut p.fyx[..], &mut p.fyy[..]],
+        sigma: [&mut p.sxx[..], &mut p.syy[..], &mut p.sxy[..]],
+        volume: &mut p.volume[..],
+    };
+    setup.workers.split_blocks(out, blocks, |first, out| {
+        stress_block(materials, body, mass, l, dt, first, out)
+    });
+    let mut energy = 0.0;
+    // max √x = √(max x): one square root instead of one per particle.
+    let mut wave_squared = 0.0f64;
+    let mut inverted = None;
+    for b in blocks.iter() {
+        energy += b.energy;
+        wave_squared = wave_squared.max(b.wave_squared);
+        inverted = inverted.or(b.inverted);
+    }
+    if let Some((k, det_increment, det_f)) = inverted {
+        return Err(inversion(&setup.bodies, state, k, det_increment, det_f));
+    }
+    state.strain_energy = energy;
+    state.speeds.wave = stability::wave_speed(wave_squared, 1.0, 1.0);
+    Ok(())
+}
+
+/// The error of particle `k` inverted at this step.
+fn inversion(bodies: &[Body], state: &State, k: usize, det_increment: f64, det_f: f64) -> MpmError {
+    let p = &state.particles;
+    MpmError::InvertedParticle {
+        step: state.steps,
+        particle: k,
+        id: p.id[k],
+        body: bodies[p.body[k]].name.clone(),
+        det_increment,
+        det_f,
+    }
+}
+
+/// What the stress update writes, per particle: `F`, `σ`, `V`.
+struct StressOutput<'a> {
+    f: [&'a mut [f64]; 4],
+    sigma: [&'a mut [f64]; 3],
+    volume: &'a mut [f64],
+}
+
+impl crate::parallel::Splittable for StressOutput<'_> {
+    fn len(&self) -> usize {
+        self.volume.len()
+    }
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        use crate::parallel::Splittable as S;
+        let (f0, f1) = S::split_at(self.f, mid);
+        let (s0, s1) = S::split_at(self.sigma, mid);
+        let (v0, v1) = S::split_at(self.volume, mid);
+        (
+            StressOutput {
+                f: f0,
+                sigma: s0,
+                volume: v0,
+            },
+            StressOutput {
+                f: f1,
+                sigma: s1,
+                volume: v1,
+            },
+        )
+    }
+}
+
+/// The stress update of the particles from `first` (a block).
+fn stress_block(
+    materials: &[Prepared],
+    body: &[usize],
+    mass: &[f64],
+    l: &[Vec<f64>; 4],
+    dt: f64,
+    first: usize,
+    out: StressOutput,
+) -> StressBlock {
+    let StressOutput {
+        f: [fxx, fxy, fyx, fyy],
+        sigma: [sxx, syy, sxy],
+        volume: volumes,
+    } = out;
+    let mut block = StressBlock::default();
+    for j in 0..fxx.len() {
+        let k = first + j;
+        let l = [l[0][k], l[1][k], l[2][k], l[3][k]];
+        let (g, j_inc) = deformation_increment(l, dt);
+        let f = [
+            g[0] * fxx[j] + g[1] * fyx[j],
+            g[0] * fxy[j] + g[1] * fyy[j],
+            g[2] * fxx[j] + g[3] * fyx[j],
+            g[2] * fxy[j] + g[3] * fyy[j],
+        ];
+        let det_f = f[0] * f[3] - f[1] * f[2];
+        if !(j_inc > 0.0 && det_f > 0.0 && det_f.is_finite()) {
+            block.inverted = Some((k, j_inc, det_f));
+            return block;
+        }
+        let volume = volumes[j] * j_inc;
+        let (s, e, c11) = materials[body[k]].update_with_modulus([sxx[j], syy[j], sxy[j]], l, f, dt, volume);
+        block.energy += e;
+        block.wave_squared = block.wave_squared.max(c11 * volume / mass[k]);
+        [fxx[j], fxy[j], fyx[j], fyy[j]] = f;
+        volumes[j] = volume;
+        [sxx[j], syy[j], sxy[j]] = s;
+    }
+    block
+}
+
+/// The counting sort's arrays.
+#[derive(Debug, Default)]
+pub(super) struct Sorting {
+    keys: Vec<usize>,
+    counts: Vec<usize>,
+    order: Vec<usize>,
+    values: Vec<f64>,
+    indices: Vec<usize>,
+}
+
+impl Sorting {
+    /// Arrays sized for the cells of `grid`.
+    pub(super) fn for_grid(grid: &Grid) -> Sorting {
+        let [cx, cy] = grid.cells();
+        Sorting {
+            counts: vec![0; cx * cy + 1],
+            ..Sorting::default()
+        }
+    }
+}
+
+/// Counting sort of the particles by cell index (row-major), allocation-free.
+fn sort_particles(grid: &Grid, p: &mut Particles, s: &mut Sorting) {
+    let np = p.len();
+    let [cx, cy] = grid.cells();
+    s.keys.resize(np, 0);
+    s.order.resize(np, 0);
+    s.counts.iter_mut().for_each(|c| *c = 0);
+    for k in 0..np {
+        let key = grid.cell_of(p.x[k], p.y[k]).map_or(cx * cy, |(i, j)| j * cx + i);
+        s.keys[k] = key.min(cx * cy);
+        s.counts[s.keys[k]] += 1;
+    }
+    let mut start = 0;
+    for c in s.counts.iter_mut() {
+        let n = *c;
+        *c = start;
+        start += n;
+    }
+    for k in 0..np {
+        let key = s.keys[k];
+        s.order[s.counts[key]] = k;
+        s.counts[key] += 1;
+    }
+    p.permute(&s.order, &mut s.values, &mut s.indices);
+}
