@@ -5,9 +5,12 @@
 //! - [`NeoHookean`]: compressible neo-Hookean hyperelasticity from the deformation gradient,
 //!   plane strain (`F_zz = 1`).
 //!
-//! [`Material`] is the choice between them that a simulation body carries: it updates the
-//! stress of a particle from its velocity gradient and deformation gradient, gives the strain
-//! energy and the wave speed that limits the time step.
+//! [`Material`] is the choice between them that a simulation body carries: it gives the
+//! tangent, the strain energy and the wave speed that limits the time step; the time loop
+//! updates the stress of a particle from its velocity gradient and deformation gradient.
+//!
+//! Each model's stress, strain energy density and tangent are written once, in one private
+//! evaluation that the public accessors and the time loop's per-particle update share.
 
 use serde::{Deserialize, Serialize};
 
@@ -110,12 +113,7 @@ impl LinearElastic {
     /// Δσxx = C11 Δεxx + C12 Δεyy,   Δσyy = C12 Δεxx + C11 Δεyy,   Δσxy = 2 G Δεxy
     /// ```
     pub fn stress_increment(&self, dexx: f64, deyy: f64, dexy: f64) -> [f64; 3] {
-        let (c11, c12) = self.normal_stiffness();
-        [
-            c11 * dexx + c12 * deyy,
-            c12 * dexx + c11 * deyy,
-            2.0 * self.shear_modulus() * dexy,
-        ]
+        self.hooke().increment([dexx, deyy, dexy])
     }
 
     /// Rate-form stress update of every particle (seed 4(F), dimensionally consistent form):
@@ -124,6 +122,8 @@ impl LinearElastic {
     /// σ_p ← σ_p + C : (ε̇_p Δt)
     /// ```
     ///
+    /// (the per-particle arithmetic of the time loop's linear elastic update).
+    ///
     /// # Panics
     /// On length mismatch.
     pub fn update_stress(&self, sxx: &mut [f64], syy: &mut [f64], sxy: &mut [f64], rate: &StrainRate, dt: f64) {
@@ -131,27 +131,76 @@ impl LinearElastic {
             sxx.len() == rate.xx.len() && syy.len() == rate.yy.len() && sxy.len() == rate.xy.len(),
             "one stress and one strain rate per particle"
         );
+        let hooke = self.hooke();
         for p in 0..sxx.len() {
-            let [dxx, dyy, dxy] = self.stress_increment(rate.xx[p] * dt, rate.yy[p] * dt, rate.xy[p] * dt);
-            sxx[p] += dxx;
-            syy[p] += dyy;
-            sxy[p] += dxy;
+            let strain = [rate.xx[p] * dt, rate.yy[p] * dt, rate.xy[p] * dt];
+            [sxx[p], syy[p], sxy[p]] = hooke.updated([sxx[p], syy[p], sxy[p]], strain);
         }
     }
-}
 
-impl LinearElastic {
     /// Strain energy per unit volume from the stress, `W = ½ σ : ε` with `ε = C⁻¹ σ`:
     ///
     /// ```text
     /// W = ½ (σxx εxx + σyy εyy) + σxy² / (2 G),   (εxx, εyy) = [[C11, C12], [C12, C11]]⁻¹ (σxx, σyy)
     /// ```
     pub fn strain_energy_density(&self, sxx: f64, syy: f64, sxy: f64) -> f64 {
+        self.hooke().energy_density([sxx, syy, sxy])
+    }
+
+    /// The constants `C11`, `C12`, `G` of [`LinearElastic::normal_stiffness`] and
+    /// [`LinearElastic::shear_modulus`].
+    fn hooke(&self) -> Hooke {
         let (c11, c12) = self.normal_stiffness();
+        Hooke {
+            c11,
+            c12,
+            shear: self.shear_modulus(),
+        }
+    }
+}
+
+/// Linear elasticity with its constants computed: the one place where the stress increment
+/// and the strain energy density of [`LinearElastic`] are written (its tangent is the
+/// constants themselves).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Hooke {
+    /// `C11` of [`LinearElastic::normal_stiffness`].
+    c11: f64,
+    /// `C12` of [`LinearElastic::normal_stiffness`].
+    c12: f64,
+    /// The shear modulus `G`.
+    shear: f64,
+}
+
+impl Hooke {
+    /// `Δσ = C : Δε` for `Δε = (Δεxx, Δεyy, Δεxy)` (tensor shear).
+    #[inline(always)]
+    fn increment(&self, [dexx, deyy, dexy]: [f64; 3]) -> [f64; 3] {
+        let Hooke { c11, c12, shear } = *self;
+        [c11 * dexx + c12 * deyy, c12 * dexx + c11 * deyy, 2.0 * shear * dexy]
+    }
+
+    /// `σ + C : Δε`.
+    #[inline(always)]
+    fn updated(&self, sigma: [f64; 3], strain: [f64; 3]) -> [f64; 3] {
+        let d = self.increment(strain);
+        [sigma[0] + d[0], sigma[1] + d[1], sigma[2] + d[2]]
+    }
+
+    /// `W = ½ σ : C⁻¹ σ`.
+    #[inline(always)]
+    fn energy_density(&self, s: [f64; 3]) -> f64 {
+        let Hooke { c11, c12, shear } = *self;
         let det = c11 * c11 - c12 * c12;
-        let exx = (c11 * sxx - c12 * syy) / det;
-        let eyy = (c11 * syy - c12 * sxx) / det;
-        0.5 * (sxx * exx + syy * eyy) + sxy * sxy / (2.0 * self.shear_modulus())
+        let exx = (c11 * s[0] - c12 * s[1]) / det;
+        let eyy = (c11 * s[1] - c12 * s[0]) / det;
+        0.5 * (s[0] * exx + s[1] * eyy) + s[2] * s[2] / (2.0 * shear)
+    }
+
+    /// The tangent `[C11, C12, G]`.
+    #[inline(always)]
+    fn tangent(&self) -> [f64; 3] {
+        [self.c11, self.c12, self.shear]
     }
 }
 
@@ -174,31 +223,71 @@ pub struct NeoHookean {
 }
 
 impl NeoHookean {
-    /// Lamé constants `(μ, λ)`.
+    /// Lamé constants `(μ, λ)`:
+    ///
+    /// ```text
+    /// μ = E / (2(1 + ν)),   λ = E ν / ((1 + ν)(1 − 2ν))
+    /// ```
     pub fn lame(&self) -> (f64, f64) {
         let (e, nu) = (self.youngs_modulus, self.poisson_ratio);
         (e / (2.0 * (1.0 + nu)), e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)))
     }
 
-    /// Cauchy stress `(σxx, σyy, σxy)` for the deformation gradient `F = [[fxx, fxy], [fyx, fyy]]`
-    /// (equation in the type's docs). `J ≤ 0` gives non-finite values; the simulation checks
-    /// `J` first.
+    /// Cauchy stress `(σxx, σyy, σxy)` for the deformation gradient `F = [[fxx, fxy], [fyx, fyy]]`:
+    ///
+    /// ```text
+    /// σ = (μ / J) (F Fᵀ − I) + (λ ln J / J) I,   J = det F
+    /// ```
+    ///
+    /// `J ≤ 0` gives non-finite values; the simulation checks `J` first.
     pub fn stress(&self, f: [f64; 4]) -> [f64; 3] {
-        let (mu, lambda) = self.lame();
-        let [fxx, fxy, fyx, fyy] = f;
-        let j = fxx * fyy - fxy * fyx;
-        let (a, b) = (mu / j, lambda * j.ln() / j);
-        [
-            a * (fxx * fxx + fxy * fxy - 1.0) + b,
-            a * (fyx * fyx + fyy * fyy - 1.0) + b,
-            a * (fxx * fyx + fxy * fyy),
-        ]
+        self.constants().at(f).stress
     }
 
-    /// [`NeoHookean::stress`] and [`NeoHookean::strain_energy_density`] together, sharing
-    /// `ln J`.
-    pub fn stress_and_energy_density(&self, f: [f64; 4]) -> ([f64; 3], f64) {
+    /// Strain energy per unit reference volume:
+    ///
+    /// ```text
+    /// W(F) = μ/2 (tr(Fᵀ F) − 2) − μ ln J + λ/2 (ln J)²,   J = det F
+    /// ```
+    pub fn strain_energy_density(&self, f: [f64; 4]) -> f64 {
+        self.constants().at(f).energy_density
+    }
+
+    /// The Lamé constants of [`NeoHookean::lame`].
+    fn constants(&self) -> Lame {
         let (mu, lambda) = self.lame();
+        Lame { mu, lambda }
+    }
+}
+
+/// Neo-Hookean hyperelasticity with its Lamé constants computed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Lame {
+    /// `μ`.
+    mu: f64,
+    /// `λ`.
+    lambda: f64,
+}
+
+/// What the neo-Hookean model gives at one deformation gradient.
+#[derive(Debug, Clone, Copy)]
+struct NeoHookeanState {
+    /// `J = det F`.
+    j: f64,
+    /// The Cauchy stress `(σxx, σyy, σxy)`.
+    stress: [f64; 3],
+    /// `W(F)` per unit reference volume.
+    energy_density: f64,
+    /// The spatial tangent `[C11, C12, G]` (see [`Material::tangent`]).
+    tangent: [f64; 3],
+}
+
+impl Lame {
+    /// The one place where the neo-Hookean `σ(F)`, `W(F)` and tangent are written, sharing
+    /// `J`, `ln J` and `F Fᵀ` (equations in [`NeoHookean`] and [`Material::tangent`]).
+    #[inline(always)]
+    fn at(&self, f: [f64; 4]) -> NeoHookeanState {
+        let Lame { mu, lambda } = *self;
         let [fxx, fxy, fyx, fyy] = f;
         let j = fxx * fyy - fxy * fyx;
         let ln_j = j.ln();
@@ -208,33 +297,39 @@ impl NeoHookean {
             a * (fyx * fyx + fyy * fyy - 1.0) + b,
             a * (fxx * fyx + fxy * fyy),
         ];
-        let energy =
+        let energy_density =
             0.5 * mu * (fxx * fxx + fxy * fxy + fyx * fyx + fyy * fyy - 2.0) - mu * ln_j + 0.5 * lambda * ln_j * ln_j;
-        (stress, energy)
-    }
-
-    /// Strain energy per unit reference volume `W(F)` (equation in the type's docs).
-    pub fn strain_energy_density(&self, f: [f64; 4]) -> f64 {
-        let (mu, lambda) = self.lame();
-        let [fxx, fxy, fyx, fyy] = f;
-        let ln_j = (fxx * fyy - fxy * fyx).ln();
-        0.5 * mu * (fxx * fxx + fxy * fxy + fyx * fyx + fyy * fyy - 2.0) - mu * ln_j + 0.5 * lambda * ln_j * ln_j
+        let mu_j = mu - lambda * ln_j;
+        NeoHookeanState {
+            j,
+            stress,
+            energy_density,
+            tangent: [(lambda + 2.0 * mu_j) / j, lambda / j, mu_j / j],
+        }
     }
 }
 
 /// A material's constants (stiffness, Lamé parameters) computed once, for the per-particle
-/// update of the time loop: the same arithmetic as [`Material::update`] and
-/// [`Material::tangent`], without recomputing the constants for every particle.
+/// update of the time loop.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Prepared {
     /// Linear elasticity: `C11`, `C12` and the shear modulus.
-    Linear { c11: f64, c12: f64, shear: f64 },
+    Linear(Hooke),
     /// Neo-Hookean: the Lamé parameters.
-    NeoHookean { mu: f64, lambda: f64 },
+    NeoHookean(Lame),
 }
 
 impl Prepared {
-    /// `(σ, strain energy, C11)` after the update ([`Material::update_with_modulus`]).
+    /// The stress update of one particle after a step of length `dt` with velocity gradient
+    /// `L = [[lxx, lxy], [lyx, lyy]]`, given its stress before, its updated deformation gradient
+    /// `F` and its current volume `V`: `(σ, strain energy, C11)` with
+    ///
+    /// ```text
+    /// linear elastic:  σ ← σ + C : (sym L Δt),   energy V · ½ σ : C⁻¹ σ,   C11 of the material
+    /// neo-Hookean:     σ = σ(F),                 energy V₀ W(F), V₀ = V / det F,   C11 at F
+    /// ```
+    ///
+    /// (`C11` as in [`Material::tangent`]).
     #[inline(always)]
     pub(crate) fn update_with_modulus(
         &self,
@@ -245,30 +340,13 @@ impl Prepared {
         volume: f64,
     ) -> ([f64; 3], f64, f64) {
         match *self {
-            Prepared::Linear { c11, c12, shear } => {
-                let (dexx, deyy, dexy) = (l[0] * dt, l[3] * dt, 0.5 * (l[1] + l[2]) * dt);
-                let d = [c11 * dexx + c12 * deyy, c12 * dexx + c11 * deyy, 2.0 * shear * dexy];
-                let s = [sigma[0] + d[0], sigma[1] + d[1], sigma[2] + d[2]];
-                let det = c11 * c11 - c12 * c12;
-                let exx = (c11 * s[0] - c12 * s[1]) / det;
-                let eyy = (c11 * s[1] - c12 * s[0]) / det;
-                let w = 0.5 * (s[0] * exx + s[1] * eyy) + s[2] * s[2] / (2.0 * shear);
-                (s, volume * w, c11)
+            Prepared::Linear(hooke) => {
+                let s = hooke.updated(sigma, [l[0] * dt, l[3] * dt, 0.5 * (l[1] + l[2]) * dt]);
+                (s, volume * hooke.energy_density(s), hooke.c11)
             }
-            Prepared::NeoHookean { mu, lambda } => {
-                let [fxx, fxy, fyx, fyy] = f;
-                let j = fxx * fyy - fxy * fyx;
-                let ln_j = j.ln();
-                let (a, b) = (mu / j, lambda * ln_j / j);
-                let stress = [
-                    a * (fxx * fxx + fxy * fxy - 1.0) + b,
-                    a * (fyx * fyx + fyy * fyy - 1.0) + b,
-                    a * (fxx * fyx + fxy * fyy),
-                ];
-                let w = 0.5 * mu * (fxx * fxx + fxy * fxy + fyx * fyx + fyy * fyy - 2.0) - mu * ln_j
-                    + 0.5 * lambda * ln_j * ln_j;
-                let mu_j = mu - lambda * ln_j;
-                (stress, volume / j * w, (lambda + 2.0 * mu_j) / j)
+            Prepared::NeoHookean(lame) => {
+                let at = lame.at(f);
+                (at.stress, volume / at.j * at.energy_density, at.tangent[0])
             }
         }
     }
@@ -324,82 +402,17 @@ impl Material {
     /// (the neo-Hookean one without the initial-stress term). It sets the stiffness of the
     /// stable-time-step estimate.
     pub fn tangent(&self, f: [f64; 4]) -> [f64; 3] {
-        match self {
-            Material::LinearElastic(m) => {
-                let (c11, c12) = m.normal_stiffness();
-                [c11, c12, m.shear_modulus()]
-            }
-            Material::NeoHookean(m) => {
-                let (mu, lambda) = m.lame();
-                let j = f[0] * f[3] - f[1] * f[2];
-                let mu_j = mu - lambda * j.ln();
-                [(lambda + 2.0 * mu_j) / j, lambda / j, mu_j / j]
-            }
+        match self.prepared() {
+            Prepared::Linear(hooke) => hooke.tangent(),
+            Prepared::NeoHookean(lame) => lame.at(f).tangent,
         }
-    }
-
-    /// New stress of one particle after a step of length `dt` with velocity gradient
-    /// `L = [[lxx, lxy], [lyx, lyy]]`, given its stress before and its updated deformation
-    /// gradient `F`:
-    ///
-    /// ```text
-    /// linear elastic:  σ ← σ + C : (sym L Δt)
-    /// neo-Hookean:     σ = σ(F)
-    /// ```
-    pub fn updated_stress(&self, sigma: [f64; 3], l: [f64; 4], f: [f64; 4], dt: f64) -> [f64; 3] {
-        match self {
-            Material::LinearElastic(m) => {
-                let d = m.stress_increment(l[0] * dt, l[3] * dt, 0.5 * (l[1] + l[2]) * dt);
-                [sigma[0] + d[0], sigma[1] + d[1], sigma[2] + d[2]]
-            }
-            Material::NeoHookean(m) => m.stress(f),
-        }
-    }
-
-    /// [`Material::updated_stress`] and the particle's strain energy after the update
-    /// ([`Material::strain_energy`] with the new stress and `F`, current volume `volume`), in one
-    /// evaluation.
-    pub fn update(&self, sigma: [f64; 3], l: [f64; 4], f: [f64; 4], dt: f64, volume: f64) -> ([f64; 3], f64) {
-        match self {
-            Material::LinearElastic(m) => {
-                let s = self.updated_stress(sigma, l, f, dt);
-                (s, volume * m.strain_energy_density(s[0], s[1], s[2]))
-            }
-            Material::NeoHookean(m) => {
-                let (s, w) = m.stress_and_energy_density(f);
-                (s, volume / (f[0] * f[3] - f[1] * f[2]) * w)
-            }
-        }
-    }
-
-    /// [`Material::update`] and the tangent's `C11` at the updated `F` ([`Material::tangent`]),
-    /// sharing `ln J`: `(σ, strain energy, C11)`.
-    pub fn update_with_modulus(
-        &self,
-        sigma: [f64; 3],
-        l: [f64; 4],
-        f: [f64; 4],
-        dt: f64,
-        volume: f64,
-    ) -> ([f64; 3], f64, f64) {
-        self.prepared().update_with_modulus(sigma, l, f, dt, volume)
     }
 
     /// The material's constants, computed once for a loop over many particles.
     pub(crate) fn prepared(&self) -> Prepared {
         match self {
-            Material::LinearElastic(m) => {
-                let (c11, c12) = m.normal_stiffness();
-                Prepared::Linear {
-                    c11,
-                    c12,
-                    shear: m.shear_modulus(),
-                }
-            }
-            Material::NeoHookean(m) => {
-                let (mu, lambda) = m.lame();
-                Prepared::NeoHookean { mu, lambda }
-            }
+            Material::LinearElastic(m) => Prepared::Linear(m.hooke()),
+            Material::NeoHookean(m) => Prepared::NeoHookean(m.constants()),
         }
     }
 
@@ -411,9 +424,43 @@ impl Material {
     /// neo-Hookean:     V₀ W(F),  V₀ = V / det F
     /// ```
     pub fn strain_energy(&self, volume: f64, sigma: [f64; 3], f: [f64; 4]) -> f64 {
-        match self {
-            Material::LinearElastic(m) => volume * m.strain_energy_density(sigma[0], sigma[1], sigma[2]),
-            Material::NeoHookean(m) => volume / (f[0] * f[3] - f[1] * f[2]) * m.strain_energy_density(f),
+        match self.prepared() {
+            Prepared::Linear(hooke) => volume * hooke.energy_density(sigma),
+            Prepared::NeoHookean(lame) => {
+                let at = lame.at(f);
+                volume / at.j * at.energy_density
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The time loop's per-particle update gives, to the bit, what the public accessors give.
+    #[test]
+    fn the_time_loop_update_is_the_public_stress_energy_and_tangent() {
+        let (l, dt, volume) = ([0.3, -0.2, 0.1, -0.4], 1e-3, 2.5e-3);
+        let f = [1.02, 0.03, -0.01, 0.97];
+        let sigma = [12.0, -7.0, 3.5];
+        let linear = LinearElastic::new(2.0e5, 0.3, PlaneCondition::Stress).unwrap();
+        let neo = NeoHookean {
+            youngs_modulus: 2.0e5,
+            poisson_ratio: 0.3,
+        };
+        for material in [Material::LinearElastic(linear), Material::NeoHookean(neo)] {
+            let (s, e, c11) = material.prepared().update_with_modulus(sigma, l, f, dt, volume);
+            let expected = match material {
+                Material::LinearElastic(m) => {
+                    let d = m.stress_increment(l[0] * dt, l[3] * dt, 0.5 * (l[1] + l[2]) * dt);
+                    [sigma[0] + d[0], sigma[1] + d[1], sigma[2] + d[2]]
+                }
+                Material::NeoHookean(m) => m.stress(f),
+            };
+            assert_eq!(s, expected);
+            assert_eq!(e, material.strain_energy(volume, s, f));
+            assert_eq!(c11, material.tangent(f)[0]);
         }
     }
 }
