@@ -38,12 +38,30 @@ fn mass_scheme_key(scheme: &MassScheme) -> &'static str {
 impl Scene {
     /// Checks what the file format cannot: positive sizes and times, one time-step rule, at
     /// least one body, sensible body parameters, finite and bounded numbers everywhere (see the
-    /// [module docs](self)), boundary conditions that fit the grid.
+    /// [module docs](crate::scene)), boundary conditions that fit the grid.
     ///
     /// # Errors
     /// [`MpmError::InvalidScene`] naming the key (`time.dt`, `bodies[1].density`,
     /// `schemes.mass.pivot_tolerance` …) and its value.
     pub fn validate(&self) -> Result<()> {
+        self.validate_grid()?;
+        self.validate_time_and_output()?;
+        self.check_vector("loads.gravity", self.loads.gravity, MAX_ACCELERATION)?;
+        self.validate_schemes()?;
+        self.options().validate().map_err(|e| self.scene_error(e))?;
+        if self.bodies.is_empty() {
+            return Err(invalid("bodies", "the scene needs at least one [[bodies]] entry"));
+        }
+        for (k, b) in self.bodies.iter().enumerate() {
+            self.validate_body(k, b)?;
+        }
+        self.validate_boundaries()
+    }
+
+    /// Positive finite cell sizes, a finite origin within [`MAX_ORIGIN_CELLS`] cells of zero,
+    /// at least one cell per axis, at most [`MAX_NODES`] nodes, and a far edge that does not
+    /// overflow.
+    fn validate_grid(&self) -> Result<()> {
         let g = &self.grid;
         for (k, h) in g.cell_size.iter().enumerate() {
             if !(h.is_finite() && *h > 0.0) {
@@ -108,6 +126,12 @@ impl Scene {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// A positive finite end time, at most one of `dt` and `cfl`, a positive finite snapshot
+    /// interval.
+    fn validate_time_and_output(&self) -> Result<()> {
         let t = &self.time;
         if !(t.end.is_finite() && t.end > 0.0) {
             return Err(invalid(
@@ -126,15 +150,14 @@ impl Scene {
                 ));
             }
         }
-        self.check_vector("loads.gravity", self.loads.gravity, MAX_ACCELERATION)?;
-        self.validate_schemes()?;
-        self.options().validate().map_err(|e| self.scene_error(e))?;
-        if self.bodies.is_empty() {
-            return Err(invalid("bodies", "the scene needs at least one [[bodies]] entry"));
-        }
-        for (k, b) in self.bodies.iter().enumerate() {
-            self.validate_body(k, b)?;
-        }
+        Ok(())
+    }
+
+    /// Each boundary condition on the grid ([`BoundaryCondition::validate`]), with prescribed
+    /// speeds within [`MAX_SPEED`].
+    ///
+    /// [`BoundaryCondition::validate`]: crate::boundary::BoundaryCondition::validate
+    fn validate_boundaries(&self) -> Result<()> {
         let grid = self.grid()?;
         for (k, bc) in self.boundaries.iter().enumerate() {
             bc.validate(k, &grid, self.schemes.shape)?;
