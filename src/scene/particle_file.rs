@@ -85,7 +85,7 @@ impl Scene {
 }
 
 /// Columns of a particle file; optional ones are `None` when absent.
-#[derive(Default)]
+#[derive(Debug, Default)]
 pub(super) struct ParticleColumns {
     pub(super) x: Vec<f64>,
     pub(super) y: Vec<f64>,
@@ -373,4 +373,64 @@ pub(super) fn read_particle_file(
         push_row(&shown, &header, density, line, &record, &mut out)?;
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Reads `content` as a particle file of a body of density 2.
+    fn read(test: &str, content: &[u8]) -> std::result::Result<ParticleColumns, String> {
+        let path = std::env::temp_dir().join(format!("sparse-mpm-particle-file-{}-{test}.csv", std::process::id()));
+        std::fs::write(&path, content).unwrap();
+        let read = read_particle_file(Path::new("p.csv"), &path, 2.0);
+        std::fs::remove_file(&path).unwrap();
+        read
+    }
+
+    #[test]
+    fn line_ends_a_byte_order_mark_comments_blank_lines_and_spaces_leave_the_numbers_unchanged() {
+        let plain = read("plain", b"x,y,volume,vx\n0.25,0.5,0.01,-1e-3\n0.75,0.5,0.02,2\n").unwrap();
+        for (test, content) in [
+            ("crlf", &b"x,y,volume,vx\r\n0.25,0.5,0.01,-1e-3\r\n0.75,0.5,0.02,2\r\n"[..]),
+            ("bom", b"\xef\xbb\xbfx,y,volume,vx\n0.25,0.5,0.01,-1e-3\n0.75,0.5,0.02,2"),
+            (
+                "comments",
+                b"# a comment\n\n  \t\n x , y,volume ,vx\n   # another, with, commas\n\r\n0.25, 0.5 ,0.01,-1e-3\n0.75,0.5,0.02,2\n#",
+            ),
+        ] {
+            let read = read(test, content).unwrap_or_else(|e| panic!("{test}: {e}"));
+            assert_eq!((&read.x, &read.y, &read.volume), (&plain.x, &plain.y, &plain.volume), "{test}");
+            assert_eq!(read.optional[0], plain.optional[0], "{test}");
+            assert!(read.optional[1..].iter().all(Option::is_none), "{test}");
+        }
+    }
+
+    #[test]
+    fn errors_name_the_line_after_blank_lines_comments_and_at_the_end_without_newline() {
+        let message = read("blank", b"\n\n# c\nx,y,volume\n\n\n0.5,0.5,0.01\n\n#\n\n0.5,zz,0.01\n").unwrap_err();
+        assert!(
+            message.contains("p.csv line 11, column `y` (column 2): `zz` is not a number"),
+            "{message}"
+        );
+        let message = read("last", b"x,y,volume\r\n0.5,0.5,0.01\r\n\r\n0.5,0.5").unwrap_err();
+        assert!(
+            message.contains("p.csv line 4: 2 values but the header has 3 columns"),
+            "{message}"
+        );
+        let message = read("empty", b"\xef\xbb\xbf\n# only a comment\n").unwrap_err();
+        assert!(message.contains("p.csv: the file has no header line"), "{message}");
+    }
+
+    #[test]
+    fn quotes_are_characters_of_their_field() {
+        let message = read("quoted", b"x,y,volume\n\"0.5\",0.5,0.01\n").unwrap_err();
+        assert!(
+            message.contains("line 2, column `x` (column 1): not a number (5 bytes, not shown)"),
+            "{message}"
+        );
+        let message = read("quoted_header", b"\"x\",y,volume\n").unwrap_err();
+        assert!(message.contains("line 1: the header (3 columns)"), "{message}");
+        assert!(message.contains("it lacks `x`"), "{message}");
+    }
 }
