@@ -13,6 +13,8 @@ impl Scene {
     /// # Errors
     /// [`MpmError::InvalidScene`] for a body that yields no particles or an unreadable particle
     /// file (naming the file, the row and the column).
+    ///
+    /// [`MpmError::InvalidScene`]: crate::error::MpmError::InvalidScene
     pub fn particles(&self) -> Result<Particles> {
         let grid = self.grid()?;
         let mut all = Particles::default();

@@ -24,6 +24,8 @@ impl Scene {
     /// [`MpmError::InvalidScene`] at `bodies[k].geometry.file` naming the path when it is
     /// absolute, leaves the scene's folder (`..`, a symbolic link) or cannot be resolved
     /// (it does not exist), unless [`Scene::allow_outside_files`] is set.
+    ///
+    /// [`MpmError::InvalidScene`]: crate::error::MpmError::InvalidScene
     pub fn particle_file_path(&self, body: usize) -> Result<Option<PathBuf>> {
         let Some(BodySpec {
             geometry: Geometry::File(written),
