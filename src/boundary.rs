@@ -186,14 +186,14 @@ impl BoundaryCondition {
     /// # Errors
     /// [`MpmError::InvalidScene`] naming the key (`boundaries[k].nodes` …) and the value.
     pub fn validate(&self, k: usize, grid: &Grid, shape: ShapeFunction) -> Result<()> {
-        let err = |field: &str, reason: String| MpmError::InvalidScene {
-            key: if field.is_empty() {
-                format!("boundaries[{k}]")
-            } else {
-                format!("boundaries[{k}].{field}")
-            },
-            reason,
-        };
+        self.validate_kind(k)?;
+        self.validate_extent(k, grid, shape)
+    }
+
+    /// Exactly one node set, `layers` only with an edge, `slip` only on an edge, `vx`/`vy`
+    /// finite and only with a velocity condition (which needs one of them).
+    fn validate_kind(&self, k: usize) -> Result<()> {
+        let err = |field: &str, reason: String| scene_error(k, field, reason);
         let given: Vec<String> = [
             ("edge", self.edge.is_some()),
             ("rectangle", self.rectangle.is_some()),
@@ -249,6 +249,13 @@ impl BoundaryCondition {
                 return Err(err(name, format!("`{name}` = {} is not a finite number", exact(v))));
             }
         }
+        Ok(())
+    }
+
+    /// An edge's `layers` within the grid, a finite ordered rectangle, a `nodes` list of existing
+    /// nodes, each once.
+    fn validate_extent(&self, k: usize, grid: &Grid, shape: ShapeFunction) -> Result<()> {
+        let err = |field: &str, reason: String| scene_error(k, field, reason);
         let [nx, ny] = grid.nodes_per_axis();
         if let Some(edge) = self.edge {
             let layers = self.layers.unwrap_or_else(|| shape.boundary_layers());
@@ -307,6 +314,19 @@ impl BoundaryCondition {
             }
         }
         Ok(())
+    }
+}
+
+/// An [`MpmError::InvalidScene`] at `boundaries[k]`, or at `boundaries[k].{field}` when `field`
+/// is not empty.
+fn scene_error(k: usize, field: &str, reason: String) -> MpmError {
+    MpmError::InvalidScene {
+        key: if field.is_empty() {
+            format!("boundaries[{k}]")
+        } else {
+            format!("boundaries[{k}].{field}")
+        },
+        reason,
     }
 }
 

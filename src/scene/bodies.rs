@@ -1,0 +1,92 @@
+//! The particles of a scene's bodies: a lattice filling a rectangle or a disk, or a particle
+//! file.
+
+use super::particle_file::{read_particle_file, ParticleColumns};
+use super::{invalid, BodySpec, Geometry, Scene};
+use crate::error::Result;
+use crate::grid::Grid;
+use crate::particles::Particles;
+
+impl Scene {
+    /// The particles of every body, in body order, with `body` set.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidScene`] for a body that yields no particles or an unreadable particle
+    /// file (naming the file, the row and the column).
+    ///
+    /// [`MpmError::InvalidScene`]: crate::error::MpmError::InvalidScene
+    pub fn particles(&self) -> Result<Particles> {
+        let grid = self.grid()?;
+        let mut all = Particles::default();
+        for (k, body) in self.bodies.iter().enumerate() {
+            let mut p = self.body_particles(k, body, &grid)?;
+            p.body = vec![k; p.len()];
+            all.append(p)
+                .map_err(|e| invalid(format!("bodies[{k}]"), e.to_string()))?;
+        }
+        Ok(all)
+    }
+
+    fn body_particles(&self, k: usize, body: &BodySpec, grid: &Grid) -> Result<Particles> {
+        let key = |f: &str| format!("bodies[{k}].{f}");
+        let columns = match &body.geometry {
+            Geometry::File(written) => {
+                let (shown, path) = self
+                    .locate_particle_file(written)
+                    .map_err(|reason| invalid(key("geometry.file"), reason))?;
+                read_particle_file(&shown, &path, body.density)
+                    .map_err(|reason| invalid(key("geometry.file"), reason))?
+            }
+            geometry => {
+                let [x0, x1, y0, y1] = grid.bounds();
+                let (lo, hi) = match geometry {
+                    Geometry::Rectangle { min, max } => (*min, *max),
+                    Geometry::Disk { center, radius } => (
+                        [center[0] - radius, center[1] - radius],
+                        [center[0] + radius, center[1] + radius],
+                    ),
+                    Geometry::File(_) => unreachable!("handled above"),
+                };
+                let tol = 1e-9 * (x1 - x0).max(y1 - y0);
+                if lo[0] < x0 - tol || lo[1] < y0 - tol || hi[0] > x1 + tol || hi[1] > y1 + tol {
+                    return Err(invalid(
+                        key("geometry"),
+                        format!(
+                            "spans [{}, {}] x [{}, {}], which is not inside the grid [{x0}, {x1}] x [{y0}, {y1}]",
+                            lo[0], hi[0], lo[1], hi[1]
+                        ),
+                    ));
+                }
+                let inside = |px: f64, py: f64| match geometry {
+                    Geometry::Rectangle { min, max } => px > min[0] && px < max[0] && py > min[1] && py < max[1],
+                    Geometry::Disk { center, radius } => (px - center[0]).hypot(py - center[1]) < *radius,
+                    Geometry::File(_) => unreachable!("handled above"),
+                };
+                let (x, y, volume) = crate::particles::lattice(grid, body.particles_per_cell, inside);
+                ParticleColumns {
+                    volume: vec![volume; x.len()],
+                    x,
+                    y,
+                    ..ParticleColumns::default()
+                }
+            }
+        };
+        let count = columns.x.len();
+        if count == 0 {
+            return Err(invalid(
+                key("geometry"),
+                "contains no particle (is it inside the grid, and larger than a particle spacing?)",
+            ));
+        }
+        let [vx, vy, mass, sxx, syy, sxy] = columns.optional;
+        let or_zero = |v: Option<Vec<f64>>| v.unwrap_or_else(|| vec![0.0; count]);
+        let mass = mass.unwrap_or_else(|| columns.volume.iter().map(|v| body.density * v).collect());
+        let vx = or_zero(vx).iter().map(|v| v + body.velocity[0]).collect();
+        let vy = or_zero(vy).iter().map(|v| v + body.velocity[1]).collect();
+        Particles::new(columns.x, columns.y, mass, columns.volume)
+            .and_then(|p| p.with_velocity(vx, vy))
+            .and_then(|p| p.with_stress(or_zero(sxx), or_zero(syy), or_zero(sxy)))
+            .and_then(|p| p.with_body_force(vec![body.body_force[0]; count], vec![body.body_force[1]; count]))
+            .map_err(|e| invalid(key("geometry"), e.to_string()))
+    }
+}

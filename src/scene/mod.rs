@@ -1,0 +1,423 @@
+//! Scene files: a whole simulation described in TOML, read strictly (an unknown key is an
+//! error), and the [`Scene`] type a program can build and save the same way.
+//!
+//! ```toml
+//! title = "two elastic disks"
+//!
+//! [grid]
+//! origin = [0.0, 0.0]
+//! cell_size = [0.05, 0.05]
+//! cells = [20, 20]
+//!
+//! [schemes]                      # every key optional; defaults shown
+//! shape = "linear"               # "quadratic_bspline", "cubic_bspline", { gimp = { half_width = 0.25 } }
+//! update = "usl"                 # "usf", "musl"
+//! transfer = "flip"              # "pic", "apic", { blend = { flip = 0.95 } }, { fmpm = { k = 8 } }, { xpic = { k = 4 } }
+//! position_update = "grid_velocity"   # or "trapezoidal"
+//! sort_interval = 50             # re-sort particles by cell every 50 steps (0: never)
+//! mass = { velocity = "lumped", acceleration = "lumped", singularity = "error" }
+//!                                # stabilization = { partial_lumping = { threshold = 0.5 } } (consistent mass)
+//!
+//! [time]
+//! end = 3.0
+//! cfl = 0.5                      # or dt = 1e-3 (checked against the stable estimate)
+//! allow_unstable = false
+//! stability_interval = 100       # steps between estimates of the stable step
+//!
+//! [loads]
+//! gravity = [0.0, 0.0]
+//!
+//! [[bodies]]
+//! name = "left disk"
+//! material = { model = "linear_elastic", youngs_modulus = 1000.0, poisson_ratio = 0.3, plane = "strain" }
+//! density = 1000.0
+//! particles_per_cell = 2         # per axis
+//! velocity = [0.1, 0.1]
+//! geometry = { disk = { center = [0.25, 0.25], radius = 0.2 } }
+//!
+//! [[boundaries]]
+//! edge = "bottom"
+//! condition = "slip"
+//!
+//! [output]
+//! snapshot_interval = 0.05       # time between particle snapshots (default: end / 50)
+//! ```
+//!
+//! Geometries: `{ rectangle = { min = [x, y], max = [x, y] } }`, `{ disk = { center = [x, y],
+//! radius = r } }`, `{ file = "particles.csv" }` (a CSV file with a header naming at least `x`,
+//! `y` and `volume`, optionally `vx`, `vy`, `mass` (default `density × volume`), `sxx`, `syy`,
+//! `sxy`; lines starting with `#` are comments; a relative path is taken from the scene file's
+//! folder). Rectangles and disks are filled with `particles_per_cell²` particles per grid cell,
+//! at the centres of a regular sub-lattice of the grid cells, each of volume
+//! `hx hy / particles_per_cell²` and mass `density × volume`.
+//!
+//! ## What a scene file may ask for
+//! A scene file is input like any other and is read defensively:
+//!
+//! - A particle file must lie in the scene file's folder or below it: an absolute path, a path
+//!   whose `..` leave the folder, or a symbolic link that leads out of it is refused (a program
+//!   that trusts its scenes can set [`Scene::allow_outside_files`]). Only regular files are read
+//!   (not devices, pipes or folders), and at most [`MAX_PARTICLE_FILE_BYTES`] of them. An error
+//!   about a particle file names its line and column and what is wrong; it shows nothing of a
+//!   file whose header is not a particle-file header, and of a particle file at most a short
+//!   word of the offending cell.
+//! - Every number is checked where it is given, and an error names the key and the value:
+//!   NaN and infinities are refused everywhere; accelerations (`loads.gravity`,
+//!   `bodies[k].body_force`) are bounded by [`MAX_ACCELERATION`] and speeds (`bodies[k].velocity`,
+//!   a particle file's `vx`, `vy`, a boundary's `vx`, `vy`) by [`MAX_SPEED`]; the grid's origin
+//!   by [`MAX_ORIGIN_CELLS`] cell sizes.
+//! - A boundary's `nodes` list names each node once and is no longer than the grid's node count.
+
+mod bodies;
+mod particle_file;
+mod validate;
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::boundary::BoundaryCondition;
+use crate::error::{MpmError, Result};
+use crate::grid::Grid;
+use crate::mass::MassOptions;
+use crate::material::Material;
+use crate::schemes::PositionUpdate;
+use crate::shape::ShapeFunction;
+use crate::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
+
+/// A complete simulation description.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// A line describing the scene.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub title: Option<String>,
+    /// The background grid.
+    pub grid: GridSpec,
+    /// Shape function, update scheme, transfer, mass treatment.
+    #[serde(default)]
+    pub schemes: Schemes,
+    /// End time and time-step control.
+    pub time: TimeSpec,
+    /// Gravity.
+    #[serde(default)]
+    pub loads: Loads,
+    /// The bodies (at least one).
+    pub bodies: Vec<BodySpec>,
+    /// Nodal boundary conditions.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub boundaries: Vec<BoundaryCondition>,
+    /// What to write.
+    #[serde(default)]
+    pub output: OutputSpec,
+    /// The folder relative paths (particle files) are taken from; set by [`Scene::load`]. When
+    /// `None`, the current directory.
+    #[serde(skip)]
+    pub base_dir: Option<PathBuf>,
+    /// Read particle files wherever their paths lead (absolute paths, `..` out of
+    /// [`Scene::base_dir`], symbolic links out of it). `false` (the default, and what a scene
+    /// read from TOML gets; it is not a key of the file): a particle file must lie inside the
+    /// scene's folder, so that a scene from elsewhere cannot make the program read, and report
+    /// on, files it was not meant to. Only a program that trusts its scenes should set it.
+    #[serde(skip)]
+    pub allow_outside_files: bool,
+}
+
+/// The uniform background grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSpec {
+    /// Lower-left corner.
+    #[serde(default)]
+    pub origin: [f64; 2],
+    /// Cell size `[hx, hy]`.
+    pub cell_size: [f64; 2],
+    /// Cells along x and y.
+    pub cells: [usize; 2],
+}
+
+/// The independent algorithmic choices.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Schemes {
+    /// Shape-function family.
+    pub shape: ShapeFunction,
+    /// USF, USL or MUSL.
+    pub update: UpdateScheme,
+    /// PIC, FLIP, blend or APIC.
+    pub transfer: Transfer,
+    /// Position update rule.
+    pub position_update: PositionUpdate,
+    /// Mass schemes of the two solves and the singularity policy.
+    pub mass: MassOptions,
+    /// Re-sort particles by cell every this many steps (0: never).
+    pub sort_interval: usize,
+}
+
+impl Default for Schemes {
+    fn default() -> Self {
+        let o = Options::default();
+        Schemes {
+            shape: o.shape,
+            update: o.update,
+            transfer: o.transfer,
+            position_update: o.position_update,
+            mass: o.mass,
+            sort_interval: o.sort_interval,
+        }
+    }
+}
+
+/// End time and time step: exactly one of `dt` and `cfl` (neither: `cfl = 0.5`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSpec {
+    /// End time of the run.
+    pub end: f64,
+    /// Fixed time step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dt: Option<f64>,
+    /// Courant number of a step recomputed every step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cfl: Option<f64>,
+    /// Accept a fixed step above the stable estimate.
+    #[serde(default)]
+    pub allow_unstable: bool,
+    /// Re-estimate the stable step every this many steps (default
+    /// [`crate::simulation::DEFAULT_STABILITY_INTERVAL`]; 0: only before the first step).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stability_interval: Option<usize>,
+}
+
+/// Loads applied to every particle.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Loads {
+    /// Gravitational acceleration.
+    pub gravity: [f64; 2],
+}
+
+/// Where a body's particles are.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Geometry {
+    /// The axis-aligned rectangle `[min, max]`.
+    Rectangle {
+        /// Lower-left corner.
+        min: [f64; 2],
+        /// Upper-right corner.
+        max: [f64; 2],
+    },
+    /// The disk `|x − center| < radius`.
+    Disk {
+        /// Centre.
+        center: [f64; 2],
+        /// Radius.
+        radius: f64,
+    },
+    /// Particles listed in a CSV file (columns `x`, `y`, `volume`, optionally `vx`, `vy`, `mass`,
+    /// `sxx`, `syy`, `sxy`).
+    File(PathBuf),
+}
+
+/// One body of the scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Name (reports, errors).
+    pub name: String,
+    /// Constitutive model.
+    pub material: Material,
+    /// Reference density (mass per unit area, unit thickness).
+    pub density: f64,
+    /// Particles per cell along each axis (rectangles and disks).
+    #[serde(default = "default_ppc")]
+    pub particles_per_cell: usize,
+    /// Initial velocity of every particle (added to a file's `vx`, `vy`).
+    #[serde(default)]
+    pub velocity: [f64; 2],
+    /// Body force per unit mass besides gravity.
+    #[serde(default)]
+    pub body_force: [f64; 2],
+    /// Where the particles are.
+    pub geometry: Geometry,
+}
+
+/// Largest grid accepted from a scene file (nodes).
+pub const MAX_NODES: f64 = 1e8;
+
+/// Largest `particles_per_cell` (per axis) accepted from a scene file.
+pub const MAX_PARTICLES_PER_CELL: usize = 32;
+
+/// Largest magnitude of an acceleration accepted from a scene file (`loads.gravity`,
+/// `bodies[k].body_force`): 10¹² in the scene's units, some 10¹¹ g in SI units. Above it a run
+/// only overflows (a particle's velocity after one step, its travel over the run).
+pub const MAX_ACCELERATION: f64 = 1e12;
+
+/// Largest speed accepted from a scene file (`bodies[k].velocity`, the `vx`, `vy` columns of a
+/// particle file, a boundary's `vx`, `vy`): 10¹² in the scene's units. The step's reports
+/// square speeds, which overflows from about 10¹⁵⁴ on.
+pub const MAX_SPEED: f64 = 1e12;
+
+/// How far from zero the grid's origin may lie, in cell sizes of the same axis: 10¹². There a
+/// coordinate resolves about 2·10⁻⁴ of a cell; further out, positions within a cell lose their
+/// meaning.
+pub const MAX_ORIGIN_CELLS: f64 = 1e12;
+
+/// Largest particle file read, in bytes (1 GiB). A larger file is refused from its size before
+/// anything is read, and no more than this is ever read from a file that grows or reports a
+/// wrong size.
+pub const MAX_PARTICLE_FILE_BYTES: u64 = 1 << 30;
+
+fn default_ppc() -> usize {
+    2
+}
+
+/// What a run writes.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Time between particle snapshots (default: a fiftieth of the run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub snapshot_interval: Option<f64>,
+}
+
+/// An [`MpmError::InvalidScene`] at `key`.
+fn invalid(key: impl Into<String>, reason: impl Into<String>) -> MpmError {
+    MpmError::InvalidScene {
+        key: key.into(),
+        reason: reason.into(),
+    }
+}
+
+impl Scene {
+    /// Parses a scene from TOML text.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidScene`] with the parser's message (line, column, the key and what is
+    /// wrong: unknown key, missing key, wrong type), then the checks of [`Scene::validate`].
+    pub fn from_toml_str(text: &str) -> Result<Scene> {
+        let scene: Scene = toml::from_str(text).map_err(|e| {
+            let place = e.span().map(|s| {
+                let start = s.start.min(text.len());
+                let line = text[..start].matches('\n').count() + 1;
+                // Name the key written on that line (or the table header) as well.
+                let source = text.lines().nth(line - 1).unwrap_or("").trim();
+                let key = match source.split_once('=') {
+                    Some((k, _)) if !source.starts_with('[') => k.trim(),
+                    _ => source,
+                };
+                if key.is_empty() {
+                    format!("line {line}")
+                } else {
+                    format!("line {line}, {key}")
+                }
+            });
+            invalid(place.unwrap_or_else(|| "scene".into()), e.message().trim().to_string())
+        })?;
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// Reads a scene file; relative particle-file paths are taken from its folder.
+    ///
+    /// # Errors
+    /// [`MpmError::Io`] naming the file, and the errors of [`Scene::from_toml_str`].
+    pub fn load(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|source| MpmError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut scene = Scene::from_toml_str(&text).map_err(|e| match e {
+            MpmError::InvalidScene { key, reason } => invalid(format!("{}: {key}", path.display()), reason),
+            e => e,
+        })?;
+        scene.base_dir = path.parent().map(Path::to_path_buf);
+        Ok(scene)
+    }
+
+    /// The scene as TOML text; [`Scene::from_toml_str`] reads it back to an equal scene.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidScene`] when a value has no TOML form (a particle-file path that is
+    /// not valid UTF-8).
+    pub fn to_toml_string(&self) -> Result<String> {
+        toml::to_string(self).map_err(|e| invalid("scene", format!("cannot be written as TOML: {e}")))
+    }
+
+    /// The grid.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidScene`] for `grid` when [`Grid::new`] rejects it.
+    pub fn grid(&self) -> Result<Grid> {
+        Grid::new(self.grid.origin, self.grid.cell_size, self.grid.cells).map_err(|e| invalid("grid", e.to_string()))
+    }
+
+    /// The simulation options the scene describes.
+    pub fn options(&self) -> Options {
+        let s = &self.schemes;
+        Options {
+            shape: s.shape,
+            update: s.update,
+            transfer: s.transfer,
+            mass: s.mass,
+            position_update: s.position_update,
+            time_step: match (self.time.dt, self.time.cfl) {
+                (Some(dt), _) => TimeStep::Fixed { dt },
+                (None, Some(number)) => TimeStep::Cfl { number },
+                (None, None) => TimeStep::Cfl { number: 0.5 },
+            },
+            allow_unstable_time_step: self.time.allow_unstable,
+            gravity: self.loads.gravity,
+            boundaries: self.boundaries.clone(),
+            sort_interval: s.sort_interval,
+            stability_interval: self
+                .time
+                .stability_interval
+                .unwrap_or(crate::simulation::DEFAULT_STABILITY_INTERVAL),
+            threads: 1,
+        }
+    }
+
+    /// The bodies (names and materials) in order.
+    pub fn bodies(&self) -> Vec<Body> {
+        self.bodies
+            .iter()
+            .map(|b| Body {
+                name: b.name.clone(),
+                material: b.material,
+            })
+            .collect()
+    }
+
+    /// Builds the simulation at time 0.
+    ///
+    /// # Errors
+    /// The errors of [`Scene::grid`], [`Scene::particles`] and [`Simulation::new`].
+    pub fn build(&self) -> Result<Simulation> {
+        Simulation::new(self.grid()?, self.particles()?, self.bodies(), self.options()).map_err(|e| self.scene_error(e))
+    }
+
+    /// An [`MpmError::InvalidOption`] of the library restated as [`MpmError::InvalidScene`] at
+    /// the scene key that sets the option; other errors unchanged.
+    fn scene_error(&self, e: MpmError) -> MpmError {
+        let MpmError::InvalidOption { option, reason } = e else {
+            return e;
+        };
+        let key = match option {
+            "time_step.dt" => "time.dt".to_string(),
+            "time_step.cfl" => "time.cfl".to_string(),
+            "transfer.flip" => "schemes.transfer.blend.flip".to_string(),
+            "transfer.k" => format!("schemes.transfer.{}.k", self.schemes.transfer.name()),
+            "transfer" => "schemes.transfer".to_string(),
+            "gravity" => "loads.gravity".to_string(),
+            other => format!("schemes.{other}"),
+        };
+        invalid(key, reason)
+    }
+
+    /// Time between snapshots: `output.snapshot_interval`, or a fiftieth of the run.
+    pub fn snapshot_interval(&self) -> f64 {
+        self.output.snapshot_interval.unwrap_or(self.time.end / 50.0)
+    }
+}
