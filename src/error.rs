@@ -2,26 +2,31 @@
 //!
 //! Every variant carries the data a user needs to act on it: which particle, which node, which
 //! field, which value. User data (particle states, grid parameters, files) never causes a panic;
-//! it produces one of these.
+//! it produces one of these. Each variant's message is its `#[error]` attribute;
+//! [`MpmError::Io`] gives the underlying I/O error as its source.
 
-use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+use crate::numbers::human;
 
 /// Everything that can go wrong with user data.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum MpmError {
     /// A grid parameter is unusable (non-positive cell size, no cells, non-finite origin …).
+    #[error("invalid grid: {reason}")]
     InvalidGrid {
         /// What is wrong, in words.
         reason: String,
     },
     /// Node coordinate vectors do not describe a uniform grid in a supported node order.
+    #[error("node coordinates do not form a uniform grid: {reason}")]
     NotAUniformGrid {
         /// What is wrong, naming the offending node (0-based) where there is one.
         reason: String,
     },
     /// Two inputs that must have the same length do not.
+    #[error("`{field}` has {found} entries but {expected} are required (one per particle)")]
     LengthMismatch {
         /// The field whose length is wrong.
         field: &'static str,
@@ -31,6 +36,7 @@ pub enum MpmError {
         found: usize,
     },
     /// A particle's field holds an unusable value (NaN, infinity, non-positive mass …).
+    #[error("particle {particle}: `{field}` = {value} is invalid: {reason}")]
     InvalidParticleValue {
         /// 0-based particle index.
         particle: usize,
@@ -42,6 +48,10 @@ pub enum MpmError {
         reason: &'static str,
     },
     /// A particle lies outside the background grid, so it has no shape-function support.
+    #[error(
+        "particle {particle} at ({}, {}) lies outside the grid [{}, {}] x [{}, {}]",
+        .position[0], .position[1], .bounds[0], .bounds[1], .bounds[2], .bounds[3]
+    )]
     ParticleOutsideGrid {
         /// 0-based particle index.
         particle: usize,
@@ -53,6 +63,11 @@ pub enum MpmError {
     /// A particle is inside the grid, but closer to its edge than the shape function's
     /// margin: its support would need nodes outside the grid (see
     /// [`ShapeFunction::margin`](crate::ShapeFunction::margin)).
+    #[error(
+        "particle {particle} at ({}, {}): the {shape} support needs nodes outside the grid; particles \
+         must stay inside [{}, {}] x [{}, {}] (pad the grid by {padding} cell{} on each side)",
+        .position[0], .position[1], .allowed[0], .allowed[1], .allowed[2], .allowed[3], plural(*.padding)
+    )]
     SupportOutsideGrid {
         /// 0-based particle index.
         particle: usize,
@@ -68,6 +83,7 @@ pub enum MpmError {
         padding: usize,
     },
     /// A material or step parameter is unusable.
+    #[error("parameter `{name}` = {value} is invalid: {reason}")]
     InvalidParameter {
         /// The parameter's name.
         name: &'static str,
@@ -77,6 +93,7 @@ pub enum MpmError {
         reason: &'static str,
     },
     /// A simulation option is unusable or contradicts another one.
+    #[error("option `{option}`: {reason}")]
     InvalidOption {
         /// The option's path in [`Options`](crate::simulation::Options): `"time_step.dt"`,
         /// `"time_step.cfl"`, `"transfer.flip"`, `"transfer.k"`, `"transfer"`, `"gravity"` …
@@ -86,6 +103,11 @@ pub enum MpmError {
     },
     /// The consistent mass matrix restricted to the active nodes is singular (or so close to it
     /// that a solve would return garbage).
+    #[error(
+        "the consistent mass matrix is singular at node {node} ({}; particles touching it: \
+         {particles:?}): {cause}",
+        pivot_text(*.relative_pivot)
+    )]
     SingularMassMatrix {
         /// The node (grid numbering, 0-based) at which the Cholesky factorization broke down.
         node: usize,
@@ -98,12 +120,14 @@ pub enum MpmError {
         cause: String,
     },
     /// A sparse factorization failed for a reason other than singularity (out of memory …).
+    #[error("sparse solver failed: {reason}")]
     Solver {
         /// The solver's message.
         reason: String,
     },
     /// A scene (or simulation setting) is unusable: a key has a wrong value, a required key is
     /// missing, or settings contradict each other.
+    #[error("`{key}`: {reason}")]
     InvalidScene {
         /// Where: the key's dotted path (`bodies[1].material`, `time.dt`).
         key: String,
@@ -111,6 +135,12 @@ pub enum MpmError {
         reason: String,
     },
     /// A particle inverted or collapsed: `det(I + Δt L) ≤ 0` or `det F ≤ 0` after the update.
+    #[error(
+        "step {step}: particle {particle} (id {id}, body `{body}`) inverted: det(I + Δt L) = \
+         {}, det F = {}; reduce the time step (Courant number) or check the material \
+         and loads",
+        human(*.det_increment), human(*.det_f)
+    )]
     InvertedParticle {
         /// Step number (from 0) at which it happened.
         step: usize,
@@ -126,6 +156,10 @@ pub enum MpmError {
         det_f: f64,
     },
     /// A quantity became NaN or infinite.
+    #[error(
+        "step {step}: particle {particle} (id {id}) has a non-finite {stage} ({}, {}); reduce the time step",
+        .value[0], .value[1]
+    )]
     NonFinite {
         /// Step number (from 0) at which it happened.
         step: usize,
@@ -140,11 +174,13 @@ pub enum MpmError {
     },
     /// A CFL time step was asked for but nothing sets a wave speed or particle speed (no
     /// particles, or no stiffness and no motion).
+    #[error("step {step}: no stiffness or particle speed to set a CFL time step (no particles?); use a fixed `dt`")]
     NoStableTimeStep {
         /// Step number (from 0) at which it happened.
         step: usize,
     },
     /// A step was asked for after an earlier step failed; the state is not usable.
+    #[error("step {step}: an earlier step failed ({cause}); the state is not usable")]
     EarlierFailure {
         /// Step number (from 0) of the refused step.
         step: usize,
@@ -152,6 +188,12 @@ pub enum MpmError {
         cause: String,
     },
     /// A fixed time step exceeds the stable step of the update with the chosen masses.
+    #[error(
+        "step {step}: the fixed time step {} exceeds the stable step {} of the update with \
+         {masses} mass (estimated from the operators, material stiffness and masses; {:.1}% over); use a \
+         smaller `dt`, a CFL step (`cfl = 0.5`), or set `allow_unstable = true`",
+        human(*.dt), human(*.stable), 100.0 * (*.dt / *.stable - 1.0)
+    )]
     TimeStepAboveStable {
         /// Step number (from 0) at which the stable step was estimated.
         step: usize,
@@ -165,6 +207,7 @@ pub enum MpmError {
     /// A checkpoint ([`Simulation::read_checkpoint`](crate::simulation::Simulation::read_checkpoint))
     /// cannot be resumed: not a checkpoint, written in another format version, truncated,
     /// corrupted (its checksum does not match), or holding a state that does not hold together.
+    #[error("checkpoint{}: {reason}", in_file(.path.as_deref()))]
     Checkpoint {
         /// The file; `None` for bytes given in memory
         /// ([`Simulation::from_checkpoint_bytes`](crate::simulation::Simulation::from_checkpoint_bytes)).
@@ -173,6 +216,11 @@ pub enum MpmError {
         reason: String,
     },
     /// The output folder of a run already holds files (`mpm run --overwrite` replaces them).
+    #[error(
+        "the output folder {path} already holds {count} file(s) ({}{}); use --overwrite to replace an earlier \
+         run's output there, or --out to choose another folder",
+        .examples.join(", "), if *.count > .examples.len() { ", …" } else { "" }
+    )]
     OutputExists {
         /// The folder.
         path: PathBuf,
@@ -182,6 +230,7 @@ pub enum MpmError {
         examples: Vec<String>,
     },
     /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
     Io {
         /// The file.
         path: PathBuf,
@@ -190,152 +239,28 @@ pub enum MpmError {
     },
 }
 
-impl fmt::Display for MpmError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            MpmError::InvalidGrid { reason } => write!(f, "invalid grid: {reason}"),
-            MpmError::NotAUniformGrid { reason } => {
-                write!(f, "node coordinates do not form a uniform grid: {reason}")
-            }
-            MpmError::LengthMismatch { field, expected, found } => write!(
-                f,
-                "`{field}` has {found} entries but {expected} are required (one per particle)"
-            ),
-            MpmError::InvalidParticleValue {
-                particle,
-                field,
-                value,
-                reason,
-            } => write!(f, "particle {particle}: `{field}` = {value} is invalid: {reason}"),
-            MpmError::ParticleOutsideGrid {
-                particle,
-                position,
-                bounds,
-            } => write!(
-                f,
-                "particle {particle} at ({}, {}) lies outside the grid [{}, {}] x [{}, {}]",
-                position[0], position[1], bounds[0], bounds[1], bounds[2], bounds[3]
-            ),
-            MpmError::SupportOutsideGrid {
-                particle,
-                position,
-                shape,
-                allowed,
-                padding: k,
-            } => {
-                write!(
-                    f,
-                    "particle {particle} at ({}, {}): the {shape} support needs nodes outside the grid; particles \
-                     must stay inside [{}, {}] x [{}, {}] (pad the grid by {k} cell{} on each side)",
-                    position[0],
-                    position[1],
-                    allowed[0],
-                    allowed[1],
-                    allowed[2],
-                    allowed[3],
-                    if *k == 1 { "" } else { "s" }
-                )
-            }
-            MpmError::InvalidParameter { name, value, reason } => {
-                write!(f, "parameter `{name}` = {value} is invalid: {reason}")
-            }
-            MpmError::InvalidOption { option, reason } => write!(f, "option `{option}`: {reason}"),
-            MpmError::SingularMassMatrix {
-                node,
-                particles,
-                relative_pivot,
-                cause,
-            } => {
-                let pivot = if *relative_pivot > 0.0 {
-                    format!("relative pivot {relative_pivot:.3e}")
-                } else {
-                    "non-positive pivot".to_string()
-                };
-                write!(
-                    f,
-                    "the consistent mass matrix is singular at node {node} ({pivot}; particles touching it: \
-                     {particles:?}): {cause}"
-                )
-            }
-            MpmError::Solver { reason } => write!(f, "sparse solver failed: {reason}"),
-            MpmError::InvalidScene { key, reason } => write!(f, "`{key}`: {reason}"),
-            MpmError::InvertedParticle {
-                step,
-                particle,
-                id,
-                body,
-                det_increment,
-                det_f,
-            } => write!(
-                f,
-                "step {step}: particle {particle} (id {id}, body `{body}`) inverted: det(I + Δt L) = \
-                 {}, det F = {}; reduce the time step (Courant number) or check the material \
-                 and loads",
-                crate::numbers::human(*det_increment),
-                crate::numbers::human(*det_f)
-            ),
-            MpmError::NonFinite {
-                step,
-                stage,
-                particle,
-                id,
-                value,
-            } => write!(
-                f,
-                "step {step}: particle {particle} (id {id}) has a non-finite {stage} ({}, {}); reduce the time step",
-                value[0], value[1]
-            ),
-            MpmError::NoStableTimeStep { step } => write!(
-                f,
-                "step {step}: no stiffness or particle speed to set a CFL time step (no particles?); use a fixed `dt`"
-            ),
-            MpmError::EarlierFailure { step, cause } => {
-                write!(
-                    f,
-                    "step {step}: an earlier step failed ({cause}); the state is not usable"
-                )
-            }
-            MpmError::TimeStepAboveStable {
-                step,
-                dt,
-                stable,
-                masses,
-            } => write!(
-                f,
-                "step {step}: the fixed time step {} exceeds the stable step {} of the update with \
-                 {masses} mass (estimated from the operators, material stiffness and masses; {:.1}% over); use a \
-                 smaller `dt`, a CFL step (`cfl = 0.5`), or set `allow_unstable = true`",
-                crate::numbers::human(*dt),
-                crate::numbers::human(*stable),
-                100.0 * (dt / stable - 1.0)
-            ),
-            MpmError::Checkpoint {
-                path: Some(path),
-                reason,
-            } => {
-                write!(f, "checkpoint {}: {reason}", path.display())
-            }
-            MpmError::Checkpoint { path: None, reason } => write!(f, "checkpoint: {reason}"),
-            MpmError::OutputExists { path, count, examples } => write!(
-                f,
-                "the output folder {} already holds {count} file(s) ({}{}); use --overwrite to replace an earlier \
-                 run's output there, or --out to choose another folder",
-                path.display(),
-                examples.join(", "),
-                if *count > examples.len() { ", …" } else { "" }
-            ),
-            MpmError::Io { path, source } => write!(f, "{}: {source}", path.display()),
-        }
+/// `"s"` for a count other than one.
+fn plural(count: usize) -> &'static str {
+    if count == 1 {
+        ""
+    } else {
+        "s"
     }
 }
 
-impl std::error::Error for MpmError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            MpmError::Io { source, .. } => Some(source),
-            _ => None,
-        }
+/// How a singular mass matrix's pivot reads in its message: its relative value, or that it was
+/// not positive.
+fn pivot_text(relative_pivot: f64) -> String {
+    if relative_pivot > 0.0 {
+        format!("relative pivot {relative_pivot:.3e}")
+    } else {
+        "non-positive pivot".to_string()
     }
+}
+
+/// `" <file>"` naming a checkpoint's file in its message, nothing for bytes given in memory.
+fn in_file(path: Option<&Path>) -> String {
+    path.map_or(String::new(), |p| format!(" {}", p.display()))
 }
 
 /// Shorthand for results whose error is [`MpmError`].

@@ -261,8 +261,17 @@ impl Homework {
         out
     }
 
+    /// Writes [`Homework::report`]: the data, then the answers question by question.
     fn write_report(&self, out: &mut String) -> std::fmt::Result {
-        let (s, a, r, lit) = (&self.step, &self.after, &self.step.strain_rate, &self.stress_literal);
+        self.write_data(out)?;
+        self.write_shape_functions(out)?;
+        self.write_masses(out)?;
+        self.write_forces_and_accelerations(out)?;
+        self.write_step(out)
+    }
+
+    /// The heading and the assignment's grid and particles.
+    fn write_data(&self, out: &mut String) -> std::fmt::Result {
         writeln!(
             out,
             "One explicit MPM step worked by hand: bilinear shape functions, masses, forces, the step\n(the ME 7953 Project II problem; nodes n = 1..6, particles p = 1..4)\n"
@@ -275,8 +284,12 @@ impl Homework {
         writeln!(
             out,
             "Particles: x_p = {X_P:?}, y_p = {Y_P:?}, m = {MASS}, V = {VOLUME}\n"
-        )?;
+        )
+    }
 
+    /// Question 1: shape functions and their gradients at the particles, `N(3,2)`, the
+    /// operator N and its column sums, each checked against the operators.
+    fn write_shape_functions(&self, out: &mut String) -> std::fmt::Result {
         section(
             out,
             "1(A) shape(n, x, y) at every particle: N(n)(x_p, y_p)",
@@ -314,8 +327,13 @@ impl Homework {
             out,
             "(N equals shape() entrywise: max difference {:.1e})\n",
             max_diff(&self.shape_values, &self.n)
-        )?;
+        )
+    }
 
+    /// Question 2: the consistent mass matrix, the lumped mass, and the row sums of the one
+    /// against the other.
+    fn write_masses(&self, out: &mut String) -> std::fmt::Result {
+        let lumped = self.step.mass.lumped();
         section(
             out,
             "2(A) mass matrix m(n,n') = sum_p N(n',p) N(n,p) m(p)",
@@ -323,12 +341,12 @@ impl Homework {
         )?;
         table(out, &self.mass_matrix, "n", "n'")?;
         section(out, "2(B) lumped mass M(n) = sum_p N(n,p) m(p)", "mass::lumped_mass")?;
-        for (i, m) in s.mass.lumped().iter().enumerate() {
+        for (i, m) in lumped.iter().enumerate() {
             writeln!(out, "  n = {}: {:>13}", i + 1, sig(*m))?;
         }
         writeln!(out)?;
         section(out, "2(C) row sums of the mass matrix vs the lumped mass", "")?;
-        for (i, (rs, m)) in self.row_sums.iter().zip(s.mass.lumped()).enumerate() {
+        for (i, (rs, m)) in self.row_sums.iter().zip(lumped).enumerate() {
             writeln!(
                 out,
                 "  n = {}: sum_n' m(n,n') = {:>12}   M(n) = {:>12}   difference {:.1e}",
@@ -338,8 +356,13 @@ impl Homework {
                 rs - m
             )?;
         }
-        writeln!(out)?;
+        writeln!(out)
+    }
 
+    /// Question 3: the external and internal nodal forces, and the accelerations with the
+    /// lumped and the consistent mass side by side.
+    fn write_forces_and_accelerations(&self, out: &mut String) -> std::fmt::Result {
+        let s = &self.step;
         section(out, "3(A) external force F = N (m o b)", "transfer::external_force")?;
         nodal(out, &s.external_force)?;
         section(
@@ -376,8 +399,13 @@ impl Homework {
                 sig(c.y[i])
             )?;
         }
-        writeln!(out, "(nodes without mass get exactly 0)\n")?;
+        writeln!(out, "(nodes without mass get exactly 0)\n")
+    }
 
+    /// Question 4: the grid velocities, then the particles' positions (both rules),
+    /// velocities, strain rates and stresses (also as literally typed) after the step.
+    fn write_step(&self, out: &mut String) -> std::fmt::Result {
+        let (s, a, r, lit) = (&self.step, &self.after, &self.step.strain_rate, &self.stress_literal);
         section(
             out,
             "4(A) grid velocity v = N (m o v_p) / M(n)",

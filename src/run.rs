@@ -419,27 +419,23 @@ fn drive(
     mut state: RunState,
     out: &Path,
     options: &RunOptions,
-    mut pvd: PvdWriter,
-    mut csv: CsvWriter,
+    pvd: PvdWriter,
+    csv: CsvWriter,
     start: Instant,
     mut progress: impl FnMut(&Progress),
 ) -> Result<RunSummary> {
     let end_time = state.end_time;
-    let interval = state.snapshot_interval;
-    let mut snapshots: Vec<PathBuf> = state.snapshots.iter().map(|(_, f)| out.join(f)).collect();
-    let mut snapshot = |sim: &Simulation, pvd: &mut PvdWriter, state: &mut RunState| -> Result<()> {
-        let name = format!("particles_{:06}.vtp", state.snapshots.len());
-        write_snapshot(sim, &out.join(&name))?;
-        pvd.push(sim.time(), Path::new(&name))?;
-        snapshots.push(out.join(&name));
-        state.snapshots.push((sim.time(), PathBuf::from(name)));
-        Ok(())
+    let mut files = RunFiles {
+        out,
+        pvd,
+        csv,
+        snapshots: state.snapshots.iter().map(|(_, f)| out.join(f)).collect(),
+        checkpoints: Vec::new(),
     };
     if state.snapshots.is_empty() {
-        snapshot(&sim, &mut pvd, &mut state)?;
-        state.next_snapshot = interval;
+        files.snapshot(&sim, &mut state)?;
+        state.next_snapshot = state.snapshot_interval;
     }
-    let mut checkpoints = Vec::new();
     let mut stepping = Duration::ZERO;
     let mut last = None;
     let max_steps = options.limits.max_steps.unwrap_or(usize::MAX);
@@ -453,23 +449,11 @@ fn drive(
         let report = match result {
             Ok(r) => r,
             Err(e) => {
-                csv.flush()?;
+                files.csv.flush()?;
                 return Err(e);
             }
         };
-        csv.write_row(&report.values())?;
-        csv.flush()?;
-        state.report_rows += 1;
-        if sim.time() >= state.next_snapshot * (1.0 - 1e-12) {
-            snapshot(&sim, &mut pvd, &mut state)?;
-            state.next_snapshot += interval;
-        }
-        if options
-            .checkpoint_every
-            .is_some_and(|k| k > 0 && sim.steps().is_multiple_of(k))
-        {
-            checkpoints.push(write_run_checkpoint(&sim, &state, out)?);
-        }
+        files.record_step(&sim, &mut state, &report, options.checkpoint_every)?;
         progress(&Progress {
             time: sim.time(),
             end_time,
@@ -480,29 +464,91 @@ fn drive(
         });
         last = Some(report);
     }
-    if pvd.entries().last().map(|e| e.0) != Some(sim.time()) {
-        snapshot(&sim, &mut pvd, &mut state)?;
+    if files.pvd.entries().last().map(|e| e.0) != Some(sim.time()) {
+        files.snapshot(&sim, &mut state)?;
     }
-    let particles = sim.particles().len();
-    let seconds = stepping.as_secs_f64();
-    let taken = sim.steps() - steps_before;
-    Ok(RunSummary {
-        steps: sim.steps(),
-        time: sim.time(),
-        particles,
-        stepping,
-        total: start.elapsed(),
-        particle_steps_per_second: if seconds > 0.0 {
-            particles as f64 * taken as f64 / seconds
-        } else {
-            0.0
-        },
-        snapshots,
-        pvd: pvd.path().to_path_buf(),
-        report: csv.path().to_path_buf(),
-        last,
-        checkpoints,
-    })
+    Ok(files.summary(&sim, sim.steps() - steps_before, stepping, start, last))
+}
+
+/// The files a run writes as it goes: the snapshots and the `.pvd` that lists them, the
+/// per-step report, and the checkpoints.
+struct RunFiles<'a> {
+    /// The output folder.
+    out: &'a Path,
+    /// `particles.pvd`.
+    pvd: PvdWriter,
+    /// `report.csv`.
+    csv: CsvWriter,
+    /// Every snapshot of the run, the resumed run's earlier ones included.
+    snapshots: Vec<PathBuf>,
+    /// The checkpoints written by this call of [`drive`].
+    checkpoints: Vec<PathBuf>,
+}
+
+impl RunFiles<'_> {
+    /// Writes the particles of `sim` as the next `particles_NNNNNN.vtp` and lists it in the
+    /// `.pvd`, in the snapshots and in `state`.
+    fn snapshot(&mut self, sim: &Simulation, state: &mut RunState) -> Result<()> {
+        let name = format!("particles_{:06}.vtp", state.snapshots.len());
+        write_snapshot(sim, &self.out.join(&name))?;
+        self.pvd.push(sim.time(), Path::new(&name))?;
+        self.snapshots.push(self.out.join(&name));
+        state.snapshots.push((sim.time(), PathBuf::from(name)));
+        Ok(())
+    }
+
+    /// Records the step `sim` has just taken: its row of the report (flushed), a snapshot
+    /// when one is due, and a checkpoint every `checkpoint_every` steps.
+    fn record_step(
+        &mut self,
+        sim: &Simulation,
+        state: &mut RunState,
+        report: &StepReport,
+        checkpoint_every: Option<usize>,
+    ) -> Result<()> {
+        self.csv.write_row(&report.values())?;
+        self.csv.flush()?;
+        state.report_rows += 1;
+        if sim.time() >= state.next_snapshot * (1.0 - 1e-12) {
+            self.snapshot(sim, state)?;
+            state.next_snapshot += state.snapshot_interval;
+        }
+        if checkpoint_every.is_some_and(|k| k > 0 && sim.steps().is_multiple_of(k)) {
+            self.checkpoints.push(write_run_checkpoint(sim, state, self.out)?);
+        }
+        Ok(())
+    }
+
+    /// What the run did: where `sim` stands, the throughput of the `taken` steps over the
+    /// `stepping` time, and the files written.
+    fn summary(
+        self,
+        sim: &Simulation,
+        taken: usize,
+        stepping: Duration,
+        start: Instant,
+        last: Option<StepReport>,
+    ) -> RunSummary {
+        let particles = sim.particles().len();
+        let seconds = stepping.as_secs_f64();
+        RunSummary {
+            steps: sim.steps(),
+            time: sim.time(),
+            particles,
+            stepping,
+            total: start.elapsed(),
+            particle_steps_per_second: if seconds > 0.0 {
+                particles as f64 * taken as f64 / seconds
+            } else {
+                0.0
+            },
+            snapshots: self.snapshots,
+            pvd: self.pvd.path().to_path_buf(),
+            report: self.csv.path().to_path_buf(),
+            last,
+            checkpoints: self.checkpoints,
+        }
+    }
 }
 
 /// Writes `out/checkpoints/step_NNNNNNNN/` with `simulation.ckpt` and `run.json` (the run

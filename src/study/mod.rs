@@ -209,104 +209,152 @@ impl StudySpec {
         }
     }
 
-    /// The runs the spec asks for, as (part, problem, choices, cells).
+    /// The runs the spec asks for, as (part, problem, choices, cells), part by part in the
+    /// spec's order.
     fn plan(&self) -> Vec<Planned> {
-        let mut plan = Vec::new();
-        let mut add = |part, problem, choices, cells| {
-            plan.push(Planned {
+        self.parts.iter().flat_map(|&part| self.plan_part(part)).collect()
+    }
+
+    /// The runs of one part.
+    fn plan_part(&self, part: Part) -> Vec<Planned> {
+        let runs = match part {
+            Part::Frequency => self.plan_frequency(),
+            Part::BarEnergy => self.plan_bar_energy(),
+            Part::Convergence => self.plan_convergence(),
+            Part::Energy => self.plan_energy(),
+            Part::TimeStep => self.plan_time_step(),
+            Part::Cantilever => self.plan_cantilever(),
+            Part::SinglePoint => Self::plan_single_point(),
+        };
+        runs.into_iter()
+            .map(|(problem, choices, cells)| Planned {
                 part,
                 problem,
                 choices,
                 cells,
             })
-        };
-        for &part in &self.parts {
-            match part {
-                Part::Frequency => {
-                    for &mass in &self.masses {
-                        for &c in &self.bar_cells {
-                            add(part, Problem::BarFixedFixed, self.choices(mass), c);
-                        }
-                    }
-                }
-                Part::BarEnergy => {
-                    let c = self.bar_cells.get(self.bar_cells.len() / 2).copied().unwrap_or(16);
-                    for (scheme, transfer) in [
-                        (MassScheme::Lumped, Transfer::Pic),
-                        (MassScheme::Lumped, Transfer::Flip),
-                        (MassScheme::Lumped, Transfer::Fmpm { k: 8 }),
-                        (MassScheme::Consistent, Transfer::Pic),
-                        (MassScheme::Consistent, Transfer::Flip),
-                    ] {
-                        let choices = Choices {
-                            transfer,
-                            ..self.choices(MassOptions::both(scheme))
-                        };
-                        add(part, Problem::BarFixedFixed, choices, c);
-                    }
-                }
-                Part::Convergence => {
-                    for &shape in &self.shapes {
-                        for scheme in [MassScheme::Lumped, MassScheme::Consistent] {
-                            for &c in &self.vortex_cells {
-                                let choices = Choices {
-                                    shape,
-                                    ..self.choices(MassOptions::both(scheme))
-                                };
-                                add(part, Problem::Vortex, choices, c);
-                            }
-                        }
-                    }
-                }
-                Part::Energy => {
-                    for (scheme, transfer) in [
-                        (MassScheme::Lumped, Transfer::Flip),
-                        (MassScheme::Consistent, Transfer::Flip),
-                        (MassScheme::Lumped, Transfer::Pic),
-                        (MassScheme::Consistent, Transfer::Pic),
-                        (MassScheme::Lumped, Transfer::Fmpm { k: 8 }),
-                    ] {
-                        let choices = Choices {
-                            transfer,
-                            ..self.choices(MassOptions::both(scheme))
-                        };
-                        add(part, Problem::TwoDisks, choices, self.disks_cells);
-                    }
-                }
-                Part::TimeStep => {
-                    for &n in &self.particles_per_cell {
-                        let choices = Choices {
-                            particles_per_cell: n,
-                            ..self.choices(MassOptions::both(MassScheme::Lumped))
-                        };
-                        add(part, Problem::Block, choices, 12);
-                    }
-                }
-                Part::Cantilever => {
-                    // Quadratic B-splines: bilinear functions lock in bending, and the deflection
-                    // then grows with refinement long before it converges.
-                    for scheme in [MassScheme::Lumped, MassScheme::Consistent] {
-                        for &c in &self.cantilever_cells {
-                            let choices = Choices {
-                                shape: ShapeFunction::QuadraticBSpline,
-                                ..self.choices(MassOptions::both(scheme))
-                            };
-                            add(part, Problem::Cantilever, choices, c);
-                        }
-                    }
-                }
-                Part::SinglePoint => {
-                    for update in [UpdateScheme::Usf, UpdateScheme::Usl, UpdateScheme::Musl] {
-                        let choices = Choices {
-                            update,
-                            ..Choices::default()
-                        };
-                        add(part, Problem::SinglePoint, choices, 1);
-                    }
+            .collect()
+    }
+
+    /// The frequency part: the bar for every mass pair on every bar grid.
+    fn plan_frequency(&self) -> Vec<(Problem, Choices, usize)> {
+        let mut runs = Vec::new();
+        for &mass in &self.masses {
+            for &c in &self.bar_cells {
+                runs.push((Problem::BarFixedFixed, self.choices(mass), c));
+            }
+        }
+        runs
+    }
+
+    /// The bar-energy part: the bar on the middle bar grid under PIC, FLIP and FMPM with the
+    /// lumped mass, PIC and FLIP with the consistent one.
+    fn plan_bar_energy(&self) -> Vec<(Problem, Choices, usize)> {
+        let c = self.bar_cells.get(self.bar_cells.len() / 2).copied().unwrap_or(16);
+        [
+            (MassScheme::Lumped, Transfer::Pic),
+            (MassScheme::Lumped, Transfer::Flip),
+            (MassScheme::Lumped, Transfer::Fmpm { k: 8 }),
+            (MassScheme::Consistent, Transfer::Pic),
+            (MassScheme::Consistent, Transfer::Flip),
+        ]
+        .into_iter()
+        .map(|(scheme, transfer)| (Problem::BarFixedFixed, self.transfer_choices(scheme, transfer), c))
+        .collect()
+    }
+
+    /// The convergence part: the vortex for every shape, with the lumped and the consistent
+    /// mass, on every vortex grid.
+    fn plan_convergence(&self) -> Vec<(Problem, Choices, usize)> {
+        let mut runs = Vec::new();
+        for &shape in &self.shapes {
+            for scheme in [MassScheme::Lumped, MassScheme::Consistent] {
+                for &c in &self.vortex_cells {
+                    let choices = Choices {
+                        shape,
+                        ..self.choices(MassOptions::both(scheme))
+                    };
+                    runs.push((Problem::Vortex, choices, c));
                 }
             }
         }
-        plan
+        runs
+    }
+
+    /// The energy part: the two disks under FLIP and PIC with each mass, and FMPM with the
+    /// lumped mass.
+    fn plan_energy(&self) -> Vec<(Problem, Choices, usize)> {
+        [
+            (MassScheme::Lumped, Transfer::Flip),
+            (MassScheme::Consistent, Transfer::Flip),
+            (MassScheme::Lumped, Transfer::Pic),
+            (MassScheme::Consistent, Transfer::Pic),
+            (MassScheme::Lumped, Transfer::Fmpm { k: 8 }),
+        ]
+        .into_iter()
+        .map(|(scheme, transfer)| {
+            (
+                Problem::TwoDisks,
+                self.transfer_choices(scheme, transfer),
+                self.disks_cells,
+            )
+        })
+        .collect()
+    }
+
+    /// The time-step part: the block (12 × 12 grid) for every particle count.
+    fn plan_time_step(&self) -> Vec<(Problem, Choices, usize)> {
+        self.particles_per_cell
+            .iter()
+            .map(|&n| {
+                let choices = Choices {
+                    particles_per_cell: n,
+                    ..self.choices(MassOptions::both(MassScheme::Lumped))
+                };
+                (Problem::Block, choices, 12)
+            })
+            .collect()
+    }
+
+    /// The cantilever part: quadratic B-splines with the lumped and the consistent mass on
+    /// every cantilever grid.
+    fn plan_cantilever(&self) -> Vec<(Problem, Choices, usize)> {
+        // Quadratic B-splines: bilinear functions lock in bending, and the deflection then
+        // grows with refinement long before it converges.
+        let mut runs = Vec::new();
+        for scheme in [MassScheme::Lumped, MassScheme::Consistent] {
+            for &c in &self.cantilever_cells {
+                let choices = Choices {
+                    shape: ShapeFunction::QuadraticBSpline,
+                    ..self.choices(MassOptions::both(scheme))
+                };
+                runs.push((Problem::Cantilever, choices, c));
+            }
+        }
+        runs
+    }
+
+    /// The single-point part: the default choices under USF, USL and MUSL (the spec's update
+    /// and Courant number do not apply).
+    fn plan_single_point() -> Vec<(Problem, Choices, usize)> {
+        [UpdateScheme::Usf, UpdateScheme::Usl, UpdateScheme::Musl]
+            .into_iter()
+            .map(|update| {
+                let choices = Choices {
+                    update,
+                    ..Choices::default()
+                };
+                (Problem::SinglePoint, choices, 1)
+            })
+            .collect()
+    }
+
+    /// The spec's choices with both solves of `scheme` and `transfer`.
+    fn transfer_choices(&self, scheme: MassScheme, transfer: Transfer) -> Choices {
+        Choices {
+            transfer,
+            ..self.choices(MassOptions::both(scheme))
+        }
     }
 }
 
