@@ -209,6 +209,11 @@ impl Splittable for G2pOutput<'_> {
 
 /// The particle loop of [`g2p`] for the particles from `first` (a block), for a support of
 /// `S` nodes per axis; the block's kinetic energies.
+///
+/// A hot kernel, longer than the crate's functions otherwise are: every quantity of (9)–(11)
+/// is gathered in one sweep over the particle's stencil, so that each node's packed velocities
+/// are read once per particle and the sums stay in registers (splitting it into passes per
+/// quantity costs a pass over the grid each; docs/performance.md).
 fn g2p_block<const S: usize>(input: &G2pInput, first: usize, out: G2pOutput) -> KineticEnergies {
     let G2pOutput {
         velocity: [vel_x, vel_y],

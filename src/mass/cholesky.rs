@@ -58,7 +58,6 @@ impl SparseCholesky {
         local: &[usize],
         pivot_tolerance: f64,
     ) -> Result<(), Breakdown> {
-        let nf = dofs.len();
         let entry = |i: usize, j: usize, v: f64| {
             if i == j {
                 gamma * v + (1.0 - gamma) * lumped[i]
@@ -66,7 +65,21 @@ impl SparseCholesky {
                 gamma * v
             }
         };
-        // Diagonal of A.
+        self.scale(m, dofs, &entry)?;
+        let same_pattern = self.assemble_upper(m, dofs, local, &entry);
+        if !same_pattern {
+            self.analyse(dofs);
+        }
+        self.factor_numeric(pivot_tolerance)
+    }
+
+    /// `D^{-1/2}` of `A = entry(M)` on `dofs`: a non-positive diagonal is a breakdown there.
+    fn scale(
+        &mut self,
+        m: &CscMatrix<f64>,
+        dofs: &[usize],
+        entry: &impl Fn(usize, usize, f64) -> f64,
+    ) -> Result<(), Breakdown> {
         self.inv_sqrt_diag.clear();
         for (k, &j) in dofs.iter().enumerate() {
             let col = m.col(j);
@@ -81,8 +94,19 @@ impl SparseCholesky {
             }
             self.inv_sqrt_diag.push(1.0 / d.sqrt());
         }
-        // Upper triangle of the scaled A; compare the pattern with the previous one.
-        let mut same_pattern = self.symbolic.is_some() && self.dofs == dofs;
+        Ok(())
+    }
+
+    /// The upper triangle of the scaled `A` in compressed columns; whether its pattern is the
+    /// one of the last factorization.
+    fn assemble_upper(
+        &mut self,
+        m: &CscMatrix<f64>,
+        dofs: &[usize],
+        local: &[usize],
+        entry: &impl Fn(usize, usize, f64) -> f64,
+    ) -> bool {
+        let same_dofs = self.symbolic.is_some() && self.dofs == dofs;
         let (old_ptr, old_idx) = (std::mem::take(&mut self.col_ptr), std::mem::take(&mut self.row_idx));
         self.col_ptr.push(0);
         self.values.clear();
@@ -98,28 +122,38 @@ impl SparseCholesky {
             }
             self.col_ptr.push(self.row_idx.len());
         }
-        same_pattern = same_pattern && old_ptr == self.col_ptr && old_idx == self.row_idx;
-        if !same_pattern {
-            self.dofs = dofs.to_vec();
-            let sym = SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
-            let symbolic = factorize_symbolic_cholesky(
-                sym,
-                Side::Upper,
-                SymmetricOrdering::Amd,
-                // faer picks simplicial or supernodal storage by the flop ratio (supernodal
-                // for the grid-sized matrices of a time loop); `pivots` reads either.
-                CholeskySymbolicParams::default(),
-            )
-            .expect("symbolic Cholesky analysis only fails when out of memory");
-            self.perm_fwd = match symbolic.perm() {
-                Some(p) => p.arrays().0.to_vec(),
-                None => (0..nf).collect(),
-            };
-            self.l_values = vec![0.0; symbolic.len_val()];
-            self.symbolic = Some(symbolic);
-            self.symbolic_analyses += 1;
-        }
-        let symbolic = self.symbolic.as_ref().expect("set above");
+        same_dofs && old_ptr == self.col_ptr && old_idx == self.row_idx
+    }
+
+    /// The symbolic analysis (fill-reducing order and the factor's structure) of the pattern
+    /// just assembled.
+    fn analyse(&mut self, dofs: &[usize]) {
+        let nf = dofs.len();
+        self.dofs = dofs.to_vec();
+        let sym = SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
+        let symbolic = factorize_symbolic_cholesky(
+            sym,
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            // faer picks simplicial or supernodal storage by the flop ratio (supernodal
+            // for the grid-sized matrices of a time loop); `pivots` reads either.
+            CholeskySymbolicParams::default(),
+        )
+        .expect("symbolic Cholesky analysis only fails when out of memory");
+        self.perm_fwd = match symbolic.perm() {
+            Some(p) => p.arrays().0.to_vec(),
+            None => (0..nf).collect(),
+        };
+        self.l_values = vec![0.0; symbolic.len_val()];
+        self.symbolic = Some(symbolic);
+        self.symbolic_analyses += 1;
+    }
+
+    /// The numeric factorization into the kept buffers, and the pivot check: the first pivot
+    /// at or below `pivot_tolerance` (in the fill-reducing order) is a breakdown.
+    fn factor_numeric(&mut self, pivot_tolerance: f64) -> Result<(), Breakdown> {
+        let nf = self.dofs.len();
+        let symbolic = self.symbolic.as_ref().expect("analysed before");
         let sym = SymbolicSparseColMatRef::new_checked(nf, nf, &self.col_ptr, None, &self.row_idx);
         let a = SparseColMatRef::new(sym, &self.values);
         let mut mem = MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()));

@@ -66,36 +66,37 @@ impl Simulation {
     /// One step no longer than `max_dt`: the lines of the [module docs](super) in order.
     pub(super) fn phases(&mut self, max_dt: f64) -> Result<StepReport> {
         self.prepare_grid()?; // (1)–(5), mass
+        let (setup, state) = (&self.setup, &self.state);
+        let stable = timed(&mut self.profile, Phase::StableStep, || {
+            stability::stable_time_step(&setup.grid, state)
+        });
+        let dt = stability::next_time_step(&self.options, self.state.steps, stable)?.min(max_dt);
+        let solves = self.grid_phases(dt)?; // (6)–(8b), XPIC/FMPM
+        self.particle_phases(dt)?; // (9)–(13)
+        self.finish_step(dt, stable, solves)
+    }
+
+    /// (6)–(8b) and XPIC/FMPM's series velocity (USF: the stress update after (6)); the
+    /// reports of the velocity and acceleration solves.
+    fn grid_phases(&mut self, dt: f64) -> Result<[SolveReport; 2]> {
         let Simulation {
             setup,
             options,
             state,
-            cache,
+            cache: Cache { ops, mass, nodes },
             scratch,
             profile,
         } = self;
-        let schedule = options.update.schedule();
         let series = SeriesTransfer::of(options.transfer);
-        let stable = timed(profile, Phase::StableStep, || {
-            stability::stable_time_step(&setup.grid, state)
-        });
-        let dt = stability::next_time_step(options, state.steps, stable)?.min(max_dt);
-        let Cache { ops, mass, nodes } = cache;
-        let (prescribed, workers) = (&setup.prescribed, &setup.workers);
+        let (prescribed, active) = (&setup.prescribed, mass.is_active());
         let velocity_solve = timed(profile, Phase::Project, || {
             project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)
         })?; // (6)
-        if schedule.stress_first {
+        if options.update.schedule().stress_first {
             timed(profile, Phase::StressFirst, || {
                 let m = &state.particles.mass;
                 stress_gradient(setup, ops, mass, m, series, GridField::Projected, nodes, scratch);
-                update_stress(
-                    setup,
-                    state,
-                    &scratch.particle.velocity_gradient,
-                    dt,
-                    &mut scratch.stress_blocks,
-                )?;
+                update_stress(setup, state, scratch, dt)?;
                 let p = &state.particles;
                 kernels::add_internal_force(ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut nodes.force);
                 Ok::<_, MpmError>(())
@@ -104,109 +105,131 @@ impl Simulation {
         let acceleration_solve = timed(profile, Phase::Accelerate, || {
             solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)
         })?; // (7)
+        let (v, a) = (&nodes.projected, &nodes.acceleration);
         timed(profile, Phase::GridVelocity, || {
-            update_grid_velocity(
-                prescribed,
-                mass.is_active(),
-                &nodes.projected,
-                &nodes.acceleration,
-                dt,
-                &mut nodes.updated,
-            )
+            update_grid_velocity(prescribed, active, v, a, dt, &mut nodes.updated)
         }); // (8)
         timed(profile, Phase::Extend, || {
-            extend(
-                ops,
-                prescribed,
-                mass.is_active(),
-                &mut nodes.updated,
-                &mut scratch.extension,
-            )
+            extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension)
         }); // (8b)
         if let Some(series) = series {
             timed(profile, Phase::Series, || {
-                let p = &state.particles;
-                series.particle_velocity(
-                    ops,
-                    &p.mass,
-                    mass,
-                    prescribed,
-                    &nodes.projected,
-                    &nodes.updated,
-                    &mut nodes.series,
-                    &mut scratch.series,
-                );
-                extend(
-                    ops,
-                    prescribed,
-                    mass.is_active(),
-                    &mut nodes.series,
-                    &mut scratch.extension,
-                );
+                series_velocity(series, setup, ops, mass, &state.particles, nodes, scratch)
             }); // XPIC, FMPM
         }
+        Ok([velocity_solve, acceleration_solve])
+    }
+
+    /// (9)–(13): the grid-to-particle pass, the stress update of USL and MUSL, the positions.
+    fn particle_phases(&mut self, dt: f64) -> Result<()> {
+        let Simulation {
+            setup,
+            options,
+            state,
+            cache: Cache { ops, mass, nodes },
+            scratch,
+            profile,
+        } = self;
+        let (series, stress_last) = (
+            SeriesTransfer::of(options.transfer),
+            options.update.schedule().stress_last,
+        );
         let rule = G2pRule {
             transfer: options.transfer,
             position: options.position_update,
             inertia: ApicInertia::of(options.shape, &setup.grid),
-            gradient: (schedule.stress_last == Some(StressFrom::Updated))
+            gradient: (stress_last == Some(StressFrom::Updated))
                 .then(|| SeriesTransfer::stress_field(series, GridField::Updated)),
         };
+        let (p, workers) = (&mut state.particles, &setup.workers);
         timed(profile, Phase::G2p, || {
-            kernels::g2p(
-                ops,
-                nodes,
-                &rule,
-                dt,
-                &mut state.particles,
-                &mut scratch.particle,
-                workers,
-            )
+            kernels::g2p(ops, nodes, &rule, dt, p, &mut scratch.particle, workers)
         }); // (9)–(11)
-        match schedule.stress_last {
-            Some(StressFrom::Updated) => timed(profile, Phase::Stress, || {
-                update_stress(
-                    setup,
-                    state,
-                    &scratch.particle.velocity_gradient,
-                    dt,
-                    &mut scratch.stress_blocks,
-                )
-            })?, // (12)–(13)
+        match stress_last {
+            Some(StressFrom::Updated) => {
+                timed(profile, Phase::Stress, || update_stress(setup, state, scratch, dt))?
+                // (12)–(13)
+            }
             Some(StressFrom::Reprojected) => timed(profile, Phase::Stress, || {
                 let apic = apic_inertia(options, &setup.grid);
                 kernels::reproject_momentum(ops, &state.particles, apic, nodes, workers); // (11)
                 project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?;
                 let m = &state.particles.mass;
                 stress_gradient(setup, ops, mass, m, series, GridField::Projected, nodes, scratch);
-                update_stress(
-                    setup,
-                    state,
-                    &scratch.particle.velocity_gradient,
-                    dt,
-                    &mut scratch.stress_blocks,
-                )
+                update_stress(setup, state, scratch, dt)
             })?, // (11)–(13)
             None => {}
         }
         timed(profile, Phase::Move, || {
             move_particles(&scratch.particle.displacement, &mut state.particles)
         }); // (9)
+        Ok(())
+    }
+
+    /// The end of a step: time and step count advanced, the report, what the state keeps of it.
+    fn finish_step(&mut self, dt: f64, stable: f64, solves: [SolveReport; 2]) -> Result<StepReport> {
+        let Simulation {
+            setup,
+            options,
+            state,
+            cache,
+            scratch,
+            profile,
+        } = self;
         state.time += dt;
         state.steps += 1;
         let mut report = timed(profile, Phase::Report, || {
-            let solves = [velocity_solve, acceleration_solve];
-            super::report::report(setup, options, state, mass, nodes, scratch, dt, stable, solves)
+            super::report::report(
+                setup,
+                options,
+                state,
+                &cache.mass,
+                &cache.nodes,
+                scratch,
+                dt,
+                stable,
+                solves,
+            )
         })?;
-        state.speeds.particle = report.max_speed;
-        let k = &scratch.particle.kinetic;
-        state.transfer_loss += k.before + (k.updated - k.projected) - report.kinetic_energy;
+        state.keep(&report, &scratch.particle.kinetic);
         report.transfer_loss = state.transfer_loss;
         if let Some(p) = profile {
             p.count_step();
         }
         Ok(report)
     }
+}
+
+impl State {
+    /// What the state keeps of the step just reported: the largest speed (the next stable step
+    /// reads it) and the kinetic energy the transfers back to the particles lost.
+    fn keep(&mut self, report: &StepReport, k: &kernels::KineticEnergies) {
+        self.speeds.particle = report.max_speed;
+        self.transfer_loss += k.before + (k.updated - k.projected) - report.kinetic_energy;
+    }
+}
+
+/// XPIC(k), FMPM(k): the series velocity `v*` into the series field, extended to the massless
+/// support nodes (8b).
+fn series_velocity(
+    series: SeriesTransfer,
+    setup: &Setup,
+    ops: &Operators,
+    mass: &GridMass,
+    p: &Particles,
+    nodes: &mut GridState,
+    scratch: &mut Scratch,
+) {
+    let prescribed = &setup.prescribed;
+    let (v, w, out) = (&nodes.projected, &nodes.updated, &mut nodes.series);
+    series.particle_velocity(ops, &p.mass, mass, prescribed, v, w, out, &mut scratch.series);
+    extend(
+        ops,
+        prescribed,
+        mass.is_active(),
+        &mut nodes.series,
+        &mut scratch.extension,
+    );
 }
 
 /// The APIC inertia of the shape functions, when the transfer is APIC.
@@ -325,14 +348,10 @@ pub(super) struct StressBlock {
 }
 
 /// (12) `F ← (I + Δt L) F`, `σ ← material(σ, L, F)`; (13) `V ← V det(I + Δt L)`, with the
-/// velocity gradient `l`; the strain energy and the wave speed into `state`.
-fn update_stress(
-    setup: &Setup,
-    state: &mut State,
-    l: &[Vec<f64>; 4],
-    dt: f64,
-    blocks: &mut Vec<StressBlock>,
-) -> Result<()> {
+/// velocity gradient `L` of the particle scratch; the strain energy and the wave speed into
+/// `state`.
+fn update_stress(setup: &Setup, state: &mut State, scratch: &mut Scratch, dt: f64) -> Result<()> {
+    let (l, blocks) = (&scratch.particle.velocity_gradient, &mut scratch.stress_blocks);
     let p = &mut state.particles;
     let (materials, body, mass) = (&setup.materials[..], &p.body[..], &p.mass[..]);
     let out = StressOutput {
