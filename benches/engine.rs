@@ -353,7 +353,7 @@ fn main() {
     println!(
         "Scene `scenes/block_in_box.toml` ({base_count} particles as shipped), grid refined by a whole factor r \
          (same 1 × 1 box and 0.3 × 0.3 block, 2 × 2 particles per cell, 576 r² particles); schemes as in the \
-         scene apart from the shape function: {:?}, {:?}, mass {} / {}, CFL time step, re-sort every {} steps. \
+         scene apart from the shape function: {:?}, {:?}, mass {:#} / {:#}, CFL time step, re-sort every {} steps. \
          Step time = wall time of `Simulation::step` (everything in it, the step report included); each repeat \
          builds the simulation anew, takes 3 untimed steps and times N consecutive steps; the figure is the \
          median over the repeats of the mean step time. \
@@ -361,11 +361,7 @@ fn main() {
          simulation's current particles with a separate `Operators`, one sample after each repeat. \
          Single-threaded (faer global parallelism `Par::Seq`; the crate's kernels are sequential) on 2 vCPUs \
          of a shared host.",
-        s.update,
-        s.transfer,
-        s.mass.velocity.label(),
-        s.mass.acceleration.label(),
-        s.sort_interval,
+        s.update, s.transfer, s.mass.velocity, s.mass.acceleration, s.sort_interval
     );
     let total = Instant::now();
     let mut outcomes = Vec::new();

@@ -205,7 +205,7 @@ fn run_size(target: usize) {
     for ((scheme, s), report) in schemes.iter().zip(&stats).zip(&reports) {
         let (rv, ra) = report.as_ref().expect("measured at least once");
         for r in [rv, ra] {
-            assert_eq!(r.outcome, SolveOutcome::Solved, "{}: {:?}", scheme.label(), r.outcome);
+            assert_eq!(r.outcome, SolveOutcome::Solved, "{:#}: {:?}", scheme, r.outcome);
         }
         let iterations = match scheme {
             MassScheme::Iterative { .. } => format!("v {} / a {}", rv.iterations, ra.iterations),
@@ -220,11 +220,11 @@ fn run_size(target: usize) {
             ),
         };
         println!(
-            "| {} | {np} | {} | {} | {} | {iterations} | {residual} |",
-            scheme.label(),
+            "| {:#} | {np} | {} | {} | {} | {iterations} | {residual} |",
+            scheme,
             common::fmt_ms(s.median_ms),
             common::fmt_ms(s.min_ms),
-            ratio(*s, stats[0]),
+            ratio(*s, stats[0])
         );
     }
     println!();
@@ -233,7 +233,7 @@ fn run_size(target: usize) {
         schemes
             .iter()
             .zip(&stats)
-            .map(|(sc, s)| format!("{} {} × {}", sc.label(), s.samples, s.calls_per_sample))
+            .map(|(sc, s)| format!("{sc:#} {} × {}", s.samples, s.calls_per_sample))
             .collect::<Vec<_>>()
             .join(", ")
     );

@@ -169,7 +169,7 @@ fn main() -> sparse_mpm::Result<()> {
         if scheme == MassScheme::Lumped {
             dt_lumped = dt;
         }
-        println!("{:>14} {:>12.5e} {:>10.4}", scheme.label(), dt, dt / dt_lumped);
+        println!("{:>#14} {:>12.5e} {:>10.4}", scheme, dt, dt / dt_lumped);
     }
     println!(
         "(1D linear elements: consistent/lumped = 1/sqrt(3) = {:.4})",

@@ -54,7 +54,7 @@ fn main() -> sparse_mpm::Result<()> {
         let diag = MassDiagnostics::compute(&ops, m, &options)?;
         active = mass.active_nodes();
         a.push(a_s);
-        rows.push((scheme.label(), report, dt_crit, diag));
+        rows.push((format!("{:#}", scheme), report, dt_crit, diag));
     }
 
     println!("Seed problem (2 x 1 cells, 4 particles, m = {MASS}, V = {VOLUME}): a = M^-1 (f_ext + f_int)");

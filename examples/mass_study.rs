@@ -137,9 +137,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let drift = (r.energy[steps] - e0) / e0;
         let max_dev = r.energy.iter().map(|e| (e - e0).abs()).fold(0.0, f64::max) / e0;
         println!(
-            "{:>14} {:>14} | {:>11.3}% {:>9.5} {:>9.3}% | {:>11.4}% {:>11.4}% {:>10.4}",
-            velocity.label(),
-            acceleration.label(),
+            "{:>#14} {:>#14} | {:>11.3}% {:>9.5} {:>9.3}% | {:>11.4}% {:>11.4}% {:>10.4}",
+            velocity,
+            acceleration,
             100.0 * rms / amplitude,
             t_num,
             100.0 * (t_num - period) / period,
@@ -165,7 +165,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = out_dir.join("mass_study.csv");
     let mut csv = String::from("t,v_cm_exact");
     for (velocity, acceleration) in PAIRS {
-        write!(csv, ",{}/{}", velocity.label(), acceleration.label())?;
+        write!(csv, ",{velocity:#}/{acceleration:#}")?;
     }
     csv.push('\n');
     for (n, &t) in times.iter().enumerate() {

@@ -36,8 +36,8 @@ fn main() -> Result<(), sparse_mpm::MpmError> {
             None => "the differences do not shrink yet: no extrapolation".into(),
         };
         println!(
-            "  {:<11} {} cells: {:.4}, {:.4}, {:.4}; {extrapolated}",
-            scheme.label(),
+            "  {:<#11} {} cells: {:.4}, {:.4}, {:.4}; {extrapolated}",
+            scheme,
             CELLS.map(|c| c.to_string()).join(", "),
             f[0],
             f[1],

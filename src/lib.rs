@@ -119,6 +119,7 @@ pub mod kernels;
 pub mod limits;
 pub mod mass;
 pub mod material;
+pub mod names;
 pub mod numbers;
 pub mod operators;
 pub mod parallel;

@@ -179,7 +179,7 @@ pub fn estimate_scene(scene: &Scene) -> Estimate {
     }
     let consistent = [scene.schemes.mass.velocity, scene.schemes.mass.acceleration]
         .iter()
-        .any(|s| !matches!(s, MassScheme::Lumped));
+        .any(MassScheme::needs_consistent_matrix);
     let memory_bytes = BYTES_PER_PARTICLE * particles
         + BYTES_PER_NODE * nodes
         + if consistent {

@@ -3,7 +3,12 @@
 //! re-exported by [`crate::simulation`] and [`crate::step`]; the kernels and both tiers of the
 //! step read the same enums.
 
-use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use crate::names::{self, Param, Spelled};
 
 /// When the stress is updated relative to the grid solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -22,8 +27,10 @@ pub enum UpdateScheme {
 }
 
 /// How the particle velocities are updated from the grid.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
+///
+/// As text ([`crate::names`]): `pic`, `flip`, `blend:α`, `apic`, `xpic:k`, `fmpm:k` (scene files
+/// may also write `{ blend = { flip = α } }`, `{ xpic = { k = k } }`, `{ fmpm = { k = k } }`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum Transfer {
     /// Particle velocity = interpolated grid velocity (dissipative, stable).
     Pic,
@@ -74,7 +81,7 @@ impl Transfer {
     pub fn series_terms(&self) -> Option<usize> {
         match *self {
             Transfer::Xpic { k } | Transfer::Fmpm { k } => Some(k),
-            _ => None,
+            Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic => None,
         }
     }
 
@@ -85,7 +92,104 @@ impl Transfer {
         match *self {
             Transfer::Flip => 1.0,
             Transfer::Blend { flip } => flip,
-            _ => 0.0,
+            Transfer::Pic | Transfer::Apic | Transfer::Xpic { .. } | Transfer::Fmpm { .. } => 0.0,
+        }
+    }
+}
+
+impl fmt::Display for Transfer {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Transfer::Pic | Transfer::Flip | Transfer::Apic => f.pad(self.name()),
+            Transfer::Blend { flip } => names::write(f, "blend", &[flip]),
+            Transfer::Xpic { k } | Transfer::Fmpm { k } => names::write_params(f, self.name(), &[Param::Count(k)]),
+        }
+    }
+}
+
+impl FromStr for Transfer {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Transfer, String> {
+        let s = Spelled::parse(text)?;
+        let transfer = match s.name {
+            "pic" => Transfer::Pic,
+            "flip" => Transfer::Flip,
+            "apic" => Transfer::Apic,
+            "blend" => Transfer::Blend {
+                flip: s.param(0, None)?,
+            },
+            "xpic" => Transfer::Xpic { k: s.param(0, None)? },
+            "fmpm" => Transfer::Fmpm { k: s.param(0, None)? },
+            _ => {
+                return Err(format!(
+                    "unknown transfer `{text}` (pic, flip, apic, blend:α, xpic:k, fmpm:k)"
+                ))
+            }
+        };
+        if matches!(transfer, Transfer::Pic | Transfer::Flip | Transfer::Apic) {
+            s.no_params()?;
+        }
+        Ok(transfer)
+    }
+}
+
+/// The table form of a transfer in a scene file.
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+enum TransferTable {
+    Pic,
+    Flip,
+    Blend { flip: f64 },
+    Apic,
+    Xpic { k: usize },
+    Fmpm { k: usize },
+}
+
+impl From<TransferTable> for Transfer {
+    fn from(t: TransferTable) -> Transfer {
+        match t {
+            TransferTable::Pic => Transfer::Pic,
+            TransferTable::Flip => Transfer::Flip,
+            TransferTable::Blend { flip } => Transfer::Blend { flip },
+            TransferTable::Apic => Transfer::Apic,
+            TransferTable::Xpic { k } => Transfer::Xpic { k },
+            TransferTable::Fmpm { k } => Transfer::Fmpm { k },
+        }
+    }
+}
+
+impl Serialize for Transfer {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        names::serialize(self, s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Transfer {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Transfer, D::Error> {
+        names::deserialize::<D, Transfer, TransferTable>(d, "a transfer (pic, flip, apic, blend:α, xpic:k, fmpm:k)")
+    }
+}
+
+impl fmt::Display for UpdateScheme {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(match self {
+            UpdateScheme::Usf => "usf",
+            UpdateScheme::Usl => "usl",
+            UpdateScheme::Musl => "musl",
+        })
+    }
+}
+
+impl FromStr for UpdateScheme {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<UpdateScheme, String> {
+        match text.trim() {
+            "usf" => Ok(UpdateScheme::Usf),
+            "usl" => Ok(UpdateScheme::Usl),
+            "musl" => Ok(UpdateScheme::Musl),
+            _ => Err(format!("unknown update scheme `{text}` (usf, usl, musl)")),
         }
     }
 }
@@ -138,6 +242,27 @@ impl UpdateScheme {
                 stress_first: false,
                 stress_last: Some(StressFrom::Reprojected),
             },
+        }
+    }
+}
+
+impl fmt::Display for PositionUpdate {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(match self {
+            PositionUpdate::GridVelocity => "grid_velocity",
+            PositionUpdate::Trapezoidal => "trapezoidal",
+        })
+    }
+}
+
+impl FromStr for PositionUpdate {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<PositionUpdate, String> {
+        match text.trim() {
+            "grid_velocity" => Ok(PositionUpdate::GridVelocity),
+            "trapezoidal" => Ok(PositionUpdate::Trapezoidal),
+            _ => Err(format!("unknown position update `{text}` (grid_velocity, trapezoidal)")),
         }
     }
 }

@@ -323,9 +323,9 @@ fn the_flip_rule_is_the_same_in_the_time_loop_and_the_single_step_for_every_mass
             .fold(0.0, f64::max);
         assert!(
             diff <= 1e-8 * scale,
-            "{} / {}: the two paths differ by {diff:e} (scale {scale:e})",
-            velocity.label(),
-            acceleration.label()
+            "{:#} / {:#}: the two paths differ by {diff:e} (scale {scale:e})",
+            velocity,
+            acceleration
         );
     }
 }

@@ -446,7 +446,7 @@ fn every_float_key_refuses_nan_and_infinity_naming_the_key_and_the_value() {
         ),
         (
             with_table("[schemes]\nmass = { acceleration = { iterative = { tolerance = inf, max_iterations = 10 } } }"),
-            vec!["`schemes.mass.acceleration.iterative.tolerance`", "inf"],
+            vec!["`schemes.mass.acceleration.cg.tolerance`", "inf"],
         ),
         (
             with_table(

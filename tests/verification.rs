@@ -41,17 +41,17 @@ fn the_bar_period_error_is_positive_for_lumped_and_negative_for_consistent_mass_
                 .collect();
             assert!(
                 errors.iter().all(|&(_, e)| e * sign > 0.0),
-                "{} {}: period errors {errors:?}",
+                "{} {:#}: period errors {errors:?}",
                 bar.name(),
-                mass.label()
+                mass
             );
             let magnitudes: Vec<(f64, f64)> = errors.iter().map(|&(h, e)| (h, e.abs())).collect();
             let order = fitted_order(&magnitudes).unwrap();
             assert!(
                 (1.6..2.4).contains(&order),
-                "{} {}: order {order} from {errors:?}",
+                "{} {:#}: order {order} from {errors:?}",
                 bar.name(),
-                mass.label()
+                mass
             );
         }
     }

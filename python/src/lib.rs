@@ -455,7 +455,8 @@ fn vector_pair<'py>(py: Python<'py>, f: &VectorField) -> Pair<'py> {
 }
 
 fn mass_scheme(name: &str) -> PyResult<mass::MassScheme> {
-    sparse_mpm::bench::names::mass(name).map_err(|e| mpm_msg(format!("mass = {name:?}: {e}")))
+    name.parse::<mass::MassScheme>()
+        .map_err(|e| mpm_msg(format!("mass = {name:?}: {e}")))
 }
 
 fn plane_condition(name: &str) -> PyResult<PlaneCondition> {
@@ -567,7 +568,7 @@ fn critical_time_step(
 
 fn outcome_dict<'py>(py: Python<'py>, r: &mass::SolveReport) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item("scheme", r.scheme.label())?;
+    d.set_item("scheme", r.scheme.to_string())?;
     let (outcome, node) = match r.outcome {
         mass::SolveOutcome::Solved => ("solved", None),
         mass::SolveOutcome::FellBackToLumped { node, .. } => ("fell_back_to_lumped", node),

@@ -10,7 +10,6 @@ use std::time::{Duration, Instant};
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use sparse_mpm::bench::names;
 use sparse_mpm::limits;
 use sparse_mpm::mass::MassScheme;
 use sparse_mpm::numbers::human;
@@ -183,17 +182,17 @@ struct StudyArgs {
 
 #[derive(Args, Debug)]
 struct BenchArgs {
-    /// Shape functions: linear, gimp (or gimp:half_width), quadratic, cubic.
-    #[arg(long, default_value = "quadratic", value_parser = names::shape)]
+    /// Shape functions: linear, gimp (or gimp:half_width), quadratic_bspline (quadratic), cubic_bspline (cubic).
+    #[arg(long, default_value = "quadratic")]
     shape: ShapeFunction,
-    /// Mass scheme: lumped, consistent, blended:γ, series:k, cg (or cg:tolerance).
-    #[arg(long, default_value = "lumped", value_parser = names::mass)]
+    /// Mass scheme: lumped, consistent, blended:γ, series:k, cg (or cg:tolerance[:max_iterations]).
+    #[arg(long, default_value = "lumped")]
     mass: MassScheme,
     /// Velocity transfer: pic, flip, apic, blend:α, xpic:k, fmpm:k.
-    #[arg(long, default_value = "apic", value_parser = names::transfer)]
+    #[arg(long, default_value = "apic")]
     transfer: Transfer,
     /// Update scheme: usf, usl, musl.
-    #[arg(long, default_value = "usl", value_parser = names::update)]
+    #[arg(long, default_value = "usl")]
     update: UpdateScheme,
     /// Particle counts, comma-separated (16 to 1e9; `1e6` and `1_000_000` are accepted)
     /// [default: 8192,65536,262144,1048576].
@@ -434,13 +433,10 @@ fn check(args: &CheckArgs) -> Result<(), String> {
         sim.particles().len(),
         sim.bodies().len()
     );
+    let schemes = &scene.schemes;
     println!(
-        "shape {}, update {:?}, transfer {:?}, mass velocity {} / acceleration {}",
-        scene.schemes.shape.name(),
-        scene.schemes.update,
-        scene.schemes.transfer,
-        scene.schemes.mass.velocity.label(),
-        scene.schemes.mass.acceleration.label()
+        "shape {:#}, update {}, transfer {:#}, mass velocity {:#} / acceleration {:#}",
+        schemes.shape, schemes.update, schemes.transfer, schemes.mass.velocity, schemes.mass.acceleration
     );
     println!("stable time step at t = 0: {}", human(sim.stable_time_step()));
     println!("{estimate}");
@@ -517,11 +513,11 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
         ..defaults
     };
     println!(
-        "# sparse-mpm {}: shape {}, mass {}, transfer {}, update {:?}, {} thread(s), f64",
+        "# sparse-mpm {}: shape {:#}, mass {:#}, transfer {:#}, update {}, {} thread(s), f64",
         env!("CARGO_PKG_VERSION"),
-        spec.shape.name(),
-        spec.mass.label(),
-        spec.transfer.name(),
+        spec.shape,
+        spec.mass,
+        spec.transfer,
         spec.update,
         spec.threads
     );

@@ -300,8 +300,10 @@ fn g2p_block<const S: usize>(input: &G2pInput, first: usize, out: G2pOutput) -> 
         let (ux, uy) = match transfer {
             Transfer::Xpic { .. } => (rx + 0.5 * (new_x - old_x), ry + 0.5 * (new_y - old_y)),
             Transfer::Fmpm { .. } => (0.5 * (old_x + new_x), 0.5 * (old_y + new_y)),
-            _ if trapezoidal => (0.5 * (old_x + vx), 0.5 * (old_y + vy)),
-            _ => (vx, vy),
+            Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic if trapezoidal => {
+                (0.5 * (old_x + vx), 0.5 * (old_y + vy))
+            }
+            Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic => (vx, vy),
         };
         disp_x[j] = dt * ux;
         disp_y[j] = dt * uy;

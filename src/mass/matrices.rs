@@ -150,7 +150,13 @@ impl Matrices {
         self.stabilized_csc = None;
         let mut stencil = self.stencil.take().unwrap_or_default();
         stencil.reassemble(ops, m);
-        let iterative = |s: MassScheme| matches!(s, MassScheme::Iterative { .. });
+        let iterative = |s: MassScheme| match s {
+            MassScheme::Iterative { .. } => true,
+            MassScheme::Lumped
+            | MassScheme::Consistent
+            | MassScheme::Blended { .. }
+            | MassScheme::TruncatedSeries { .. } => false,
+        };
         self.stencil_stabilized = match options.stabilization {
             Stabilization::PartialLumping { threshold }
                 if iterative(options.velocity) || iterative(options.acceleration) =>
@@ -160,7 +166,7 @@ impl Matrices {
                 lumped_stencil.partially_lump(lumped, threshold);
                 Some(lumped_stencil)
             }
-            _ => None,
+            Stabilization::PartialLumping { .. } | Stabilization::None | Stabilization::GhostPenalty { .. } => None,
         };
         self.stencil = Some(stencil);
     }
@@ -182,7 +188,12 @@ impl Matrices {
     /// The matrix `scheme` solves with: the plain consistent mass for the truncated series
     /// (which is defined with it), the stabilised one otherwise.
     pub(super) fn operator(&self, scheme: MassScheme) -> Option<MassOperator<'_>> {
-        let series = matches!(scheme, MassScheme::TruncatedSeries { .. });
+        let series = match scheme {
+            MassScheme::TruncatedSeries { .. } => true,
+            MassScheme::Lumped | MassScheme::Consistent | MassScheme::Blended { .. } | MassScheme::Iterative { .. } => {
+                false
+            }
+        };
         let csc = if series {
             self.csc.as_ref()
         } else {

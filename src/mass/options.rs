@@ -1,15 +1,24 @@
 //! The choices of the mass solves: [`MassScheme`], [`SingularityPolicy`], [`Constraints`],
 //! [`MassOptions`], and what a solve reports ([`SolveOutcome`], [`SolveReport`]).
 
-use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::stabilization::Stabilization;
 use super::{DEFAULT_ACTIVE_MASS_TOLERANCE, DEFAULT_PIVOT_TOLERANCE};
 use crate::error::{MpmError, Result};
+use crate::names::{self, Param, Spelled};
 
 /// How the grid mass turns momenta into velocities and forces into accelerations.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
+///
+/// As text ([`crate::names`]): `lumped`, `consistent`, `blended:γ`, `series:k`,
+/// `cg[:tolerance[:max_iterations]]` (`Display` and `FromStr`, the serde form too; scene files
+/// may also write `{ blended = { gamma = γ } }`, `{ series = { k = k } }`,
+/// `{ cg = { tolerance = t, max_iterations = n } }`, and the older `truncated_series` and
+/// `iterative` for the last two).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum MassScheme {
     /// Row-sum lumped mass `m_L = N m`.
     #[default]
@@ -44,17 +53,12 @@ pub enum MassScheme {
 impl MassScheme {
     /// Whether the scheme needs the assembled consistent mass matrix.
     pub fn needs_consistent_matrix(&self) -> bool {
-        !matches!(self, MassScheme::Lumped | MassScheme::TruncatedSeries { k: 1 })
-    }
-
-    /// A short name for reports (`"lumped"`, `"consistent"`, `"blended(0.5)"` …).
-    pub fn label(&self) -> String {
         match self {
-            MassScheme::Lumped => "lumped".into(),
-            MassScheme::Consistent => "consistent".into(),
-            MassScheme::Blended { gamma } => format!("blended({})", crate::numbers::decimals(*gamma, 4)),
-            MassScheme::TruncatedSeries { k } => format!("series({k})"),
-            MassScheme::Iterative { tolerance, .. } => format!("cg({tolerance:e})"),
+            MassScheme::Lumped | MassScheme::TruncatedSeries { k: 1 } => false,
+            MassScheme::Consistent
+            | MassScheme::Blended { .. }
+            | MassScheme::TruncatedSeries { .. }
+            | MassScheme::Iterative { .. } => true,
         }
     }
 
@@ -90,15 +94,138 @@ impl MassScheme {
                     Ok(())
                 }
             }
-            _ => Ok(()),
+            MassScheme::Lumped
+            | MassScheme::Consistent
+            | MassScheme::Blended { .. }
+            | MassScheme::TruncatedSeries { .. } => Ok(()),
         }
+    }
+}
+
+/// Iteration limit of [`MassScheme::Iterative`] when none is given (`cg:1e-10`).
+pub const DEFAULT_CG_MAX_ITERATIONS: usize = 500;
+
+/// Relative tolerance of [`MassScheme::Iterative`] when none is given (`cg`).
+pub const DEFAULT_CG_TOLERANCE: f64 = 1e-10;
+
+impl fmt::Display for MassScheme {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            MassScheme::Lumped => f.pad("lumped"),
+            MassScheme::Consistent => f.pad("consistent"),
+            MassScheme::Blended { gamma } => names::write(f, "blended", &[gamma]),
+            MassScheme::TruncatedSeries { k } => names::write_params(f, "series", &[Param::Count(k)]),
+            MassScheme::Iterative {
+                tolerance,
+                max_iterations: DEFAULT_CG_MAX_ITERATIONS,
+            } => names::write(f, "cg", &[tolerance]),
+            MassScheme::Iterative {
+                tolerance,
+                max_iterations,
+            } => names::write_params(f, "cg", &[Param::Real(tolerance), Param::Count(max_iterations)]),
+        }
+    }
+}
+
+impl FromStr for MassScheme {
+    type Err = String;
+
+    fn from_str(text: &str) -> std::result::Result<MassScheme, String> {
+        let s = Spelled::parse(text)?;
+        let scheme = match s.name {
+            "lumped" => MassScheme::Lumped,
+            "consistent" => MassScheme::Consistent,
+            "blended" => MassScheme::Blended {
+                gamma: s.param(0, None)?,
+            },
+            "series" | "truncated_series" => MassScheme::TruncatedSeries { k: s.param(0, None)? },
+            "cg" | "iterative" => MassScheme::Iterative {
+                tolerance: s.param(0, Some(DEFAULT_CG_TOLERANCE))?,
+                max_iterations: s.param(1, Some(DEFAULT_CG_MAX_ITERATIONS))?,
+            },
+            _ => {
+                return Err(format!(
+                    "unknown mass scheme `{text}` (lumped, consistent, blended:γ, series:k, \
+                     cg[:tolerance[:max_iterations]])"
+                ))
+            }
+        };
+        if matches!(scheme, MassScheme::Lumped | MassScheme::Consistent) {
+            s.no_params()?;
+        }
+        Ok(scheme)
+    }
+}
+
+/// The table form of a mass scheme in a scene file.
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+enum MassSchemeTable {
+    Lumped,
+    Consistent,
+    Blended {
+        gamma: f64,
+    },
+    #[serde(alias = "truncated_series")]
+    Series {
+        k: usize,
+    },
+    #[serde(alias = "iterative")]
+    Cg {
+        #[serde(default = "default_cg_tolerance")]
+        tolerance: f64,
+        #[serde(default = "default_cg_max_iterations")]
+        max_iterations: usize,
+    },
+}
+
+fn default_cg_tolerance() -> f64 {
+    DEFAULT_CG_TOLERANCE
+}
+
+fn default_cg_max_iterations() -> usize {
+    DEFAULT_CG_MAX_ITERATIONS
+}
+
+impl From<MassSchemeTable> for MassScheme {
+    fn from(t: MassSchemeTable) -> MassScheme {
+        match t {
+            MassSchemeTable::Lumped => MassScheme::Lumped,
+            MassSchemeTable::Consistent => MassScheme::Consistent,
+            MassSchemeTable::Blended { gamma } => MassScheme::Blended { gamma },
+            MassSchemeTable::Series { k } => MassScheme::TruncatedSeries { k },
+            MassSchemeTable::Cg {
+                tolerance,
+                max_iterations,
+            } => MassScheme::Iterative {
+                tolerance,
+                max_iterations,
+            },
+        }
+    }
+}
+
+impl Serialize for MassScheme {
+    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        names::serialize(self, s)
+    }
+}
+
+impl<'de> Deserialize<'de> for MassScheme {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<MassScheme, D::Error> {
+        names::deserialize::<D, MassScheme, MassSchemeTable>(
+            d,
+            "a mass scheme (lumped, consistent, blended:γ, series:k, cg[:tolerance])",
+        )
     }
 }
 
 /// What to do when the mass matrix to be solved is singular (or so close that a solve would be
 /// garbage), or an iterative solve fails. Whatever happens is recorded in the [`SolveReport`].
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
+///
+/// As text ([`crate::names`]): `error`, `fallback_to_lumped`, `regularize:ε` (scene files may
+/// also write `{ regularize = { epsilon = ε } }`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum SingularityPolicy {
     /// Return [`MpmError::SingularMassMatrix`] naming the node and the particles touching it.
     #[default]
@@ -110,6 +237,74 @@ pub enum SingularityPolicy {
         /// Weight ε of the lumped mass, in (0, 1].
         epsilon: f64,
     },
+}
+
+impl fmt::Display for SingularityPolicy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            SingularityPolicy::Error => f.pad("error"),
+            SingularityPolicy::FallbackToLumped => f.pad("fallback_to_lumped"),
+            SingularityPolicy::Regularize { epsilon } => names::write(f, "regularize", &[epsilon]),
+        }
+    }
+}
+
+impl FromStr for SingularityPolicy {
+    type Err = String;
+
+    fn from_str(text: &str) -> std::result::Result<SingularityPolicy, String> {
+        let s = Spelled::parse(text)?;
+        let policy = match s.name {
+            "error" => SingularityPolicy::Error,
+            "fallback_to_lumped" => SingularityPolicy::FallbackToLumped,
+            "regularize" => SingularityPolicy::Regularize {
+                epsilon: s.param(0, None)?,
+            },
+            _ => {
+                return Err(format!(
+                    "unknown singularity policy `{text}` (error, fallback_to_lumped, regularize:ε)"
+                ))
+            }
+        };
+        if !matches!(policy, SingularityPolicy::Regularize { .. }) {
+            s.no_params()?;
+        }
+        Ok(policy)
+    }
+}
+
+/// The table form of a singularity policy in a scene file.
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+enum SingularityTable {
+    Error,
+    FallbackToLumped,
+    Regularize { epsilon: f64 },
+}
+
+impl From<SingularityTable> for SingularityPolicy {
+    fn from(t: SingularityTable) -> SingularityPolicy {
+        match t {
+            SingularityTable::Error => SingularityPolicy::Error,
+            SingularityTable::FallbackToLumped => SingularityPolicy::FallbackToLumped,
+            SingularityTable::Regularize { epsilon } => SingularityPolicy::Regularize { epsilon },
+        }
+    }
+}
+
+impl Serialize for SingularityPolicy {
+    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        names::serialize(self, s)
+    }
+}
+
+impl<'de> Deserialize<'de> for SingularityPolicy {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<SingularityPolicy, D::Error> {
+        names::deserialize::<D, SingularityPolicy, SingularityTable>(
+            d,
+            "a singularity policy (error, fallback_to_lumped, regularize:ε)",
+        )
+    }
 }
 
 /// Nodal degrees of freedom whose value is prescribed (fixed or roller nodes). They are

@@ -27,10 +27,14 @@
 //! docs/mass.md compares them.
 
 use nalgebra_sparse::{CooMatrix, CscMatrix};
-use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
+use crate::names::{self, Spelled};
 use crate::operators::Operators;
 use crate::shape::{bspline, ShapeFunction};
 
@@ -42,8 +46,10 @@ pub const DEFAULT_LUMPING_THRESHOLD: f64 = 0.5;
 /// How the consistent mass is stabilised at a body's fringe before it is solved with. Applies
 /// to the consistent, blended and conjugate-gradient schemes (and to a regularised solve); the
 /// truncated series keeps the plain `M` it is defined with.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
+///
+/// As text ([`crate::names`]): `none`, `ghost_penalty:γ`, `partial_lumping:θ` (scene files may
+/// also write `{ ghost_penalty = { gamma = γ } }`, `{ partial_lumping = { threshold = θ } }`).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Stabilization {
     /// The plain consistent mass `M = N diag(m) Nᵀ`: unstable in a time loop once a body's edge
     /// crosses a grid line.
@@ -74,15 +80,6 @@ impl Default for Stabilization {
 }
 
 impl Stabilization {
-    /// A short name for reports (`"none"`, `"ghost(0.1)"`, `"lumping(0.5)"`).
-    pub fn label(&self) -> String {
-        match self {
-            Stabilization::None => "none".into(),
-            Stabilization::GhostPenalty { gamma } => format!("ghost({gamma})"),
-            Stabilization::PartialLumping { threshold } => format!("lumping({threshold})"),
-        }
-    }
-
     pub(crate) fn validate(&self) -> Result<()> {
         match *self {
             Stabilization::GhostPenalty { gamma } if !(gamma.is_finite() && gamma > 0.0) => {
@@ -99,7 +96,7 @@ impl Stabilization {
                     reason: "the partial-lumping threshold must lie in (0, 1]",
                 })
             }
-            _ => Ok(()),
+            Stabilization::None | Stabilization::GhostPenalty { .. } | Stabilization::PartialLumping { .. } => Ok(()),
         }
     }
 
@@ -121,6 +118,70 @@ impl Stabilization {
             Stabilization::GhostPenalty { gamma } => Some(m + &ghost_penalty(ops, lumped, active, gamma)),
             Stabilization::PartialLumping { threshold } => Some(partially_lumped(m, lumped, threshold)),
         }
+    }
+}
+
+impl fmt::Display for Stabilization {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Stabilization::None => f.pad("none"),
+            Stabilization::GhostPenalty { gamma } => names::write(f, "ghost_penalty", &[gamma]),
+            Stabilization::PartialLumping { threshold } => names::write(f, "partial_lumping", &[threshold]),
+        }
+    }
+}
+
+impl FromStr for Stabilization {
+    type Err = String;
+
+    fn from_str(text: &str) -> std::result::Result<Stabilization, String> {
+        let s = Spelled::parse(text)?;
+        match s.name {
+            "none" => s.no_params().map(|()| Stabilization::None),
+            "ghost_penalty" => Ok(Stabilization::GhostPenalty {
+                gamma: s.param(0, Some(DEFAULT_GHOST_PENALTY))?,
+            }),
+            "partial_lumping" => Ok(Stabilization::PartialLumping {
+                threshold: s.param(0, Some(DEFAULT_LUMPING_THRESHOLD))?,
+            }),
+            _ => Err(format!(
+                "unknown stabilization `{text}` (none, ghost_penalty[:γ], partial_lumping[:θ])"
+            )),
+        }
+    }
+}
+
+/// The table form of a stabilisation in a scene file.
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+enum StabilizationTable {
+    None,
+    GhostPenalty { gamma: f64 },
+    PartialLumping { threshold: f64 },
+}
+
+impl From<StabilizationTable> for Stabilization {
+    fn from(t: StabilizationTable) -> Stabilization {
+        match t {
+            StabilizationTable::None => Stabilization::None,
+            StabilizationTable::GhostPenalty { gamma } => Stabilization::GhostPenalty { gamma },
+            StabilizationTable::PartialLumping { threshold } => Stabilization::PartialLumping { threshold },
+        }
+    }
+}
+
+impl Serialize for Stabilization {
+    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        names::serialize(self, s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Stabilization {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Stabilization, D::Error> {
+        names::deserialize::<D, Stabilization, StabilizationTable>(
+            d,
+            "a stabilization (none, ghost_penalty:γ, partial_lumping:θ)",
+        )
     }
 }
 

@@ -16,12 +16,15 @@ use nalgebra_sparse::CscMatrix;
 
 use super::cg::lanes_sum;
 use crate::operators::Operators;
+use crate::shape::{bspline, gimp, linear, ShapeFunction};
 use crate::with_support;
 
 /// The consistent mass (optionally partially lumped) stored per node over the node span.
 #[derive(Debug, Clone, Default)]
 pub struct StencilMass {
     num_nodes: usize,
+    /// The shape function the couplings are of (its support sets the stencil).
+    shape: ShapeFunction,
     /// First node of the span and its length.
     start: usize,
     len: usize,
@@ -159,11 +162,13 @@ impl StencilMass {
     /// `out = mask ∘ M x` on the padded layout over the segments (elsewhere left as it was),
     /// with `mask` zero where the product is to be dropped; returns `x · out`.
     fn apply_padded(&self, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
-        match self.width() {
-            9 => apply_segments::<9>(self, x, out, mask),
-            25 => apply_segments::<25>(self, x, out, mask),
-            49 => apply_segments::<49>(self, x, out, mask),
-            w => unreachable!("no kernel has a stencil of {w} couplings"),
+        match self.shape {
+            ShapeFunction::Linear => apply_segments::<{ width(linear::SUPPORT) }>(self, x, out, mask),
+            ShapeFunction::Gimp { .. } => apply_segments::<{ width(gimp::SUPPORT) }>(self, x, out, mask),
+            ShapeFunction::QuadraticBSpline => {
+                apply_segments::<{ width(bspline::QUADRATIC_SUPPORT) }>(self, x, out, mask)
+            }
+            ShapeFunction::CubicBSpline => apply_segments::<{ width(bspline::CUBIC_SUPPORT) }>(self, x, out, mask),
         }
     }
 
@@ -277,12 +282,18 @@ fn apply_segments<const K: usize>(m: &StencilMass, x: &[f64], out: &mut [f64], m
     lanes_sum(&dot)
 }
 
+/// Couplings per node of a kernel of support `s`: `(2s − 1)²`.
+const fn width(s: usize) -> usize {
+    (2 * s - 1) * (2 * s - 1)
+}
+
 fn assemble_into<const S: usize>(s: &mut StencilMass, ops: &Operators, m: &[f64]) {
     let w = 2 * S - 1;
     let k = w * w;
     let [sx, sy] = ops.strides();
     let span = ops.node_span();
     s.num_nodes = ops.num_nodes();
+    s.shape = ops.shape_function();
     s.start = span.start;
     s.len = span.len();
     let len = s.len;

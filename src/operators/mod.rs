@@ -50,7 +50,7 @@ use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::parallel::{Strided, Workers};
 use crate::particles::Particles;
-use crate::shape::{AxisFrame, ShapeFunction};
+use crate::shape::{bspline, gimp, linear, AxisFrame, ShapeFunction};
 use crate::with_support;
 use products::{column_entries, fill_csc};
 
@@ -223,11 +223,13 @@ impl Operators {
         self.first.resize(num_particles, [0, 0]);
         self.factors.resize(num_particles * 4 * support, 0.0);
         // A fixed stencil size per call lets the compiler unroll the loops.
-        match support {
-            2 => self.fill_factors::<2>((fx, fy), x, y, workers),
-            3 => self.fill_factors::<3>((fx, fy), x, y, workers),
-            4 => self.fill_factors::<4>((fx, fy), x, y, workers),
-            other => unreachable!("no kernel has a support of {other} nodes"),
+        match shape {
+            ShapeFunction::Linear => self.fill_factors::<{ linear::SUPPORT }>((fx, fy), x, y, workers),
+            ShapeFunction::Gimp { .. } => self.fill_factors::<{ gimp::SUPPORT }>((fx, fy), x, y, workers),
+            ShapeFunction::QuadraticBSpline => {
+                self.fill_factors::<{ bspline::QUADRATIC_SUPPORT }>((fx, fy), x, y, workers)
+            }
+            ShapeFunction::CubicBSpline => self.fill_factors::<{ bspline::CUBIC_SUPPORT }>((fx, fy), x, y, workers),
         }
         Ok(())
     }

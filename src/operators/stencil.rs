@@ -94,18 +94,20 @@ impl<const S: usize> Stencil<S> {
     }
 }
 
-/// Calls `$body` with `S` bound to the operators' support as a constant (2, 3 or 4), so that
-/// the loops over a stencil unroll.
+/// Calls `$f::<S>(…)` with `S` bound to the support of the operators' shape function as a
+/// constant (2, 3 or 4), so that the loops over a stencil unroll: one match over the shape
+/// functions, so that a new one is named here by the compiler.
 #[macro_export]
 #[doc(hidden)]
 macro_rules! with_support {
     ($ops:expr, $f:ident :: <S $(, $g:tt)*> ( $($arg:expr),* $(,)? )) => {
-        match $ops.support() {
-            2 => $f::<2 $(, $g)*>($($arg),*),
-            3 => $f::<3 $(, $g)*>($($arg),*),
-            4 => $f::<4 $(, $g)*>($($arg),*),
-            0 => $f::<2 $(, $g)*>($($arg),*),
-            other => unreachable!("no kernel has a support of {other} nodes"),
+        match $ops.shape_function() {
+            $crate::ShapeFunction::Linear => $f::<{ $crate::shape::linear::SUPPORT } $(, $g)*>($($arg),*),
+            $crate::ShapeFunction::Gimp { .. } => $f::<{ $crate::shape::gimp::SUPPORT } $(, $g)*>($($arg),*),
+            $crate::ShapeFunction::QuadraticBSpline => {
+                $f::<{ $crate::shape::bspline::QUADRATIC_SUPPORT } $(, $g)*>($($arg),*)
+            }
+            $crate::ShapeFunction::CubicBSpline => $f::<{ $crate::shape::bspline::CUBIC_SUPPORT } $(, $g)*>($($arg),*),
         }
     };
 }

@@ -25,12 +25,13 @@ fn parameter_error(prefix: &str, e: MpmError) -> MpmError {
     }
 }
 
-/// The TOML key of a mass scheme's table (`blended`, `iterative` …), empty for unit variants.
+/// The name of a mass scheme with a parameter (`blended`, `series`, `cg`), as the key of its
+/// table form; empty for schemes without one.
 fn mass_scheme_key(scheme: &MassScheme) -> &'static str {
     match scheme {
         MassScheme::Blended { .. } => ".blended",
-        MassScheme::TruncatedSeries { .. } => ".truncated_series",
-        MassScheme::Iterative { .. } => ".iterative",
+        MassScheme::TruncatedSeries { .. } => ".series",
+        MassScheme::Iterative { .. } => ".cg",
         MassScheme::Lumped | MassScheme::Consistent => "",
     }
 }

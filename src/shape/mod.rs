@@ -54,8 +54,14 @@ pub mod bspline;
 pub mod gimp;
 pub mod linear;
 
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
+use crate::names::{self, Spelled};
 
 /// Largest support (nodes per axis) of any kernel: 4, for cubic B-splines. Fixed-size buffers
 /// use it.
@@ -71,8 +77,11 @@ pub const MARGIN_TOLERANCE: f64 = 1e-9;
 ///
 /// Kernels, support and behaviour at the grid's edge are described in the
 /// [module docs](self) and in docs/shape_functions.md.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
+///
+/// As text ([`crate::names`]): `linear`, `gimp[:l]` (default `l` = 0.25), `quadratic_bspline`,
+/// `cubic_bspline` (read also as `quadratic` and `cubic`; scene files may write
+/// `{ gimp = { half_width = l } }`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum ShapeFunction {
     /// Bilinear (tent) functions: 2 × 2 nodes per particle, C⁰, gradients jump at grid lines.
     /// See [`linear`].
@@ -103,7 +112,6 @@ pub enum ShapeFunction {
     ///      = (3/2 − |ξ|)²/2           1/2 ≤ |ξ| < 3/2
     ///      = 0                        otherwise
     /// ```
-    #[serde(rename = "quadratic_bspline")]
     QuadraticBSpline,
     /// Uniform node-centred cubic B-spline: 4 × 4 nodes per particle, C². See [`bspline`].
     ///
@@ -112,8 +120,84 @@ pub enum ShapeFunction {
     ///      = (2 − |ξ|)³/6             1 ≤ |ξ| < 2
     ///      = 0                        otherwise
     /// ```
+    CubicBSpline,
+}
+
+/// uGIMP's default particle half-width, a quarter cell (2 × 2 particles per cell).
+pub const DEFAULT_GIMP_HALF_WIDTH: f64 = 0.25;
+
+impl fmt::Display for ShapeFunction {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            ShapeFunction::Gimp { half_width } => names::write(f, "gimp", &[half_width]),
+            ShapeFunction::Linear | ShapeFunction::QuadraticBSpline | ShapeFunction::CubicBSpline => f.pad(self.name()),
+        }
+    }
+}
+
+impl FromStr for ShapeFunction {
+    type Err = String;
+
+    fn from_str(text: &str) -> std::result::Result<ShapeFunction, String> {
+        let s = Spelled::parse(text)?;
+        let shape = match s.name {
+            "linear" => ShapeFunction::Linear,
+            "gimp" => ShapeFunction::Gimp {
+                half_width: s.param(0, Some(DEFAULT_GIMP_HALF_WIDTH))?,
+            },
+            "quadratic_bspline" | "quadratic" => ShapeFunction::QuadraticBSpline,
+            "cubic_bspline" | "cubic" => ShapeFunction::CubicBSpline,
+            _ => {
+                return Err(format!(
+                    "unknown shape function `{text}` (linear, gimp[:half_width], quadratic_bspline, cubic_bspline)"
+                ))
+            }
+        };
+        if !matches!(shape, ShapeFunction::Gimp { .. }) {
+            s.no_params()?;
+        }
+        Ok(shape)
+    }
+}
+
+/// The table form of a shape function in a scene file.
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+enum ShapeTable {
+    Linear,
+    Gimp {
+        half_width: f64,
+    },
+    #[serde(rename = "quadratic_bspline")]
+    QuadraticBSpline,
     #[serde(rename = "cubic_bspline")]
     CubicBSpline,
+}
+
+impl From<ShapeTable> for ShapeFunction {
+    fn from(t: ShapeTable) -> ShapeFunction {
+        match t {
+            ShapeTable::Linear => ShapeFunction::Linear,
+            ShapeTable::Gimp { half_width } => ShapeFunction::Gimp { half_width },
+            ShapeTable::QuadraticBSpline => ShapeFunction::QuadraticBSpline,
+            ShapeTable::CubicBSpline => ShapeFunction::CubicBSpline,
+        }
+    }
+}
+
+impl Serialize for ShapeFunction {
+    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        names::serialize(self, s)
+    }
+}
+
+impl<'de> Deserialize<'de> for ShapeFunction {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<ShapeFunction, D::Error> {
+        names::deserialize::<D, ShapeFunction, ShapeTable>(
+            d,
+            "a shape function (linear, gimp:l, quadratic_bspline, cubic_bspline)",
+        )
+    }
 }
 
 /// One axis of a point's support: nodes `first .. first + len` along that axis carry
@@ -172,7 +256,10 @@ impl ShapeFunction {
                     reason: "the uGIMP particle half-width must be a finite number of cells in (0, 0.5]",
                 })
             }
-            _ => Ok(()),
+            ShapeFunction::Gimp { .. }
+            | ShapeFunction::Linear
+            | ShapeFunction::QuadraticBSpline
+            | ShapeFunction::CubicBSpline => Ok(()),
         }
     }
 
@@ -256,7 +343,7 @@ impl ShapeFunction {
         let margin = self.margin();
         let valid = match *self {
             ShapeFunction::Gimp { half_width } => gimp_half_width_is_valid(half_width),
-            _ => true,
+            ShapeFunction::Linear | ShapeFunction::QuadraticBSpline | ShapeFunction::CubicBSpline => true,
         };
         AxisFrame {
             shape: *self,
@@ -269,7 +356,10 @@ impl ShapeFunction {
             top: cells as f64 - margin,
             half_inv_l: match *self {
                 ShapeFunction::Gimp { half_width } if valid => 0.5 / half_width,
-                _ => 0.0,
+                ShapeFunction::Gimp { .. }
+                | ShapeFunction::Linear
+                | ShapeFunction::QuadraticBSpline
+                | ShapeFunction::CubicBSpline => 0.0,
             },
             inv_h: 1.0 / grid.cell_size()[axis],
             usable: valid && cells >= self.min_cells(),

@@ -119,7 +119,7 @@ impl Options {
                     reason: format!("{number}: the Courant number must lie in (0, 1]"),
                 })
             }
-            _ => {}
+            TimeStep::Fixed { .. } | TimeStep::Cfl { .. } => {}
         }
         if let Transfer::Blend { flip } = self.transfer {
             if !(0.0..=1.0).contains(&flip) {

@@ -190,9 +190,9 @@ pub(super) fn next_time_step(options: &Options, steps: usize, stable: f64) -> Re
                     dt,
                     stable,
                     masses: if m.velocity == m.acceleration {
-                        m.velocity.label()
+                        format!("{:#}", m.velocity)
                     } else {
-                        format!("{} / {}", m.velocity.label(), m.acceleration.label())
+                        format!("{:#} / {:#}", m.velocity, m.acceleration)
                     },
                 })
             } else {

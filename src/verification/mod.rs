@@ -90,9 +90,9 @@ impl Choices {
     pub fn label(&self) -> String {
         let m = &self.mass;
         let mass = if m.velocity == m.acceleration {
-            m.velocity.label()
+            format!("{:#}", m.velocity)
         } else {
-            format!("{}/{}", m.velocity.label(), m.acceleration.label())
+            format!("{:#}/{:#}", m.velocity, m.acceleration)
         };
         let transfer = match self.transfer {
             Transfer::Pic => "PIC".to_string(),

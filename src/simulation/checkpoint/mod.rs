@@ -32,8 +32,8 @@
 //!
 //! Postcard numbers enum variants by position and writes struct fields in order, without
 //! names: a change to the order or the fields of any type written here (including the option
-//! types of other modules, through their serde derives) changes the format and must increase
-//! [`CHECKPOINT_FORMAT_VERSION`].
+//! types of other modules, through their serde forms: the scheme choices are written as their
+//! text, [`crate::names`]) changes the format and must increase [`CHECKPOINT_FORMAT_VERSION`].
 
 use std::borrow::Cow;
 use std::fs;
@@ -55,7 +55,7 @@ use crate::particles::Particles;
 
 /// The version of the checkpoint file format this build writes and reads. Files of another
 /// version are refused.
-pub const CHECKPOINT_FORMAT_VERSION: u32 = 1;
+pub const CHECKPOINT_FORMAT_VERSION: u32 = 2;
 
 /// The first bytes of every checkpoint file: the format name.
 const MAGIC: &[u8] = b"sparse-mpm checkpoint\n";

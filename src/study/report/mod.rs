@@ -124,9 +124,9 @@ fn fmt_order(points: &[(f64, f64)]) -> String {
 fn mass_label(r: &StudyRun) -> String {
     let m = &r.choices.mass;
     if m.velocity == m.acceleration {
-        m.velocity.label()
+        format!("{:#}", m.velocity)
     } else {
-        format!("{} / {}", m.velocity.label(), m.acceleration.label())
+        format!("{:#} / {:#}", m.velocity, m.acceleration)
     }
 }
 
