@@ -135,18 +135,7 @@ pub fn max_frequency_squared(
     let mut is_free = vec![false; 2 * n];
     fx.iter().for_each(|&i| is_free[i] = true);
     fy.iter().for_each(|&i| is_free[n + i] = true);
-    let split = |v: &[f64]| VectorField {
-        x: v[..n].to_vec(),
-        y: v[n..].to_vec(),
-    };
-    let join = |f: VectorField| [f.x, f.y].concat();
-    let k = |v: &[f64]| {
-        let mut kv = join(apply_stiffness(ops, volume, material, &split(v)));
-        kv.iter_mut()
-            .zip(&is_free)
-            .for_each(|(x, free)| *x = if *free { *x } else { 0.0 });
-        kv
-    };
+    let k = |v: &[f64]| on_free(join(apply_stiffness(ops, volume, material, &split(v))), &is_free);
     let mut failure = None;
     let start = start_vector(2 * n, |i| is_free[i]);
     let result = lanczos_extremes(
@@ -249,18 +238,7 @@ pub fn mpm_max_frequency_squared(
 ) -> Result<FrequencyEstimate> {
     let n = ops.num_nodes();
     assert_eq!(free.len(), 2 * n, "one flag per degree of freedom");
-    let split = |v: &[f64]| VectorField {
-        x: v[..n].to_vec(),
-        y: v[n..].to_vec(),
-    };
-    let join = |f: VectorField| [f.x, f.y].concat();
-    let k = |v: &[f64]| {
-        let mut kv = join(apply_tangent_stiffness(ops, volume, tangent, &split(v)));
-        kv.iter_mut()
-            .zip(free)
-            .for_each(|(x, f)| *x = if *f { *x } else { 0.0 });
-        kv
-    };
+    let k = |v: &[f64]| on_free(join(apply_tangent_stiffness(ops, volume, tangent, &split(v))), free);
     let m_times = |u: &VectorField| {
         let up = crate::transfer::interpolate(ops, u);
         let mut out = VectorField::zeros(n);
@@ -319,4 +297,24 @@ pub fn mpm_critical_time_step(estimate: &FrequencyEstimate, flip_weight: f64) ->
     } else {
         f64::INFINITY
     }
+}
+
+/// A vector of the `2n` degrees of freedom `[u_x at nodes 0..n, u_y at nodes 0..n]` as a field.
+fn split(v: &[f64]) -> VectorField {
+    let n = v.len() / 2;
+    VectorField {
+        x: v[..n].to_vec(),
+        y: v[n..].to_vec(),
+    }
+}
+
+/// A field as the vector of its `2n` degrees of freedom (the inverse of [`split`]).
+fn join(f: VectorField) -> Vec<f64> {
+    [f.x, f.y].concat()
+}
+
+/// `v` with 0 on the degrees of freedom that are not free.
+fn on_free(mut v: Vec<f64>, free: &[bool]) -> Vec<f64> {
+    v.iter_mut().zip(free).for_each(|(x, f)| *x = if *f { *x } else { 0.0 });
+    v
 }

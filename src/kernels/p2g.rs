@@ -96,11 +96,7 @@ fn p2g_columns<const S: usize>(
     base: usize,
     lines: std::ops::Range<usize>,
 ) {
-    for k in 0..p.len() {
-        let l0 = ops.first_line(k);
-        if l0 + S <= lines.start || l0 >= lines.end {
-            continue;
-        }
+    in_band::<S>(ops, p.len(), &lines, |k, rows| {
         let m = p.mass[k];
         let (mvx, mvy) = (m * p.vx[k], m * p.vy[k]);
         let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
@@ -109,10 +105,7 @@ fn p2g_columns<const S: usize>(
         let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
         let st = ops.stencil::<S>(k);
         let offsets = st.offsets(p.x[k], p.y[k]);
-        for b in 0..S {
-            if !lines.contains(&(l0 + b)) {
-                continue;
-            }
+        for b in rows {
             let (start, n, gx, gy) = st.row(b);
             let (dx, dy) = st.run_offsets(&offsets, b);
             let r = &mut acc[start - base..start - base + S];
@@ -126,6 +119,25 @@ fn p2g_columns<const S: usize>(
                 r[4] += n[a] * mby - (gx[a] * vsxy + gy[a] * vsyy);
             }
         }
+    });
+}
+
+/// Calls `f(k, rows)` for every particle `k` (in order) whose stencil reaches the band of grid
+/// lines `lines`, with `rows` the stencil's rows (of `S`) inside the band: the particle walk of
+/// every band scatter (see [`crate::parallel`]).
+#[inline(always)]
+fn in_band<const S: usize>(
+    ops: &Operators,
+    np: usize,
+    lines: &std::ops::Range<usize>,
+    mut f: impl FnMut(usize, std::ops::Range<usize>),
+) {
+    for k in 0..np {
+        let l0 = ops.first_line(k);
+        if l0 + S <= lines.start || l0 >= lines.end {
+            continue;
+        }
+        f(k, lines.start.saturating_sub(l0)..(lines.end - l0).min(S));
     }
 }
 
@@ -196,19 +208,12 @@ fn reproject_columns<const S: usize>(
     base: usize,
     lines: std::ops::Range<usize>,
 ) {
-    for k in 0..p.len() {
-        let l0 = ops.first_line(k);
-        if l0 + S <= lines.start || l0 >= lines.end {
-            continue;
-        }
+    in_band::<S>(ops, p.len(), &lines, |k, rows| {
         let m = p.mass[k];
         let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
         let st = ops.stencil::<S>(k);
         let offsets = st.offsets(p.x[k], p.y[k]);
-        for b in 0..S {
-            if !lines.contains(&(l0 + b)) {
-                continue;
-            }
+        for b in rows {
             let (start, n) = st.n_row(b);
             let (dx, dy) = st.run_offsets(&offsets, b);
             let r = &mut acc[start - base..start - base + S];
@@ -218,5 +223,5 @@ fn reproject_columns<const S: usize>(
                 r[a][2] += n[a] * m * p.vy[k] + m * ay;
             }
         }
-    }
+    });
 }
