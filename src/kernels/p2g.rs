@@ -105,7 +105,10 @@ fn p2g_columns<const S: usize>(
         let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
         let st = ops.stencil::<S>(k);
         let offsets = st.offsets(p.x[k], p.y[k]);
-        for b in rows {
+        for b in 0..S {
+            if !rows.contains(&b) {
+                continue;
+            }
             let (start, n, gx, gy) = st.row(b);
             let (dx, dy) = st.run_offsets(&offsets, b);
             let r = &mut acc[start - base..start - base + S];
@@ -213,7 +216,10 @@ fn reproject_columns<const S: usize>(
         let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
         let st = ops.stencil::<S>(k);
         let offsets = st.offsets(p.x[k], p.y[k]);
-        for b in rows {
+        for b in 0..S {
+            if !rows.contains(&b) {
+                continue;
+            }
             let (start, n) = st.n_row(b);
             let (dx, dy) = st.run_offsets(&offsets, b);
             let r = &mut acc[start - base..start - base + S];

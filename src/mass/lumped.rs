@@ -24,9 +24,10 @@ impl GridMass {
         assert_eq!(r.len(), n, "right-hand side must have one entry per node");
         u.x.resize(n, 0.0);
         u.y.resize(n, 0.0);
-        for i in 0..n {
-            u.x[i] = r.x[i] * inv[i];
-            u.y[i] = r.y[i] * inv[i];
+        for (c, rc) in [(&mut u.x, &r.x), (&mut u.y, &r.y)] {
+            for ((u, r), inv) in c.iter_mut().zip(rc).zip(inv) {
+                *u = r * inv;
+            }
         }
         let fixed = [&self.constraints.fixed_x, &self.constraints.fixed_y];
         for (c, out) in [&mut u.x, &mut u.y].into_iter().enumerate() {

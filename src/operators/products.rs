@@ -141,6 +141,7 @@ fn run_values<const S: usize>(st: &Stencil<S>, op: Operator, b: usize) -> (usize
     }
 }
 
+#[inline(always)]
 fn scatter_columns<const S: usize, const K: usize>(
     ops: &Operators,
     op: Operator,
@@ -164,6 +165,7 @@ fn scatter_columns<const S: usize, const K: usize>(
     }
 }
 
+#[inline(always)]
 fn gather_columns<const S: usize, const K: usize>(
     ops: &Operators,
     op: Operator,
