@@ -87,9 +87,13 @@ impl GridMass {
             // With prescribed values the right-hand side is r − M_FD u_D: never below its own norm.
             let own = dofs.free.iter().map(|&i| b[i] * b[i]).sum::<f64>().sqrt();
             let scale = norm_r.max(own);
+            let preconditioner = match m {
+                MassOperator::Csc(_) => self.matrices.preconditioner.as_deref().unwrap_or(&self.lumped),
+                MassOperator::Stencil(_) => &self.lumped,
+            };
             let args = (
                 &dofs.free[..],
-                &self.lumped[..],
+                preconditioner,
                 &b[..],
                 tolerance,
                 max_iterations,

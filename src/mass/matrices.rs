@@ -29,6 +29,9 @@ pub(super) struct Matrices {
     stencil_stabilized: Option<StencilMass>,
     /// Buffers of the stencil assembly of the factorized schemes.
     buffers: Option<StencilMass>,
+    /// The conjugate gradient's diagonal preconditioner for `stabilized_csc` when the
+    /// stabilisation adds to the diagonal beyond the row sums (`max(m_L,I, M_s,II)`).
+    pub(super) preconditioner: Option<Vec<f64>>,
 }
 
 /// The matrix a scheme solves with, in whichever form it was assembled.
@@ -69,6 +72,19 @@ pub(crate) fn csc_times(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
     y.data.into()
 }
 
+/// `d_I = max(m_L,I, M_II)`: the lumped mass where it bounds the diagonal (the consistent
+/// mass and the row-sum-keeping stabilisations), the diagonal where a penalty raises it above
+/// the row sum.
+fn diagonal_preconditioner(m: &CscMatrix<f64>, lumped: &[f64]) -> Vec<f64> {
+    let mut d = lumped.to_vec();
+    for (j, col) in m.col_iter().enumerate() {
+        if let Some(k) = col.row_indices().iter().position(|&i| i == j) {
+            d[j] = d[j].max(col.values()[k]);
+        }
+    }
+    d
+}
+
 /// Whether `scheme` solves by a Cholesky factorization.
 fn factorized(scheme: MassScheme) -> bool {
     match scheme {
@@ -85,6 +101,7 @@ impl Matrices {
         self.stabilized_csc = None;
         self.stencil = None;
         self.stencil_stabilized = None;
+        self.preconditioner = None;
     }
 
     /// Assembles `M` for particles with masses `m` in the forms `options` need, reusing the
@@ -102,7 +119,7 @@ impl Matrices {
             || options.singularity != SingularityPolicy::Error;
         let in_stencil = match options.stabilization {
             Stabilization::None | Stabilization::PartialLumping { .. } => true,
-            Stabilization::GhostPenalty { .. } => false,
+            Stabilization::GhostPenalty { .. } | Stabilization::LinearExtension { .. } => false,
         };
         let stencil_only = needs_matrix
             && !factorized(options.velocity)
@@ -120,6 +137,7 @@ impl Matrices {
                 Some(matrix) => options.stabilization.apply(ops, matrix, lumped, is_active),
                 None => None,
             };
+            self.preconditioner = self.stabilized_csc.as_ref().map(|m| diagonal_preconditioner(m, lumped));
         }
     }
 
@@ -134,11 +152,12 @@ impl Matrices {
                 stencil.partially_lump(lumped, threshold);
                 Some(stencil.to_csc())
             }
-            Stabilization::None | Stabilization::GhostPenalty { .. } => None,
+            Stabilization::None | Stabilization::GhostPenalty { .. } | Stabilization::LinearExtension { .. } => None,
         };
         self.buffers = Some(stencil);
         self.stencil = None;
         self.stencil_stabilized = None;
+        self.preconditioner = None;
     }
 
     /// The conjugate gradient's and the series' matrices, in stencil form only.
@@ -148,6 +167,7 @@ impl Matrices {
         }
         self.csc = None;
         self.stabilized_csc = None;
+        self.preconditioner = None;
         let mut stencil = self.stencil.take().unwrap_or_default();
         stencil.reassemble(ops, m);
         let iterative = |s: MassScheme| match s {
@@ -166,7 +186,10 @@ impl Matrices {
                 lumped_stencil.partially_lump(lumped, threshold);
                 Some(lumped_stencil)
             }
-            Stabilization::PartialLumping { .. } | Stabilization::None | Stabilization::GhostPenalty { .. } => None,
+            Stabilization::PartialLumping { .. }
+            | Stabilization::None
+            | Stabilization::GhostPenalty { .. }
+            | Stabilization::LinearExtension { .. } => None,
         };
         self.stencil = Some(stencil);
     }

@@ -26,6 +26,7 @@ mod cg;
 mod cholesky;
 mod diagnostics;
 mod direct;
+pub mod extension;
 mod grid_mass;
 mod lumped;
 mod matrices;

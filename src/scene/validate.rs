@@ -226,6 +226,7 @@ impl Scene {
             Stabilization::None => "schemes.mass.stabilization",
             Stabilization::GhostPenalty { .. } => "schemes.mass.stabilization.ghost_penalty",
             Stabilization::PartialLumping { .. } => "schemes.mass.stabilization.partial_lumping",
+            Stabilization::LinearExtension { .. } => "schemes.mass.stabilization.linear_extension",
         };
         s.mass
             .stabilization

@@ -100,7 +100,9 @@ impl Options {
     /// [`MpmError::InvalidOption`] naming the option for a non-positive or non-finite fixed step
     /// (`time_step.dt`), a Courant number outside (0, 1] (`time_step.cfl`), a FLIP weight
     /// outside [0, 1] (`transfer.flip`), an XPIC/FMPM series without terms (`transfer.k`), an
-    /// XPIC/FMPM transfer with a consistent or series mass (`transfer`), or a non-finite gravity
+    /// XPIC/FMPM transfer with a consistent or series mass (`transfer`), APIC with a velocity
+    /// projection other than lumped (`transfer`: the message names both scene keys and the
+    /// pairs that work), or a non-finite gravity
     /// (`gravity`).
     pub fn validate(&self) -> Result<()> {
         self.shape.validate()?;
@@ -146,6 +148,19 @@ impl Options {
                     ),
                 });
             }
+        }
+        if self.transfer == Transfer::Apic && self.mass.velocity != MassScheme::Lumped {
+            return Err(MpmError::InvalidOption {
+                option: "transfer",
+                reason: format!(
+                    "APIC with the velocity projection `{}` (schemes.transfer = \"apic\" with schemes.mass.velocity \
+                     = \"{}\") is unstable: APIC's affine momentum belongs to the lumped projection, and a particle \
+                     inverts within tens of steps at any time step. Use schemes.mass.velocity = \"lumped\" with APIC \
+                     (any acceleration mass), or keep the consistent velocity projection with schemes.transfer = \
+                     \"flip\", \"pic\" or a blend (it reproduces affine velocity fields without APIC's matrix)",
+                    self.mass.velocity, self.mass.velocity
+                ),
+            });
         }
         if self.threads == 0 {
             return Err(MpmError::InvalidOption {
