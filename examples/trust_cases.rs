@@ -53,7 +53,10 @@ fn spinning_disk(shape: ShapeFunction, m: MassOptions) -> Result<(f64, f64), Str
         time_step: TimeStep::Cfl { number: 0.5 },
         ..Options::default()
     };
-    let material = Material::NeoHookean(NeoHookean { youngs_modulus: 1.0e4, poisson_ratio: 0.3 });
+    let material = Material::NeoHookean(NeoHookean {
+        youngs_modulus: 1.0e4,
+        poisson_ratio: 0.3,
+    });
     let bodies = vec![Body {
         name: "disk".into(),
         material,
@@ -142,7 +145,10 @@ fn random_fall(shape: ShapeFunction, m: MassOptions, steps: usize) -> (usize, Op
                 let (e, s) = *e0.get_or_insert((r.total_energy, r.kinetic_energy + r.potential_energy.abs()));
                 worst = worst.max((r.total_energy - e) / s);
                 if std::env::var("TRACE").is_ok() && k % 100 == 0 {
-                    eprintln!("step {k} t {:.4} dt {:.3e} KE {:.4e} SE {:.4e} PE {:.4e} E {:.4e}", r.time, r.dt, r.kinetic_energy, r.strain_energy, r.potential_energy, r.total_energy);
+                    eprintln!(
+                        "step {k} t {:.4} dt {:.3e} KE {:.4e} SE {:.4e} PE {:.4e} E {:.4e}",
+                        r.time, r.dt, r.kinetic_energy, r.strain_energy, r.potential_energy, r.total_energy
+                    );
                 }
             }
             Err(err) => return (k, Some(err.to_string()), worst),
@@ -154,10 +160,15 @@ fn random_fall(shape: ShapeFunction, m: MassOptions, steps: usize) -> (usize, Op
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let stabs: Vec<Stabilization> = if args.is_empty() {
-        ["none", "partial_lumping:0.5", "ghost_penalty:0.1", "linear_extension:1:0.25"]
-            .iter()
-            .map(|s| s.parse().unwrap())
-            .collect()
+        [
+            "none",
+            "partial_lumping:0.5",
+            "ghost_penalty:0.1",
+            "linear_extension:1:0.25",
+        ]
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect()
     } else {
         args.iter().map(|s| s.parse().unwrap()).collect()
     };
@@ -174,7 +185,11 @@ fn main() {
             runs.push(("series:32".into(), MassOptions::both("series:32".parse().unwrap())));
             for (label, m) in runs {
                 let (k, err, gain) = random_fall(shape, m, 2000);
-                println!("{:<18} {label:<36} steps {k:<5} gain {gain:+.4} {}", shape.to_string(), err.unwrap_or_default());
+                println!(
+                    "{:<18} {label:<36} steps {k:<5} gain {gain:+.4} {}",
+                    shape.to_string(),
+                    err.unwrap_or_default()
+                );
             }
         }
         return;
@@ -182,18 +197,42 @@ fn main() {
     println!("# spinning disk, one revolution, FLIP MUSL: |dL|/L, max strain/KE0");
     for shape in shapes {
         match spinning_disk(shape, MassOptions::both(MassScheme::Lumped)) {
-            Ok((dl, s)) => println!("{:<18} lumped                 dL {dl:.4}  strain {s:.2e}", shape.to_string()),
+            Ok((dl, s)) => println!(
+                "{:<18} lumped                 dL {dl:.4}  strain {s:.2e}",
+                shape.to_string()
+            ),
             Err(e) => println!("{:<18} lumped                 FAILED {e}", shape.to_string()),
         }
         for &st in &stabs {
             match spinning_disk(shape, mass(MassScheme::Consistent, st)) {
-                Ok((dl, s)) => println!("{:<18} {:<22} dL {dl:.4}  strain {s:.2e}", shape.to_string(), st.to_string()),
+                Ok((dl, s)) => println!(
+                    "{:<18} {:<22} dL {dl:.4}  strain {s:.2e}",
+                    shape.to_string(),
+                    st.to_string()
+                ),
                 Err(e) => println!("{:<18} {:<22} FAILED {e}", shape.to_string(), st.to_string()),
             }
         }
     }
     println!("# cantilever (quadratic, FLIP 0.99 MUSL): cells along 4 = 1 cell thick, 8 = 2 cells thick");
-    for cells in [4usize, 8] {
+    let cells_list: Vec<usize> = std::env::var("CANT_CELLS")
+        .map(|v| v.split(',').map(|c| c.parse().unwrap()).collect())
+        .unwrap_or(vec![4, 8]);
+    if std::env::var("ONLY_CANT").is_ok() {
+        for cells in cells_list {
+            let c = Choices {
+                shape: ShapeFunction::QuadraticBSpline,
+                ..Choices::default()
+            };
+            let o = cantilever::run(cells, &c).unwrap();
+            let h = &o.histories[0];
+            let peak = h.value.iter().cloned().fold(0.0, f64::max);
+            let k = h.value.iter().position(|v| *v == peak).unwrap();
+            println!("lumped cells {cells}: max {peak:.4} at t {:.3}", h.time[k]);
+        }
+        return;
+    }
+    for cells in cells_list {
         let base = Choices {
             shape: ShapeFunction::QuadraticBSpline,
             ..Choices::default()

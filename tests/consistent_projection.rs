@@ -6,12 +6,12 @@
 
 use std::f64::consts::PI;
 
-use sparse_mpm::transfer::VectorField;
 use sparse_mpm::mass::{Constraints, GridMass, MassOptions, MassScheme, Role, Stabilization};
 use sparse_mpm::material::{Material, NeoHookean};
-use sparse_mpm::Operator;
 use sparse_mpm::scene::Scene;
 use sparse_mpm::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
+use sparse_mpm::transfer::VectorField;
+use sparse_mpm::Operator;
 use sparse_mpm::{Grid, Operators, Particles, ShapeFunction};
 
 const SHAPES: [ShapeFunction; 4] = [
@@ -27,7 +27,10 @@ const ROUND_OFF: f64 = 1e-9;
 struct Lcg(u64);
 impl Lcg {
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
 }
@@ -59,21 +62,39 @@ fn bodies() -> Vec<(&'static str, Vec<f64>, Vec<f64>)> {
         rx.push(5.0 + 6.0 * rng.next());
         ry.push(5.0 + 6.0 * rng.next());
     }
-    vec![("disk", dx, dy), ("strip one cell thick", sx, sy), ("random block", rx, ry)]
+    vec![
+        ("disk", dx, dy),
+        ("strip one cell thick", sx, sy),
+        ("random block", rx, ry),
+    ]
 }
 
 /// The velocity fields the grid represents exactly: a rigid rotation about (8, 8) with a
-/// translation, and a uniform strain rate (stretch and shear) with a translation.
-fn fields() -> Vec<(&'static str, fn(f64, f64) -> [f64; 2])> {
+/// translation, a uniform strain rate (stretch and shear) with a translation, and a bilinear
+/// field (linear along each axis; every kernel here reproduces it).
+type Field = fn(f64, f64) -> [f64; 2];
+
+fn fields() -> Vec<(&'static str, Field)> {
     vec![
         ("rigid rotation", |x, y| [0.3 - 0.7 * (y - 8.0), -0.2 + 0.7 * (x - 8.0)]),
-        ("uniform strain rate", |x, y| [0.1 + 0.5 * x - 0.25 * y, 0.05 - 0.25 * x - 0.3 * y]),
+        ("uniform strain rate", |x, y| {
+            [0.1 + 0.5 * x - 0.25 * y, 0.05 - 0.25 * x - 0.3 * y]
+        }),
+        ("bilinear field", |x, y| {
+            [0.02 * (x - 8.0) * (y - 7.0), -0.03 * (x - 6.0) * (y - 9.0)]
+        }),
     ]
 }
 
 /// The largest difference, over nodes with mass, between the consistent projection of the
 /// particle values of `v` and `v` at the nodes, relative to the largest |v| there.
-fn projection_error(shape: ShapeFunction, x: &[f64], y: &[f64], v: fn(f64, f64) -> [f64; 2], stab: Stabilization) -> f64 {
+fn projection_error(
+    shape: ShapeFunction,
+    x: &[f64],
+    y: &[f64],
+    v: fn(f64, f64) -> [f64; 2],
+    stab: Stabilization,
+) -> f64 {
     let grid = Grid::new([0.0, 0.0], [1.0, 1.0], [16, 16]).unwrap();
     let n = x.len();
     let particles = Particles::new(x.to_vec(), y.to_vec(), vec![0.25; n], vec![0.25; n]).unwrap();
@@ -238,8 +259,10 @@ fn apic_with_a_consistent_velocity_projection_is_refused_naming_both_keys() {
         );
     let err = Scene::from_toml_str(&text)
         .and_then(|scene| scene.build())
-        .err()
-        .expect("refused")
+        .expect_err("refused")
         .to_string();
-    assert!(err.contains("schemes.transfer") && err.contains("schemes.mass.velocity"), "{err}");
+    assert!(
+        err.contains("schemes.transfer") && err.contains("schemes.mass.velocity"),
+        "{err}"
+    );
 }

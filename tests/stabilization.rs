@@ -203,3 +203,68 @@ fn stabilisations_keep_a_uniform_velocity_uniform_and_validate_their_parameters(
         );
     }
 }
+
+#[test]
+fn the_linear_extension_penalty_is_symmetric_semidefinite_zero_on_linear_fields_and_absent_inside() {
+    use sparse_mpm::mass::extension::{extension_penalty, relative_support};
+    for shape in SHAPES {
+        let (grid, ops, lumped, active) = setup(shape);
+        let particles = disk();
+        let m = consistent_mass(&ops, &particles.mass);
+        let p = dense(&extension_penalty(&ops, &m, &lumped, &active, 1.0, 0.5));
+        let scale = p.abs().max();
+        assert!(scale > 0.0, "{}: the fringe is penalised", shape.name());
+        assert!(
+            (&p - p.transpose()).abs().max() <= ROUND_OFF * scale,
+            "{}: symmetric",
+            shape.name()
+        );
+        let eig = SymmetricEigen::new(p.clone()).eigenvalues;
+        assert!(
+            eig.min() >= -ROUND_OFF * scale,
+            "{}: PSD, λ_min = {}",
+            shape.name(),
+            eig.min()
+        );
+        let n = grid.num_nodes();
+        // Constants, linear and bilinear nodal fields (degree ≤ 1 along each axis) pass unchanged.
+        for (a, b, kept) in [
+            (0, 0, true),
+            (1, 0, true),
+            (0, 1, true),
+            (1, 1, true),
+            (2, 0, false),
+            (0, 2, false),
+        ] {
+            let u = nalgebra::DVector::from_fn(n, |id, _| {
+                let [x, y] = grid.node_position(id);
+                (x / 7.0).powi(a) * (y / 5.0).powi(b)
+            });
+            let pu = (&p * &u).amax();
+            if kept {
+                assert!(
+                    pu <= 1e-10 * scale * u.amax(),
+                    "{}: P x^{a} y^{b} = {pu:e}",
+                    shape.name()
+                );
+            } else {
+                assert!(
+                    pu > 1e-6 * scale * u.amax(),
+                    "{}: x^{a} y^{b} is penalised",
+                    shape.name()
+                );
+            }
+        }
+        // Nodes inside the disk, whose whole neighbourhood is well supported, are untouched.
+        let phi = relative_support(&m, &lumped);
+        let (ci, cj) = (8usize, 8usize);
+        let centre = grid.node_index(ci, cj);
+        assert!(phi[centre] > 0.9);
+        assert_eq!(
+            p.row(centre).amax(),
+            0.0,
+            "{}: the centre node is not penalised",
+            shape.name()
+        );
+    }
+}

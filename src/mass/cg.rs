@@ -91,14 +91,7 @@ impl GridMass {
                 MassOperator::Csc(_) => self.matrices.preconditioner.as_deref().unwrap_or(&self.lumped),
                 MassOperator::Stencil(_) => &self.lumped,
             };
-            let args = (
-                &dofs.free[..],
-                preconditioner,
-                &b[..],
-                tolerance,
-                max_iterations,
-                scale,
-            );
+            let args = (&dofs.free[..], preconditioner, &b[..], tolerance, max_iterations, scale);
             let solved = match m {
                 MassOperator::Stencil(s) => pcg(s, args.0, args.1, args.2, xc, args.3, args.4, args.5, work),
                 MassOperator::Csc(s) => pcg(s, args.0, args.1, args.2, xc, args.3, args.4, args.5, work),

@@ -36,12 +36,12 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
+use super::extension::extension_penalty;
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::names::{self, Spelled};
 use crate::operators::Operators;
 use crate::shape::{bspline, ShapeFunction};
-use super::extension::extension_penalty;
 
 /// Default ghost-penalty weight γ of [`Stabilization::GhostPenalty`].
 pub const DEFAULT_GHOST_PENALTY: f64 = 0.1;
@@ -204,8 +204,12 @@ impl FromStr for Stabilization {
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 enum StabilizationTable {
     None,
-    GhostPenalty { gamma: f64 },
-    PartialLumping { threshold: f64 },
+    GhostPenalty {
+        gamma: f64,
+    },
+    PartialLumping {
+        threshold: f64,
+    },
     LinearExtension {
         #[serde(default = "default_extension_weight")]
         gamma: f64,
