@@ -39,6 +39,7 @@ fn a_quick_study_writes_its_report_csv_and_every_embedded_plot() {
     assert_eq!(summary.plots.len(), embedded.len());
     // The report states fitted orders and energy losses.
     assert!(report.contains("fitted order") && report.contains("Energy lost by the end"));
+    assert!(report.contains("Stabilising the consistent mass") && report.contains("strip projection error"));
     // One CSV row per run.
     let csv = std::fs::read_to_string(&summary.csv).unwrap();
     assert_eq!(csv.lines().count(), 1 + summary.runs.len());

@@ -13,6 +13,7 @@
 //! | `time_step` | a filled block | particles per cell | stable step and `λ_min(M_L⁻¹M)` against particles per cell |
 //! | `cantilever` | cantilever under gravity | mass × cells | tip deflection against time; Richardson extrapolation |
 //! | `single_point` | one material point | update scheme | (a table) |
+//! | `stabilization` | spinning disk, strip projection, thin cantilevers, two disks | stabilisation of the consistent mass | (tables) |
 
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
@@ -22,7 +23,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::mass::{MassDiagnostics, MassOptions, MassScheme};
+use crate::mass::{MassDiagnostics, MassOptions, MassScheme, Stabilization};
 use crate::material::{LinearElastic, Material, PlaneCondition};
 use crate::operators::Operators;
 use crate::particles::{lattice, Particles};
@@ -30,9 +31,10 @@ use crate::shape::ShapeFunction;
 use crate::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
 use crate::verification::bar::{Bar, Ends};
 use crate::verification::manufactured::{self, GeneralisedVortex};
-use crate::verification::{cantilever, disks, single_point, Choices, Outcome};
+use crate::verification::{cantilever, disks, rotation, single_point, Choices, Outcome};
 
 pub mod plot;
+mod remedies;
 mod report;
 
 use report::section;
@@ -55,11 +57,13 @@ pub enum Part {
     Cantilever,
     /// The single material point under each update scheme.
     SinglePoint,
+    /// The consistent mass's stabilisations on rotation, thin bodies and impact.
+    Stabilization,
 }
 
 impl Part {
     /// Every part, in report order.
-    pub const ALL: [Part; 7] = [
+    pub const ALL: [Part; 8] = [
         Part::Frequency,
         Part::BarEnergy,
         Part::Convergence,
@@ -67,6 +71,7 @@ impl Part {
         Part::TimeStep,
         Part::Cantilever,
         Part::SinglePoint,
+        Part::Stabilization,
     ];
 
     /// The part's name as spelled in a spec (`"frequency"` …).
@@ -79,6 +84,7 @@ impl Part {
             Part::TimeStep => "time_step",
             Part::Cantilever => "cantilever",
             Part::SinglePoint => "single_point",
+            Part::Stabilization => "stabilization",
         }
     }
 }
@@ -107,6 +113,10 @@ pub struct StudySpec {
     pub cantilever_cells: Vec<usize>,
     /// Particles per cell (per axis) of the time-step part.
     pub particles_per_cell: Vec<usize>,
+    /// Stabilisations of the consistent mass compared by the stabilisation part.
+    pub stabilizations: Vec<Stabilization>,
+    /// Cells across the spinning disk's unit square (stabilisation part).
+    pub rotation_cells: usize,
 }
 
 impl Default for StudySpec {
@@ -139,6 +149,8 @@ impl Default for StudySpec {
             disks_cells: 40,
             cantilever_cells: vec![8, 16, 32],
             particles_per_cell: vec![1, 2, 3, 4],
+            stabilizations: remedies::default_stabilizations(),
+            rotation_cells: 20,
         }
     }
 }
@@ -155,6 +167,8 @@ impl StudySpec {
             disks_cells: 10,
             cantilever_cells: vec![4, 8, 16],
             particles_per_cell: vec![1, 2, 3],
+            rotation_cells: 10,
+            stabilizations: vec![Stabilization::default()],
             ..StudySpec::default()
         }
     }
@@ -194,6 +208,14 @@ impl StudySpec {
         if self.disks_cells == 0 || self.disks_cells > 4096 {
             return bad("disks_cells", "must lie between 1 and 4096");
         }
+        if self.rotation_cells < 4 || self.rotation_cells > 4096 {
+            return bad("rotation_cells", "must lie between 4 and 4096");
+        }
+        for s in &self.stabilizations {
+            if let Err(e) = s.validate() {
+                return bad("stabilizations", &e.to_string());
+            }
+        }
         if self.particles_per_cell.iter().any(|&n| n == 0 || n > 8) {
             return bad("particles_per_cell", "must lie between 1 and 8");
         }
@@ -225,6 +247,7 @@ impl StudySpec {
             Part::TimeStep => self.plan_time_step(),
             Part::Cantilever => self.plan_cantilever(),
             Part::SinglePoint => Self::plan_single_point(),
+            Part::Stabilization => self.plan_stabilization(),
         };
         runs.into_iter()
             .map(|(problem, choices, cells)| Planned {
@@ -366,6 +389,8 @@ enum Problem {
     Block,
     Cantilever,
     SinglePoint,
+    SpinningDisk,
+    StripProjection,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -444,6 +469,8 @@ impl Planned {
             Problem::Block => block_time_steps(self.choices.particles_per_cell),
             Problem::Cantilever => cantilever::run(self.cells, &self.choices),
             Problem::SinglePoint => single_point::run(0.01, &self.choices),
+            Problem::SpinningDisk => rotation::spinning_disk(self.cells, &self.choices),
+            Problem::StripProjection => rotation::strip_projection_error(&self.choices),
         }
     }
 

@@ -11,6 +11,7 @@
 //! | axis-aligned manufactured solution (B5), generalised vortex (B6) | exact displacement | [`manufactured`] |
 //! | two elastic disks in impact (B8) | energy conservation | [`disks`] |
 //! | cantilever under gravity (B9) | Richardson-extrapolated tip deflection | [`cantilever`] |
+//! | disk in rigid rotation; projection of a rotation from a strip one cell thick | angular momentum; exact nodal field | [`rotation`] |
 
 use serde::{Deserialize, Serialize};
 
@@ -24,6 +25,7 @@ pub mod bar;
 pub mod cantilever;
 pub mod disks;
 pub mod manufactured;
+pub mod rotation;
 pub mod single_point;
 
 /// The algorithmic choices of a verification run: the axes a study varies.
@@ -101,6 +103,12 @@ impl Choices {
             Transfer::Blend { flip } => format!("blend({flip})"),
             Transfer::Xpic { k } => format!("XPIC({k})"),
             Transfer::Fmpm { k } => format!("FMPM({k})"),
+        };
+        let stabilized = m.velocity.needs_consistent_matrix() || m.acceleration.needs_consistent_matrix();
+        let mass = if stabilized && m.stabilization != Default::default() {
+            format!("{mass} ({:#})", m.stabilization)
+        } else {
+            mass
         };
         format!("{}, {:?}, {transfer}, {mass}", self.shape.name(), self.update)
             .replace("Musl", "MUSL")

@@ -13,6 +13,7 @@ mod convergence;
 mod energy;
 mod frequency;
 mod single_point;
+mod stabilization;
 mod time_step;
 
 /// A run that finished, with what it measured.
@@ -58,6 +59,10 @@ pub(super) fn section(
         Part::Cantilever => cantilever::write(&ok, &mut page),
         Part::SinglePoint => {
             single_point::write(&ok, page.md);
+            Ok(())
+        }
+        Part::Stabilization => {
+            stabilization::write(runs, &ok, page.md);
             Ok(())
         }
     }
