@@ -5,7 +5,8 @@
 //! ```
 //!
 //! For each stabilisation of the consistent mass (none, ghost penalty with three weights, partial
-//! lumping with three thresholds), with the consistent mass in both solves:
+//! lumping with three thresholds, the linear-extension penalty with three weights), with the
+//! consistent mass in both solves:
 //! - the stable step of the update (FLIP, MUSL) at rest, in units of h/c, on a filled block and on
 //!   a disk whose edge particles have just crossed a grid line (the fringe);
 //! - a disk translating across grid lines for 600 steps: the largest deviation of the grid
@@ -212,6 +213,9 @@ fn main() {
             "lumping θ = 1",
             consistent(Stabilization::PartialLumping { threshold: 1.0 }),
         ),
+        ("extension γ = 0.1", consistent("linear_extension:0.1:0.5".parse().unwrap())),
+        ("extension γ = 0.3", consistent("linear_extension:0.3:0.5".parse().unwrap())),
+        ("extension γ = 1", consistent("linear_extension:1:0.5".parse().unwrap())),
     ];
     println!("consistent mass in both solves (FLIP, MUSL); stable steps in h/c at rest\n");
     println!(
