@@ -243,7 +243,7 @@ fn check_refuses_a_fixed_step_above_the_stable_step_with_numbers_for_people() {
         let message = text(&o);
         assert!(!o.status.success(), "{message}");
         assert!(
-            message.contains("the fixed time step 22 exceeds the stable step 0.06"),
+            message.contains("the fixed time step 22 exceeds the stable step 0.03"),
             "{command}: {message}"
         );
         assert!(!message.contains("e-2"), "numbers for people: {message}");

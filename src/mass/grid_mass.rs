@@ -187,6 +187,17 @@ impl GridMass {
         Ok(())
     }
 
+    /// Whether the prepared solve of `role` substitutes another mass for its scheme's: the
+    /// lumped mass after [`SingularityPolicy::FallbackToLumped`], or `(1 − ε) M + ε M_L` after
+    /// [`SingularityPolicy::Regularize`], because the matrix was singular at this
+    /// configuration. (A conjugate gradient that fails reports it in its [`SolveOutcome`].)
+    pub fn substitutes(&self, role: Role) -> bool {
+        match self.solver(role).outcome {
+            SolveOutcome::Solved => false,
+            SolveOutcome::FellBackToLumped { .. } | SolveOutcome::Regularized { .. } => true,
+        }
+    }
+
     /// The options in force.
     pub fn options(&self) -> MassOptions {
         self.options

@@ -21,6 +21,7 @@ use nalgebra_sparse::CscMatrix;
 
 use crate::error::{MpmError, Result};
 use crate::operators::{Operator, Operators};
+use crate::shape::ShapeFunction;
 
 mod cg;
 mod cholesky;
@@ -229,17 +230,37 @@ pub(crate) fn local_index(n: usize, dofs: &[usize]) -> Vec<usize> {
     local
 }
 
-/// What the library says about a singular mass matrix.
-pub(crate) const SINGULAR_CAUSE: &str = "the particles touching this node do not determine its motion \
-independently of its neighbours' (a consistent mass matrix needs, in every group of nodes, at least as many \
-particles in general position as nodes: one particle in a bilinear cell is not enough). Use lumped mass, more \
-particles per cell, a blended mass, or the FallbackToLumped or Regularize singularity policy";
+/// What the library says about a singular mass matrix with shape functions `shape`: why (in
+/// the words of the kernel), and the remedies by the scene keys that choose them.
+pub(crate) fn singular_cause(shape: ShapeFunction) -> String {
+    let example = match shape {
+        ShapeFunction::Linear => "one particle in a bilinear cell is not enough",
+        ShapeFunction::Gimp { .. } => {
+            "one particle per cell is not enough: GIMP's weights are bilinear wherever a particle's domain lies inside one cell"
+        }
+        ShapeFunction::QuadraticBSpline => {
+            "a quadratic B-spline node is read across 3 × 3 cells, and sparse particles at a body's edge leave some of its combinations unseen"
+        }
+        ShapeFunction::CubicBSpline => {
+            "a cubic B-spline node is read across 4 × 4 cells, and sparse particles at a body's edge leave some of its combinations unseen"
+        }
+    };
+    format!(
+        "the particles touching this node do not determine its motion independently of its neighbours' (a consistent \
+mass matrix needs, in every group of nodes, at least as many particles in general position as nodes: {example}). \
+Use the lumped mass, more particles per cell (`bodies[k].particles_per_cell`), a blended mass \
+(`schemes.mass.velocity`, `.acceleration` = \"blended:0.5\"), or a singularity policy: \
+`schemes.mass.singularity = \"fallback_to_lumped\"` or `{{ regularize = {{ epsilon = 0.1 }} }}` \
+(in Rust, `SingularityPolicy::FallbackToLumped` or `SingularityPolicy::Regularize {{ epsilon }}`)"
+    )
+}
 
+/// The error of a singular mass matrix at `node`, with the particles touching it.
 pub(crate) fn singular_error(node: usize, relative_pivot: f64, ops: &Operators) -> MpmError {
     MpmError::SingularMassMatrix {
         node,
         particles: ops.particles_touching(node),
         relative_pivot,
-        cause: SINGULAR_CAUSE.to_string(),
+        cause: singular_cause(ops.shape_function()),
     }
 }

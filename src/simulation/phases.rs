@@ -54,7 +54,7 @@ impl Simulation {
         timed(profile, Phase::Mass, || {
             mass.prepare(ops, &p.mass, &options.mass, constraints)
         })?;
-        if stability::estimate_due(options, state) {
+        if stability::estimate_due(options, state, &cache.mass) {
             let estimate = timed(profile, Phase::StableStep, || {
                 stability::estimate(setup, options, state, cache)
             })?;

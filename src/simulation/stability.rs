@@ -6,7 +6,7 @@ use super::{Cache, Options, Setup, Simulation, State, TimeStep};
 use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::grid::Grid;
-use crate::mass::{series_velocity_into, Role, SeriesScratch};
+use crate::mass::{series_velocity_into, GridMass, MassScheme, Role, SeriesScratch};
 use crate::particles::Particles;
 use crate::stiffness::{self, FrequencyEstimate};
 
@@ -20,7 +20,82 @@ pub(super) struct Stability {
     /// Steps completed when it was made.
     pub(super) at_step: usize,
     pub(super) estimate: FrequencyEstimate,
+    /// What the estimate was made for; a change triggers the next ([`estimate_due`]).
+    pub(super) basis: Basis,
+    /// Steps completed at which the next estimate is due at the latest ([`next_interval`]).
+    pub(super) due_at: usize,
 }
+
+/// What a frequency estimate depends on beyond the particle positions, compared at every step
+/// to decide whether it still holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(super) struct Basis {
+    /// A hash of the active nodes ([`active_fingerprint`]); 0 with the lumped mass in both
+    /// solves, whose frequencies do not depend on it.
+    pub(super) active: u64,
+    /// Whether the velocity and the acceleration solves substituted another mass for their
+    /// scheme's ([`GridMass::substitutes`]).
+    pub(super) substitutes: [bool; 2],
+}
+
+/// The most a re-estimate may raise the stable wave step over the previous estimate's.
+///
+/// ```text
+/// Δt_wave ← min(Δt_wave,new, MAX_STEP_RISE · Δt_wave,previous)
+/// ```
+///
+/// An estimate holds for the configuration it was made at, and the step it sets is taken until
+/// the next: a re-estimate that raises the step a lot (measured: series:32 on the two disks,
+/// +51% at step 201 and +37% at step 501, a particle inverted at step 543) bets that the
+/// frequency stays down until then. Bounding the rise makes the step come back up over several
+/// estimates instead; a fall is taken at once.
+pub const MAX_STEP_RISE: f64 = 1.1;
+
+/// The relative change of `ω_max` that the schedule of estimates lets pass between two
+/// estimates ([`next_interval`]).
+pub const FREQUENCY_DRIFT: f64 = 0.02;
+
+/// Steps from an estimate to the next at the latest:
+///
+/// ```text
+/// lumped in both solves:  s = stability_interval
+/// otherwise:              s = clamp(⌊FREQUENCY_DRIFT / r⌋, 1, stability_interval),
+///                         r = |ln(ω_now / ω_previous)| / (steps between the two estimates)
+/// ```
+///
+/// `r` is the rate at which `ω_max` was last seen to change, so that at that rate it moves by
+/// at most [`FREQUENCY_DRIFT`] before it is estimated again. Where the configuration makes the
+/// frequency move fast (a particle nearing a grid line in a sparse layout, a near-singular
+/// consistent mass) the estimates follow it step by step; where it does not they stay
+/// `stability_interval` apart. The first estimate, with no rate yet, schedules the next after
+/// at most [`FIRST_INTERVAL`] steps. The lumped mass keeps the fixed interval: its frequencies
+/// do not grow where a node's support empties, and estimating it at every step changed nothing
+/// measurable (docs/simulation.md).
+pub(super) fn next_interval(
+    options: &Options,
+    previous: Option<&Stability>,
+    omega_squared: f64,
+    steps: usize,
+) -> usize {
+    let interval = options.stability_interval.max(1);
+    let lumped = options.mass.velocity == MassScheme::Lumped && options.mass.acceleration == MassScheme::Lumped;
+    let Some(p) = previous.filter(|_| !lumped) else {
+        return if lumped { interval } else { interval.min(FIRST_INTERVAL) };
+    };
+    let (now, before) = (omega_squared, p.estimate.omega_squared);
+    if !(now > 0.0 && before > 0.0) {
+        return 1;
+    }
+    let rate = 0.5 * (now / before).ln().abs() / steps.saturating_sub(p.at_step).max(1) as f64;
+    if rate * interval as f64 <= FREQUENCY_DRIFT {
+        interval
+    } else {
+        ((FREQUENCY_DRIFT / rate) as usize).clamp(1, interval)
+    }
+}
+
+/// Most steps from the first estimate to the second, for masses other than lumped.
+pub const FIRST_INTERVAL: usize = 10;
 
 /// The largest particle speed and tangent P-wave speed of a state.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -42,13 +117,19 @@ impl Simulation {
     ///
     /// ```text
     /// Δt_stable = 1 / (1/Δt_wave + max_p |v_p| / min(hx, hy)),
-    /// Δt_wave = TIME_STEP_SAFETY · √(2 (1 + α))/ω_max · min(1, c_est / c_now)
+    /// Δt_wave = μ · TIME_STEP_SAFETY · √(2 (1 + α))/ω_max · min(1, c_est / c_now),
+    ///           at most MAX_STEP_RISE times the previous estimate's
     /// ```
     ///
+    /// with `μ` the [`stiffness::crossing_margin`] (1 but for a FLIP part with linear shape
+    /// functions or a truncated-series mass).
     /// `ω²_max` is the largest squared frequency of the update with this simulation's masses
     /// ([`stiffness::mpm_max_frequency_squared`]: `λ_max(M_a⁻¹ K M_v⁻¹ M)` from the current
     /// operators, tangent stiffness and masses, by Lanczos), estimated when the simulation is
-    /// made and again every [`Options::stability_interval`](super::Options::stability_interval) steps; between estimates the step
+    /// made, again at most every [`Options::stability_interval`](super::Options::stability_interval) steps (sooner where it
+    /// was last seen to change fast: by at most 2% between estimates at that rate), and at once when a
+    /// singularity policy starts or stops substituting a mass or (for masses other than lumped)
+    /// the active nodes change; between estimates the step
     /// shrinks if the largest tangent P-wave speed `c = √(C11/ρ)` over the particles rises above
     /// its value at the estimate. `α` is the transfer's [`Transfer::flip_weight`](super::Transfer::flip_weight) (FLIP is stable
     /// up to `2/ω_max`, PIC-type updates up to `√2/ω_max`). The particle-speed term keeps particles
@@ -92,16 +173,49 @@ pub(super) fn measure_speeds(setup: &Setup, p: &Particles) -> Speeds {
     speeds
 }
 
-/// Whether the stable step is to be estimated at this step: before the first step, then every
-/// [`Options::stability_interval`] steps.
-pub(super) fn estimate_due(options: &Options, state: &State) -> bool {
+/// Whether the stable step is to be estimated at this step: before the first step; then (unless
+/// [`Options::stability_interval`] is 0) every `stability_interval` steps, and at once when what
+/// the last estimate was made for has changed ([`Basis`]): a solve that substitutes another
+/// mass for its scheme's or stops doing so (the singularity policies), and, for every mass but
+/// the lumped one in both solves, a change of the active nodes (a node whose support starts or
+/// stops being read, where the consistent mass and the series meet their highest frequencies).
+pub(super) fn estimate_due(options: &Options, state: &State, mass: &GridMass) -> bool {
     match state.stability {
         None => true,
         Some(s) => {
             let interval = options.stability_interval;
-            interval > 0 && state.steps >= s.at_step + interval
+            interval > 0 && (state.steps >= s.due_at || basis(options, mass) != s.basis)
         }
     }
+}
+
+/// The [`Basis`] of the grid mass as prepared now.
+pub(super) fn basis(options: &Options, mass: &GridMass) -> Basis {
+    let lumped = options.mass.velocity == MassScheme::Lumped && options.mass.acceleration == MassScheme::Lumped;
+    Basis {
+        active: if lumped {
+            0
+        } else {
+            active_fingerprint(mass.is_active())
+        },
+        substitutes: [mass.substitutes(Role::Velocity), mass.substitutes(Role::Acceleration)],
+    }
+}
+
+/// A hash of the active set (FNV-1a over the active node numbers and their count):
+///
+/// ```text
+/// h ← (h ⊕ I) · 1099511628211   for each active node I, then for the count
+/// ```
+pub(super) fn active_fingerprint(is_active: &[bool]) -> u64 {
+    const PRIME: u64 = 1_099_511_628_211;
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut count = 0u64;
+    for (i, _) in is_active.iter().enumerate().filter(|(_, &a)| a) {
+        h = (h ^ i as u64).wrapping_mul(PRIME);
+        count += 1;
+    }
+    (h ^ count).wrapping_mul(PRIME)
 }
 
 /// Estimates `ω²_max` of the update with the grid prepared for the current configuration
@@ -163,11 +277,22 @@ pub(super) fn estimate(setup: &Setup, options: &Options, state: &State, cache: &
         &mut velocity,
         if same { None } else { Some(&mut acceleration) },
     )?;
+    let alpha = options.transfer.flip_weight();
+    let mut wave_step = stiffness::mpm_critical_time_step(&estimate, alpha)
+        * stiffness::crossing_margin(options.shape, [options.mass.velocity, options.mass.acceleration], alpha);
+    if let Some(previous) = state.stability {
+        wave_step = wave_step.min(MAX_STEP_RISE * previous.wave_step);
+    }
+    let previous = state.stability.as_ref();
     Ok(Stability {
-        wave_step: stiffness::mpm_critical_time_step(&estimate, options.transfer.flip_weight()),
+        wave_step,
         wave_speed: state.speeds.wave,
         at_step: state.steps,
         estimate,
+        basis: basis(options, mass),
+        due_at: state
+            .steps
+            .saturating_add(next_interval(options, previous, estimate.omega_squared, state.steps)),
     })
 }
 

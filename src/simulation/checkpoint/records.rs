@@ -12,7 +12,7 @@ use crate::material::{LinearElastic, Material, NeoHookean};
 use crate::particles::Particles;
 use crate::schemes::PositionUpdate;
 use crate::shape::ShapeFunction;
-use crate::simulation::stability::Stability;
+use crate::simulation::stability::{Basis, Stability};
 use crate::simulation::{Body, Options, TimeStep, Transfer, UpdateScheme};
 use crate::stiffness::FrequencyEstimate;
 
@@ -100,6 +100,9 @@ pub(super) struct StabilityRecord {
     pub(super) at_step: usize,
     omega_squared: f64,
     lanczos_steps: usize,
+    active_fingerprint: u64,
+    substitutes: [bool; 2],
+    due_at: usize,
 }
 
 impl OptionsRecord {
@@ -381,6 +384,9 @@ impl StabilityRecord {
             at_step: s.at_step,
             omega_squared: s.estimate.omega_squared,
             lanczos_steps: s.estimate.lanczos_steps,
+            active_fingerprint: s.basis.active,
+            substitutes: s.basis.substitutes,
+            due_at: s.due_at,
         }
     }
 
@@ -393,6 +399,11 @@ impl StabilityRecord {
                 omega_squared: self.omega_squared,
                 lanczos_steps: self.lanczos_steps,
             },
+            basis: Basis {
+                active: self.active_fingerprint,
+                substitutes: self.substitutes,
+            },
+            due_at: self.due_at,
         }
     }
 }
