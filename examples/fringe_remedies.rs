@@ -213,8 +213,14 @@ fn main() {
             "lumping θ = 1",
             consistent(Stabilization::PartialLumping { threshold: 1.0 }),
         ),
-        ("extension γ = 0.1", consistent("linear_extension:0.1:0.5".parse().unwrap())),
-        ("extension γ = 0.3", consistent("linear_extension:0.3:0.5".parse().unwrap())),
+        (
+            "extension γ = 0.1",
+            consistent("linear_extension:0.1:0.5".parse().unwrap()),
+        ),
+        (
+            "extension γ = 0.3",
+            consistent("linear_extension:0.3:0.5".parse().unwrap()),
+        ),
         ("extension γ = 1", consistent("linear_extension:1:0.5".parse().unwrap())),
     ];
     println!("consistent mass in both solves (FLIP, MUSL); stable steps in h/c at rest\n");

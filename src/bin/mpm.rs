@@ -188,9 +188,10 @@ struct BenchArgs {
     /// Mass scheme: lumped, consistent, blended:γ, series:k, cg (or cg:tolerance[:max_iterations]).
     #[arg(long, default_value = "lumped")]
     mass: MassScheme,
-    /// Velocity transfer: pic, flip, apic, blend:α, xpic:k, fmpm:k.
-    #[arg(long, default_value = "apic")]
-    transfer: Transfer,
+    /// Velocity transfer: pic, flip, apic, blend:α, xpic:k, fmpm:k [default: apic with the
+    /// lumped mass, flip with any other (APIC pairs with a lumped velocity projection only)].
+    #[arg(long)]
+    transfer: Option<Transfer>,
     /// Update scheme: usf, usl, musl.
     #[arg(long, default_value = "usl")]
     update: UpdateScheme,
@@ -502,7 +503,13 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     let spec = sparse_mpm::bench::BenchSpec {
         shape: args.shape,
         mass: args.mass,
-        transfer: args.transfer,
+        transfer: args.transfer.unwrap_or(match args.mass {
+            MassScheme::Lumped => Transfer::Apic,
+            MassScheme::Consistent
+            | MassScheme::Blended { .. }
+            | MassScheme::TruncatedSeries { .. }
+            | MassScheme::Iterative { .. } => Transfer::Flip,
+        }),
         update: args.update,
         particles: args.particles.clone().unwrap_or(defaults.particles.clone()),
         threads: args.threads as usize,
