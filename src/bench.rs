@@ -25,7 +25,7 @@ use std::time::Instant;
 use crate::boundary::{BoundaryCondition, Condition, Edge};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
-use crate::mass::{MassOptions, MassScheme};
+use crate::mass::{MassOptions, MassScheme, Stabilization};
 use crate::material::{Material, NeoHookean};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
@@ -53,6 +53,8 @@ pub struct BenchSpec {
     pub shape: ShapeFunction,
     /// Mass scheme of both solves.
     pub mass: MassScheme,
+    /// Stabilisation of the consistent mass (schemes other than lumped).
+    pub stabilization: Stabilization,
     /// Velocity transfer.
     pub transfer: Transfer,
     /// Update scheme.
@@ -79,6 +81,7 @@ impl Default for BenchSpec {
         BenchSpec {
             shape: ShapeFunction::QuadraticBSpline,
             mass: MassScheme::Lumped,
+            stabilization: Stabilization::default(),
             transfer: Transfer::Apic,
             update: UpdateScheme::Usl,
             particles: PEER_SIZES.to_vec(),
@@ -252,7 +255,10 @@ pub fn falling_block(n: usize, spec: &BenchSpec, time_step: TimeStep, stability_
         shape: spec.shape,
         update: spec.update,
         transfer: spec.transfer,
-        mass: MassOptions::both(spec.mass),
+        mass: MassOptions {
+            stabilization: spec.stabilization,
+            ..MassOptions::both(spec.mass)
+        },
         time_step,
         allow_unstable_time_step: true,
         stability_interval,

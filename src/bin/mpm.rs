@@ -11,7 +11,7 @@ use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use sparse_mpm::limits;
-use sparse_mpm::mass::MassScheme;
+use sparse_mpm::mass::{MassScheme, Stabilization};
 use sparse_mpm::numbers::human;
 use sparse_mpm::run::{prepare_output, run_scene_with, write_matrices, OutputPolicy, Progress, RunLimits, RunOptions};
 use sparse_mpm::scene::Scene;
@@ -188,6 +188,10 @@ struct BenchArgs {
     /// Mass scheme: lumped, consistent, blended:γ, series:k, cg (or cg:tolerance[:max_iterations]).
     #[arg(long, default_value = "lumped")]
     mass: MassScheme,
+    /// Stabilisation of the consistent mass: linear_extension[:γ[:θ]], partial_lumping[:θ],
+    /// ghost_penalty[:γ], none.
+    #[arg(long, default_value = "linear_extension")]
+    stabilization: Stabilization,
     /// Velocity transfer: pic, flip, apic, blend:α, xpic:k, fmpm:k [default: apic with the
     /// lumped mass, flip with any other (APIC pairs with a lumped velocity projection only)].
     #[arg(long)]
@@ -503,6 +507,7 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     let spec = sparse_mpm::bench::BenchSpec {
         shape: args.shape,
         mass: args.mass,
+        stabilization: args.stabilization,
         transfer: args.transfer.unwrap_or(match args.mass {
             MassScheme::Lumped => Transfer::Apic,
             MassScheme::Consistent
