@@ -5,7 +5,7 @@ use std::borrow::Cow;
 
 use serde::{Deserialize, Serialize};
 
-use crate::boundary::{BoundaryCondition, Condition, Edge};
+use crate::boundary::{BoundaryCondition, Condition, Edge, WallRule};
 use crate::grid::{Grid, NodeOrder};
 use crate::mass::MassOptions;
 use crate::material::{LinearElastic, Material, NeoHookean};
@@ -52,6 +52,7 @@ pub(super) struct BoundaryRecord {
     condition: Condition,
     vx: Option<f64>,
     vy: Option<f64>,
+    wall: Option<WallRule>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -176,6 +177,7 @@ impl BoundaryRecord {
             condition,
             vx,
             vy,
+            wall,
         } = bc;
         BoundaryRecord {
             edge: *edge,
@@ -185,6 +187,7 @@ impl BoundaryRecord {
             condition: *condition,
             vx: *vx,
             vy: *vy,
+            wall: *wall,
         }
     }
 
@@ -197,6 +200,7 @@ impl BoundaryRecord {
             condition,
             vx,
             vy,
+            wall,
         } = self;
         BoundaryCondition {
             edge,
@@ -206,6 +210,7 @@ impl BoundaryRecord {
             condition,
             vx,
             vy,
+            wall,
         }
     }
 }
