@@ -140,6 +140,31 @@ fn mirror_of(i: usize, w: usize, e: usize) -> (usize, f64) {
     }
 }
 
+/// `(N, Gx, Gy)` of a particle at `at` folded by hand onto the walls on lines `w` (low) and
+/// `e` (high) of both axes, and its mass `m` added to `lumped` with `|C|`.
+fn hand_fold(
+    grid: &Grid,
+    shape: ShapeFunction,
+    [w, e]: [usize; 2],
+    at: [f64; 2],
+    m: f64,
+    lumped: &mut [f64],
+) -> Vec<[f64; 3]> {
+    let mut expected = vec![[0.0; 3]; grid.num_nodes()];
+    for node in 0..grid.num_nodes() {
+        let (i, j) = grid.node_ij(node);
+        let (v, gx, gy) = shape::evaluate(grid, shape, node, at[0], at[1]);
+        let ((mi, si), (mj, sj)) = (mirror_of(i, w, e), mirror_of(j, w, e));
+        let target = grid.node_index(mi, mj);
+        let s = si * sj;
+        expected[target][0] += s * v;
+        expected[target][1] += s * gx;
+        expected[target][2] += s * gy;
+        lumped[target] += m * v;
+    }
+    expected
+}
+
 #[test]
 fn folded_operators_and_lumped_mass_equal_the_hand_fold_at_walls_and_corners() {
     for shape in KERNELS {
@@ -179,18 +204,7 @@ fn folded_operators_and_lumped_mass_equal_the_hand_fold_at_walls_and_corners() {
             .fold_lumped(&grid, shape, &x, &y, &m, &ops, &mut lumped);
         let mut expected_lumped = vec![0.0; nodes];
         for p in 0..n {
-            let mut expected = vec![[0.0; 3]; nodes];
-            for node in 0..nodes {
-                let (i, j) = grid.node_ij(node);
-                let (v, gx, gy) = shape::evaluate(&grid, shape, node, x[p], y[p]);
-                let ((mi, si), (mj, sj)) = (mirror_of(i, w, e), mirror_of(j, w, e));
-                let target = grid.node_index(mi, mj);
-                let s = si * sj;
-                expected[target][0] += s * v;
-                expected[target][1] += s * gx;
-                expected[target][2] += s * gy;
-                expected_lumped[target] += m[p] * v;
-            }
+            let expected = hand_fold(&grid, shape, [w, e], [x[p], y[p]], m[p], &mut expected_lumped);
             let mut got = vec![[0.0; 3]; nodes];
             for (node, v, gx, gy) in ops.column(p) {
                 got[node] = [v, gx, gy];

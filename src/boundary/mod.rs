@@ -297,26 +297,7 @@ impl BoundaryCondition {
                 format!("{layers}: `layers` applies only to an `edge` condition"),
             ));
         }
-        if let (Some(wall), None) = (self.wall, self.edge) {
-            return Err(err(
-                "wall",
-                format!("\"{}\": `wall` applies only to an `edge` condition", wall.name()),
-            ));
-        }
-        if self.wall == Some(WallRule::Mirror) && self.condition != Condition::Fixed {
-            let condition = match self.condition {
-                Condition::Fixed => "fixed",
-                Condition::Slip => "slip",
-                Condition::Velocity => "velocity",
-            };
-            return Err(err(
-                "wall",
-                format!(
-                    "\"mirror\" with condition = \"{condition}\": the mirror rule is implemented for fixed walls \
-                     only (use wall = \"held\")"
-                ),
-            ));
-        }
+        self.validate_wall(k)?;
         match self.condition {
             Condition::Slip if self.edge.is_none() => {
                 return Err(err(
@@ -345,6 +326,32 @@ impl BoundaryCondition {
             if !v.is_finite() {
                 return Err(err(name, format!("`{name}` = {} is not a finite number", exact(v))));
             }
+        }
+        Ok(())
+    }
+
+    /// `wall` only with an edge, `"mirror"` only with a fixed condition.
+    fn validate_wall(&self, k: usize) -> Result<()> {
+        let err = |field: &str, reason: String| scene_error(k, field, reason);
+        if let (Some(wall), None) = (self.wall, self.edge) {
+            return Err(err(
+                "wall",
+                format!("\"{}\": `wall` applies only to an `edge` condition", wall.name()),
+            ));
+        }
+        if self.wall == Some(WallRule::Mirror) && self.condition != Condition::Fixed {
+            let condition = match self.condition {
+                Condition::Fixed => "fixed",
+                Condition::Slip => "slip",
+                Condition::Velocity => "velocity",
+            };
+            return Err(err(
+                "wall",
+                format!(
+                    "\"mirror\" with condition = \"{condition}\": the mirror rule is implemented for fixed walls \
+                     only (use wall = \"held\")"
+                ),
+            ));
         }
         Ok(())
     }
