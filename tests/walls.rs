@@ -282,9 +282,9 @@ fn wall_rules_default_to_mirror_on_fixed_edges_of_wide_kernels_and_bad_rules_nam
             "\"held\": `wall` applies only to an `edge`",
         ),
         (
-            BoundaryCondition::edge(Edge::Left, Condition::Fixed).with_layers(5),
+            BoundaryCondition::edge(Edge::Left, Condition::Fixed).with_layers(7),
             "boundaries[1].wall",
-            "\"mirror\" with 5 layers",
+            "\"mirror\" with 7 layers",
         ),
         (
             BoundaryCondition::edge(Edge::Top, Condition::Fixed).with_layers(4),

@@ -373,13 +373,12 @@ impl BoundaryCondition {
                     format!("{layers} layers: must be between 1 and {across} (the node lines across the grid)"),
                 ));
             }
-            if self.wall_rule(shape) == WallRule::Mirror && 2 * layers > across + 1 {
+            if self.wall_rule(shape) == WallRule::Mirror && layers > 1 && layers >= across {
                 return Err(err(
                     "wall",
                     format!(
-                        "\"mirror\" with {layers} layers: the {} ghost lines need as many node lines inside the \
-                         wall to mirror, and the grid has {across} across",
-                        layers - 1
+                        "\"mirror\" with {layers} layers: the ghost line next to the wall needs a node line inside \
+                         the wall to mirror onto, and the grid has {across} across"
                     ),
                 ));
             }
