@@ -351,6 +351,38 @@ impl Operators {
         }
     }
 
+    /// Each particle's first node as grid indices `[i, j]` (the lowest x and y indices of its
+    /// support).
+    pub(crate) fn first_nodes(&self) -> &[[u32; 2]] {
+        &self.first
+    }
+
+    /// Rewrites the factored columns in place, for a boundary rule that folds weights
+    /// (`boundary::mirror`): `f(p, first, factors)` may change particle `p`'s first node
+    /// indices and its `[wx; S], [w′x; S], [wy; S], [w′y; S]` factors (a stencil must stay on
+    /// the grid). The node span is recomputed; the compressed columns are rebuilt on next use.
+    pub(crate) fn refold(&mut self, mut f: impl FnMut(usize, &mut [u32; 2], &mut [f64])) {
+        let s = self.support;
+        if s == 0 || self.num_particles == 0 {
+            return;
+        }
+        for (p, (first, factors)) in self
+            .first
+            .iter_mut()
+            .zip(self.factors.chunks_exact_mut(4 * s))
+            .enumerate()
+        {
+            f(p, first, factors);
+        }
+        self.csc.take();
+        let [sx, sy] = self.strides;
+        let (lo, hi) = self.first.iter().fold((usize::MAX, 0), |(lo, hi), &[i, j]| {
+            let node = i as usize * sx + j as usize * sy;
+            (lo.min(node), hi.max(node))
+        });
+        self.span = lo..hi + (s - 1) * (sx + sy) + 1;
+    }
+
     /// The CSC arrays, built from the factors on first use after an assembly.
     fn csc(&self) -> &Csc {
         self.csc.get_or_init(|| {

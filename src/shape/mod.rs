@@ -45,7 +45,9 @@
 //! keeps particles from ever reaching the margin (in continuous time): a particle exactly at
 //! the margin has zero weight on every other node, so its normal velocity there is zero. Pad
 //! the grid by [`ShapeFunction::recommended_padding`] cells so that the innermost held layer
-//! sits at the physical wall. See docs/shape_functions.md.
+//! sits at the physical wall. On a fixed edge the layers beyond that wall are mirrored rather
+//! than held by default ([`crate::boundary::WallRule`], [`crate::boundary::mirror`]): the
+//! operators fold their weights onto the interior. See docs/shape_functions.md.
 //!
 //! [`shape`] and [`dshape`] are the seed's bilinear functions whatever the family;
 //! [`evaluate`] works for every kernel.

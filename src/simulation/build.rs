@@ -66,6 +66,9 @@ impl Simulation {
         let workers = Workers::new(options.threads)?;
         let mut ops = Operators::default();
         ops.reassemble_with(&grid, options.shape, &particles.x, &particles.y, &workers)?;
+        prescribed
+            .mirror
+            .fold(&grid, options.shape, &particles.x, &particles.y, &mut ops);
         let mut nodes = GridState::new(&grid);
         let mut mass = GridMass::default();
         mass.lumped_mut().resize(grid.num_nodes(), 0.0);

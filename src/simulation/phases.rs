@@ -37,8 +37,11 @@ impl Simulation {
             });
         }
         let p = &state.particles;
+        let mirror = &setup.prescribed.mirror;
         timed(profile, Phase::Assemble, || {
-            cache.ops.reassemble_with(grid, options.shape, &p.x, &p.y, workers)
+            cache.ops.reassemble_with(grid, options.shape, &p.x, &p.y, workers)?;
+            mirror.fold(grid, options.shape, &p.x, &p.y, &mut cache.ops); // mirrored walls
+            Ok::<_, MpmError>(())
         })?; // (1)
         let stress = if options.update.schedule().stress_first {
             Stress::Omit
@@ -48,7 +51,8 @@ impl Simulation {
         let apic = apic_inertia(options, grid);
         let (ops, mass, nodes) = (&cache.ops, &mut cache.mass, &mut cache.nodes);
         timed(profile, Phase::P2g, || {
-            kernels::p2g(ops, p, apic, options.gravity, stress, mass.lumped_mut(), nodes, workers)
+            kernels::p2g(ops, p, apic, options.gravity, stress, mass.lumped_mut(), nodes, workers);
+            mirror.fold_lumped(grid, options.shape, &p.x, &p.y, &p.mass, ops, mass.lumped_mut());
         }); // (2)–(5)
         let constraints = &setup.prescribed.constraints;
         timed(profile, Phase::Mass, || {

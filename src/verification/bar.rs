@@ -18,7 +18,7 @@ use std::f64::consts::PI;
 use std::time::Instant;
 
 use super::{energy_drift, period_from_zero_crossings, Choices, History, Outcome};
-use crate::boundary::{BoundaryCondition, Condition};
+use crate::boundary::{BoundaryCondition, Condition, Edge, WallRule};
 use crate::error::Result;
 use crate::grid::Grid;
 use crate::material::{LinearElastic, Material, PlaneCondition};
@@ -49,6 +49,9 @@ pub struct Bar {
     pub amplitude: f64,
     /// Simulated time in periods.
     pub periods: f64,
+    /// The rule of the fixed ends (`None`: [`WallRule::default_for`] the kernel, the mirror
+    /// rule for GIMP and B-splines).
+    pub wall: Option<WallRule>,
 }
 
 impl Bar {
@@ -61,6 +64,7 @@ impl Bar {
             length: 25.0,
             amplitude: 0.1,
             periods: 2.0,
+            wall: None,
         }
     }
 
@@ -97,8 +101,9 @@ impl Bar {
     }
 
     /// The simulation on `cells` cells along the bar: the grid padded by the kernel's
-    /// recommended cells on every side (and one more beyond a free end), the ends held on every
-    /// node line at or beyond them, rollers everywhere.
+    /// recommended cells on every side (and one more beyond a free end), fixed edges at the
+    /// fixed ends (the wall on the end's node line, the lines beyond it mirrored or held by
+    /// [`Bar::wall`]), rollers everywhere.
     ///
     /// # Errors
     /// Those of [`Simulation::new`].
@@ -121,17 +126,22 @@ impl Bar {
             .collect();
         let particles =
             Particles::new(x, y, vec![self.density * volume; n], vec![volume; n])?.with_velocity(vx, vec![0.0; n])?;
-        let [nx, ny] = grid.nodes_per_axis();
-        let held: Vec<usize> = (0..ny)
-            .flat_map(|j| (0..nx).map(move |i| (i, j)))
-            .filter(|&(i, _)| i <= pad || (self.ends == Ends::FixedFixed && i >= pad + cells))
-            .map(|(i, j)| grid.node_index(i, j))
-            .collect();
-        let options = choices.options(vec![
+        let end = |edge| {
+            let bc = BoundaryCondition::edge(edge, Condition::Fixed).with_layers(pad + 1);
+            match self.wall {
+                Some(rule) => bc.with_wall(rule),
+                None => bc,
+            }
+        };
+        let mut boundaries = vec![
             BoundaryCondition::nodes((0..grid.num_nodes()).collect(), Condition::Velocity)
                 .with_velocity(None, Some(0.0)),
-            BoundaryCondition::nodes(held, Condition::Fixed),
-        ]);
+            end(Edge::Left),
+        ];
+        if self.ends == Ends::FixedFixed {
+            boundaries.push(end(Edge::Right));
+        }
+        let options = choices.options(boundaries);
         let material = Material::LinearElastic(LinearElastic::new(self.youngs_modulus, 0.0, PlaneCondition::Stress)?);
         let bodies = vec![Body {
             name: "bar".into(),

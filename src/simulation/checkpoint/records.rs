@@ -5,7 +5,7 @@ use std::borrow::Cow;
 
 use serde::{Deserialize, Serialize};
 
-use crate::boundary::{BoundaryCondition, Condition, Edge};
+use crate::boundary::{BoundaryCondition, Condition, Edge, WallRule};
 use crate::grid::{Grid, NodeOrder};
 use crate::mass::MassOptions;
 use crate::material::{LinearElastic, Material, NeoHookean};
@@ -52,6 +52,7 @@ pub(super) struct BoundaryRecord {
     condition: Condition,
     vx: Option<f64>,
     vy: Option<f64>,
+    wall: Option<WallRule>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -179,6 +180,7 @@ impl BoundaryRecord {
             condition,
             vx,
             vy,
+            wall,
         } = bc;
         BoundaryRecord {
             edge: *edge,
@@ -188,6 +190,7 @@ impl BoundaryRecord {
             condition: *condition,
             vx: *vx,
             vy: *vy,
+            wall: *wall,
         }
     }
 
@@ -200,6 +203,7 @@ impl BoundaryRecord {
             condition,
             vx,
             vy,
+            wall,
         } = self;
         BoundaryCondition {
             edge,
@@ -209,6 +213,7 @@ impl BoundaryRecord {
             condition,
             vx,
             vy,
+            wall,
         }
     }
 }

@@ -23,6 +23,24 @@
 //! is [`ShapeFunction::boundary_layers`]: the number of node lines a wall must hold so that
 //! no particle can come closer to the edge than its kernel's support allows (1 for linear,
 //! 2 for GIMP and quadratic B-splines, 3 for cubic B-splines).
+//!
+//! ## Walls: mirrored or held ([`WallRule`])
+//! The innermost of the `layers` lines is the **wall**; the lines beyond it are **ghost**
+//! lines. With [`WallRule::Held`] every line is held at the prescribed value, which with
+//! B-splines and GIMP makes the solution near the wall first order (a ghost node held at zero
+//! is a kink in the interpolated field). With [`WallRule::Mirror`] (the default of a fixed
+//! edge) the ghost values are odd reflections of the interior nodes, a linear constraint
+//! `v = C v_free`:
+//!
+//! ```text
+//! v_(w−k) = −v_(w+k)   (both components; wall line w: v_w = 0)
+//! ```
+//!
+//! applied by folding each particle's weights on the ghost lines onto their mirrors with the
+//! sign (`Cᵀ N`, `Cᵀ Gx`, `Cᵀ Gy`; see [`mirror`]), so that the consistent mass becomes
+//! `Cᵀ M C`, momenta and forces `Cᵀ q`, `Cᵀ f`, and the particles read `Nᵀ C v`. The lumped mass
+//! is `|C|ᵀ m_L` (ghost mass added to its mirror). The mirror rule is implemented for fixed
+//! walls; slip and velocity edges are held.
 
 use serde::{Deserialize, Serialize};
 
@@ -31,6 +49,45 @@ use crate::grid::Grid;
 use crate::mass::Constraints;
 use crate::numbers::exact;
 use crate::shape::ShapeFunction;
+
+pub mod mirror;
+
+pub use mirror::{AxisWalls, MirrorWalls, Wall};
+
+/// How an edge condition treats the node lines at and beyond its wall.
+///
+/// As text: `"mirror"` or `"held"` (the `wall` key of a scene's `[[boundaries]]`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WallRule {
+    /// Every one of the `layers` node lines holds the prescribed value (the library's rule
+    /// before the mirror rule; first order near the wall with kernels wider than linear).
+    Held,
+    /// The innermost line is the wall (held); the lines beyond it are ghosts whose values
+    /// are odd reflections of the interior, `v_(w−k) = −v_(w+k)`. Only with
+    /// [`Condition::Fixed`]. With linear kernels (one layer) it is the same as `Held`.
+    Mirror,
+}
+
+impl WallRule {
+    /// The rule an edge condition without a `wall` key gets: [`WallRule::Mirror`] for a fixed
+    /// edge when the kernel has ghost lines (`boundary_layers() > 1`: GIMP, B-splines),
+    /// [`WallRule::Held`] otherwise.
+    pub fn default_for(condition: Condition, shape: ShapeFunction) -> WallRule {
+        match condition {
+            Condition::Fixed if shape.boundary_layers() > 1 => WallRule::Mirror,
+            Condition::Fixed | Condition::Slip | Condition::Velocity => WallRule::Held,
+        }
+    }
+
+    /// `"mirror"` or `"held"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            WallRule::Held => "held",
+            WallRule::Mirror => "mirror",
+        }
+    }
+}
 
 /// A side of the grid.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -83,6 +140,9 @@ pub struct BoundaryCondition {
     /// Prescribed y velocity (with [`Condition::Velocity`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub vy: Option<f64>,
+    /// The wall rule of an edge condition (default: [`WallRule::default_for`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall: Option<WallRule>,
 }
 
 impl BoundaryCondition {
@@ -96,6 +156,7 @@ impl BoundaryCondition {
             condition,
             vx: None,
             vy: None,
+            wall: None,
         }
     }
 
@@ -131,6 +192,18 @@ impl BoundaryCondition {
         self
     }
 
+    /// Sets the wall rule of an edge condition.
+    pub fn with_wall(mut self, wall: WallRule) -> BoundaryCondition {
+        self.wall = Some(wall);
+        self
+    }
+
+    /// The wall rule in force: `wall`, or [`WallRule::default_for`] the condition and kernel.
+    pub fn wall_rule(&self, shape: ShapeFunction) -> WallRule {
+        self.wall
+            .unwrap_or_else(|| WallRule::default_for(self.condition, shape))
+    }
+
     fn without_edge(mut self) -> BoundaryCondition {
         self.edge = None;
         self
@@ -146,6 +219,8 @@ pub struct Prescribed {
     pub vy: Vec<f64>,
     /// The prescribed degrees of freedom as lists (for the mass solves).
     pub constraints: Constraints,
+    /// The walls under [`WallRule::Mirror`], whose ghost lines the operators fold.
+    pub mirror: MirrorWalls,
 }
 
 impl Prescribed {
@@ -179,7 +254,9 @@ impl BoundaryCondition {
     /// Checks condition `k` (numbered as in a scene's `[[boundaries]]`, for the messages) on
     /// `grid` with kernels `shape`, without allocating anything in proportion to the grid:
     /// exactly one node set, `layers` only with an edge and within the grid, `slip` only on an
-    /// edge, `vx`/`vy` finite and only with a velocity condition, a finite ordered rectangle,
+    /// edge, `wall` only on an edge and `"mirror"` only with a fixed condition and its ghost
+    /// lines' mirrors on the grid, `vx`/`vy` finite and only with a velocity condition, a
+    /// finite ordered rectangle,
     /// and a `nodes` list that names existing nodes, each once (a list longer than the grid's
     /// node count is refused before it is looked at further).
     ///
@@ -220,6 +297,7 @@ impl BoundaryCondition {
                 format!("{layers}: `layers` applies only to an `edge` condition"),
             ));
         }
+        self.validate_wall(k)?;
         match self.condition {
             Condition::Slip if self.edge.is_none() => {
                 return Err(err(
@@ -252,6 +330,32 @@ impl BoundaryCondition {
         Ok(())
     }
 
+    /// `wall` only with an edge, `"mirror"` only with a fixed condition.
+    fn validate_wall(&self, k: usize) -> Result<()> {
+        let err = |field: &str, reason: String| scene_error(k, field, reason);
+        if let (Some(wall), None) = (self.wall, self.edge) {
+            return Err(err(
+                "wall",
+                format!("\"{}\": `wall` applies only to an `edge` condition", wall.name()),
+            ));
+        }
+        if self.wall == Some(WallRule::Mirror) && self.condition != Condition::Fixed {
+            let condition = match self.condition {
+                Condition::Fixed => "fixed",
+                Condition::Slip => "slip",
+                Condition::Velocity => "velocity",
+            };
+            return Err(err(
+                "wall",
+                format!(
+                    "\"mirror\" with condition = \"{condition}\": the mirror rule is implemented for fixed walls \
+                     only (use wall = \"held\")"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// An edge's `layers` within the grid, a finite ordered rectangle, a `nodes` list of existing
     /// nodes, each once.
     fn validate_extent(&self, k: usize, grid: &Grid, shape: ShapeFunction) -> Result<()> {
@@ -267,6 +371,15 @@ impl BoundaryCondition {
                 return Err(err(
                     "layers",
                     format!("{layers} layers: must be between 1 and {across} (the node lines across the grid)"),
+                ));
+            }
+            if self.wall_rule(shape) == WallRule::Mirror && layers > 1 && layers >= across {
+                return Err(err(
+                    "wall",
+                    format!(
+                        "\"mirror\" with {layers} layers: the ghost line next to the wall needs a node line inside \
+                         the wall to mirror onto, and the grid has {across} across"
+                    ),
                 ));
             }
         }
@@ -345,6 +458,7 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
         vx: vec![f64::NAN; n],
         vy: vec![f64::NAN; n],
         constraints: Constraints::none(),
+        mirror: MirrorWalls::default(),
     };
     let [nx, ny] = grid.nodes_per_axis();
     let mut nodes = Vec::new();
@@ -360,6 +474,7 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
         nodes.clear();
         if let Some(edge) = bc.edge {
             let layers = bc.layers.unwrap_or_else(|| shape.boundary_layers());
+            out.mirror.set(k, edge, layers, [nx, ny], bc.wall_rule(shape));
             for j in 0..ny {
                 for i in 0..nx {
                     let inside = match edge {
@@ -403,6 +518,7 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
             }
         }
     }
+    out.mirror.validate(shape)?;
     out.constraints.fixed_x = (0..n).filter(|&i| !out.vx[i].is_nan()).collect();
     out.constraints.fixed_y = (0..n).filter(|&i| !out.vy[i].is_nan()).collect();
     Ok(out)
