@@ -9,10 +9,12 @@ use crate::shape::ShapeFunction;
 use crate::simulation::Transfer;
 use crate::verification::Choices;
 
-/// The default stabilisations compared: the plain matrix, partial lumping, the ghost penalty
-/// and the linear-extension penalty (the default), each with its default parameters.
+/// The default stabilisations compared: partial lumping, the ghost penalty and the
+/// linear-extension penalty (the default), each with its default parameters. The plain matrix
+/// (`none`) is left out: at a fringe its stable step collapses (0.008 h/c), so its runs take
+/// hundreds of thousands of steps before they fail.
 pub(super) fn default_stabilizations() -> Vec<Stabilization> {
-    ["none", "partial_lumping", "ghost_penalty", "linear_extension"]
+    ["partial_lumping", "ghost_penalty", "linear_extension"]
         .iter()
         .map(|s| s.parse().expect("the names parse"))
         .collect()
