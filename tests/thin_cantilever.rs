@@ -1,6 +1,9 @@
 //! Thin bodies: cantilevers one and two cells thick with quadratic B-splines, clamped by a
-//! mirrored wall and released under gravity. A mass matrix cannot change a static deflection,
-//! so the consistent mass's first swing must agree with the lumped mass's and with beam theory.
+//! mirrored wall and released under gravity. Where the stiffness is nonsingular the mass cannot
+//! change the static deflection, so the first swings of consistent and lumped mass must agree
+//! with each other and with beam theory. One cell thick the particles' stiffness has four
+//! zero-energy modes and the static deflection of the MUSL update depends on the mass
+//! (`examples/thin_beam_statics.rs`: 0.0563 lumped, 0.0617 consistent, 0.0596 four cells thick).
 
 use sparse_mpm::scene::Scene;
 
@@ -115,9 +118,18 @@ fn cantilevers_one_and_two_cells_thick_swing_as_far_with_the_consistent_mass() {
              Euler–Bernoulli ({theory:.4})",
             100.0 * off(consistent, theory)
         );
+        // Both masses within 10% of the converged answer.
+        for (name, value) in [("lumped", lumped), ("consistent", consistent)] {
+            assert!(
+                off(value, converged) <= 0.1,
+                "{cells_thick} cells thick: {name} {value:.4} is {:.1}% from the converged {converged:.4}",
+                100.0 * off(value, converged)
+            );
+        }
         // Measured: 12.8% apart one cell thick (lumped 0.1107, 8% short of the converged
-        // answer; consistent 0.1249, 4% beyond it), 0.9% two cells thick. One cell thick the
-        // consistent mass is the closer of the two to the converged answer.
+        // answer; consistent 0.1249, 3% beyond it: the statics of the two differ there,
+        // see the module docs), 0.9% two cells thick. One cell thick the consistent mass is the
+        // closer of the two to the converged answer.
         let bound = if cells_thick == 1 { 0.15 } else { 0.1 };
         assert!(
             off(consistent, lumped) <= bound,
