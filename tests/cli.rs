@@ -250,3 +250,55 @@ fn check_refuses_a_fixed_step_above_the_stable_step_with_numbers_for_people() {
     }
     assert!(!dir.join("out").exists(), "a refused run writes nothing");
 }
+
+#[test]
+fn dispersion_prints_the_curve_as_csv_and_names_bad_input() {
+    let dir = scratch("dispersion");
+    let o = mpm(&["dispersion", "--mass", "consistent", "--cells", "8"], &dir);
+    assert!(o.status.success(), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    let mut lines = out.lines();
+    assert_eq!(lines.next(), Some("theta,c_ratio"));
+    let rows: Vec<(f64, f64)> = lines
+        .map(|l| {
+            let (t, c) = l.split_once(',').unwrap();
+            (t.parse().unwrap(), c.parse().unwrap())
+        })
+        .collect();
+    assert_eq!(rows.len(), 4);
+    // bilinear, 2 particles per cell, consistent: 1.033 at π/4, 1.139 at π/2, 4/π at π
+    for ((t, c), (theta, want)) in rows.iter().zip([
+        (0.25, 1.033),
+        (0.5, 1.139),
+        (0.75, 1.307),
+        (1.0, 4.0 / std::f64::consts::PI),
+    ]) {
+        assert!(
+            (t - theta * std::f64::consts::PI).abs() < 1e-12 && (c - want).abs() < 1e-3,
+            "{t},{c}"
+        );
+    }
+    let mixed = mpm(
+        &[
+            "dispersion",
+            "--mass",
+            "lumped",
+            "--acceleration-mass",
+            "consistent",
+            "--samples",
+            "2",
+        ],
+        &dir,
+    );
+    let out = String::from_utf8_lossy(&mixed.stdout).to_string();
+    let last: f64 = out.lines().last().unwrap().split_once(',').unwrap().1.parse().unwrap();
+    assert!((last - 2.0 / std::f64::consts::PI).abs() < 1e-12, "{out}");
+    let bad = mpm(&["dispersion", "--particles-per-cell", "0"], &dir);
+    assert!(
+        !bad.status.success() && text(&bad).contains("particles_per_cell"),
+        "{}",
+        text(&bad)
+    );
+    let bad = mpm(&["dispersion", "--mass", "blended:3"], &dir);
+    assert!(!bad.status.success() && text(&bad).contains("gamma"), "{}", text(&bad));
+}

@@ -68,6 +68,35 @@ enum Command {
     /// Prints a CSV row per particle count (min/median/max), then `particle-steps/s: <median>`
     /// and `peak bytes/particle: <value>`.
     Bench(BenchArgs),
+    /// Print the discrete dispersion relation of the explicit update as CSV: the wave speed
+    /// c_h/c of a Fourier mode against θ = kh over (0, π] (docs/mass.md, "Dispersion").
+    ///
+    /// Columns `theta,c_ratio`: one row per θ = π j / samples, or with --cells N per wavenumber
+    /// of a periodic bar of N cells (θ = 2π j / N, j = 1 … N/2).
+    Dispersion(DispersionArgs),
+}
+
+#[derive(Args, Debug)]
+struct DispersionArgs {
+    /// Shape functions: linear, gimp (or gimp:half_width), quadratic_bspline (quadratic), cubic_bspline (cubic).
+    #[arg(long, default_value = "linear")]
+    shape: ShapeFunction,
+    /// Mass scheme of the velocity projection (and of the acceleration solve unless
+    /// --acceleration-mass is given): lumped, consistent, blended:γ, series:k, cg.
+    #[arg(long, default_value = "lumped")]
+    mass: MassScheme,
+    /// Mass scheme of the acceleration solve [default: --mass].
+    #[arg(long)]
+    acceleration_mass: Option<MassScheme>,
+    /// Particles per cell along the bar, at the centres of equal sub-cells (1–64).
+    #[arg(long, default_value_t = 2)]
+    particles_per_cell: usize,
+    /// Points of the curve, θ = π j / samples.
+    #[arg(long, default_value_t = 64)]
+    samples: usize,
+    /// Sample the wavenumbers of a periodic bar of N cells instead.
+    #[arg(long, value_name = "N")]
+    cells: Option<usize>,
 }
 
 /// Where output goes and what may be replaced there.
@@ -581,6 +610,24 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
+fn dispersion(a: &DispersionArgs) -> Result<(), String> {
+    let curve = sparse_mpm::verification::dispersion::dispersion(
+        a.shape,
+        a.mass,
+        a.acceleration_mass.unwrap_or(a.mass),
+        a.particles_per_cell,
+        a.samples,
+        a.cells,
+    )
+    .map_err(|e| e.to_string())?;
+    let mut text = String::from("theta,c_ratio\n");
+    for p in curve {
+        text.push_str(&format!("{},{}\n", p.theta, p.c_ratio));
+    }
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+    Ok(())
+}
+
 fn homework(json: bool) -> Result<(), String> {
     let answers = sparse_mpm::homework::solve().map_err(|e| e.to_string())?;
     let text = if json {
@@ -602,6 +649,7 @@ fn main() -> ExitCode {
         Command::Homework { json } => homework(*json),
         Command::Study(a) => study(a),
         Command::Bench(a) => bench(a),
+        Command::Dispersion(a) => dispersion(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -11,6 +11,7 @@
 //! | axis-aligned manufactured solution (B5), generalised vortex (B6) | exact displacement | [`manufactured`] |
 //! | two elastic disks in impact (B8) | energy conservation | [`disks`] |
 //! | cantilever under gravity (B9) | Richardson-extrapolated tip deflection | [`cantilever`] |
+//! | the dispersion relation over the whole spectrum | closed-form symbols | [`dispersion`] |
 //! | disk in rigid rotation; projection of a rotation from a strip one cell thick | angular momentum; exact nodal field | [`rotation`] |
 
 use serde::{Deserialize, Serialize};
@@ -24,6 +25,7 @@ use crate::simulation::{Options, TimeStep, Transfer, UpdateScheme};
 pub mod bar;
 pub mod cantilever;
 pub mod disks;
+pub mod dispersion;
 pub mod manufactured;
 pub mod rotation;
 pub mod single_point;
