@@ -61,6 +61,17 @@ pub fn position_exact(v0: f64, t: f64) -> f64 {
 /// # Errors
 /// Those of [`Simulation::new`] and [`Simulation::step`].
 pub fn run(v0: f64, choices: &Choices) -> Result<Outcome> {
+    run_with_step(v0, DT, choices)
+}
+
+/// [`run`] with the fixed time step `dt` instead of [`DT`]: the time integrator's order is
+/// read off a sequence of steps (the errors of a small `v0`, where the volume change is
+/// negligible, against `dt`).
+///
+/// # Errors
+/// Those of [`Simulation::new`] (a `dt` that is not positive and finite among them) and
+/// [`Simulation::step`].
+pub fn run_with_step(v0: f64, dt: f64, choices: &Choices) -> Result<Outcome> {
     let grid = Grid::new([0.0, 0.0], [LENGTH, LENGTH], [1, 1])?;
     let particles = Particles::new(vec![0.5 * LENGTH], vec![0.5 * LENGTH], vec![1.0], vec![1.0])?
         .with_velocity(vec![v0], vec![0.0])?;
@@ -70,7 +81,7 @@ pub fn run(v0: f64, choices: &Choices) -> Result<Outcome> {
         update: choices.update,
         transfer: choices.transfer,
         mass: choices.mass,
-        time_step: TimeStep::Fixed { dt: DT },
+        time_step: TimeStep::Fixed { dt },
         boundaries: vec![
             BoundaryCondition::nodes((0..grid.num_nodes()).collect(), Condition::Velocity)
                 .with_velocity(None, Some(0.0)),
