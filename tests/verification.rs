@@ -137,6 +137,42 @@ fn the_vortex_converges_with_gimp_and_b_splines() {
     }
 }
 
+/// The vortex with the smooth profile `g = (1 − ξ²)³` (the shear stress's gradient vanishes at
+/// the free surfaces too): second order between the two finest grids with GIMP and both
+/// B-splines, with APIC at A = 0.05 and with FLIP at A = 0.01 (FLIP's error at 0.05 includes a
+/// finite-amplitude part that grows with GIMP on fine grids; docs/verification.md).
+#[test]
+fn the_smooth_vortex_converges_at_second_order_with_gimp_and_b_splines() {
+    use sparse_mpm::simulation::Transfer;
+    for (transfer, amplitude) in [(Transfer::Apic, 0.05), (Transfer::Flip, 0.01)] {
+        let vortex = GeneralisedVortex::smooth(amplitude);
+        for shape in [
+            ShapeFunction::Gimp { half_width: 0.25 },
+            ShapeFunction::QuadraticBSpline,
+            ShapeFunction::CubicBSpline,
+        ] {
+            let c = Choices {
+                shape,
+                transfer,
+                cfl: 0.2,
+                ..Choices::default()
+            };
+            let errors: Vec<f64> = [32, 64, 128]
+                .iter()
+                .map(|&cells| {
+                    manufactured::run(&vortex, cells, &c)
+                        .unwrap()
+                        .metric("displacement_error_l2")
+                        .unwrap()
+                })
+                .collect();
+            let local = (errors[1] / errors[2]).log2();
+            println!("{transfer} A = {amplitude} {shape}: {errors:?}, order 64→128 {local:.3}");
+            assert!(local >= 1.8, "{transfer} {shape}: local order {local} from {errors:?}");
+        }
+    }
+}
+
 #[test]
 fn the_axis_aligned_manufactured_solution_converges_with_b_splines() {
     let c = Choices {
@@ -239,4 +275,40 @@ fn the_single_point_measures_the_time_order_of_each_update_scheme() {
         at_coarsest[1] > 5.0 * at_coarsest[0].max(at_coarsest[2]),
         "USL {at_coarsest:?}"
     );
+}
+
+/// The vortex profile's derivatives against central differences, for the published and the
+/// smooth exponent, and `g'' = 0` at the free surfaces of the smooth one only.
+#[test]
+fn the_vortex_profiles_derivatives_match_finite_differences() {
+    for n in [2, 3, 4] {
+        let v = GeneralisedVortex {
+            exponent: n,
+            ..GeneralisedVortex::default()
+        };
+        let eps = 1e-5;
+        for k in 1..20 {
+            let r = 0.75 + 0.5 * k as f64 / 20.0;
+            let (_, g1, g2) = v.profile(r);
+            let fd1 = (v.profile(r + eps).0 - v.profile(r - eps).0) / (2.0 * eps);
+            let fd2 = (v.profile(r + eps).1 - v.profile(r - eps).1) / (2.0 * eps);
+            assert!(
+                (g1 - fd1).abs() < 1e-6 * (1.0 + g1.abs()),
+                "n = {n}, R = {r}: g' {g1} against {fd1}"
+            );
+            assert!(
+                (g2 - fd2).abs() < 1e-5 * (1.0 + g2.abs()),
+                "n = {n}, R = {r}: g'' {g2} against {fd2}"
+            );
+        }
+        let at_surface = v.profile(v.inner_radius).2.abs().max(v.profile(v.outer_radius).2.abs());
+        if n == 2 {
+            assert!(
+                (at_surface - 8.0 / 0.25f64.powi(2)).abs() < 1e-9,
+                "n = 2: g'' = {at_surface} at the surface"
+            );
+        } else {
+            assert!(at_surface < 1e-12, "n = {n}: g'' = {at_surface} at the surface");
+        }
+    }
 }

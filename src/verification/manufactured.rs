@@ -200,11 +200,13 @@ impl AxisAlignedMms {
 /// by the angle
 ///
 /// ```text
-/// α(R, t) = A sin(c π t) g(R),   g(R) = (1 − ξ²)²,   ξ = (R − Rm)/w,  Rm = (Ri+Ro)/2, w = (Ro−Ri)/2
+/// α(R, t) = A sin(c π t) g(R),   g(R) = (1 − ξ²)ⁿ,   ξ = (R − Rm)/w,  Rm = (Ri+Ro)/2, w = (Ro−Ri)/2
 /// ```
 ///
-/// (with the published `Ri = 0.75`, `Ro = 1.25`: `g = (1 − 16(R − 1)²)² = (4R − 3)²(4R − 5)²`).
-/// `g = g' = 0` at `Ri` and `Ro`. With `Q(α)` the rotation by `α` and `x = Q(α) X`:
+/// with the published exponent `n = 2` (and `Ri = 0.75`, `Ro = 1.25`:
+/// `g = (1 − 16(R − 1)²)² = (4R − 3)²(4R − 5)²`) or the smooth `n = 3`
+/// ([`GeneralisedVortex::smooth`]). `g = g' = 0` at `Ri` and `Ro`; with `n = 3` also `g'' = 0`,
+/// so the body force's `b_θ` and the shear stress's gradient vanish at the free surfaces too. With `Q(α)` the rotation by `α` and `x = Q(α) X`:
 ///
 /// ```text
 /// u = Q(α) X − X
@@ -229,7 +231,9 @@ impl AxisAlignedMms {
 /// `b_θ = −A sin(cπt)[R c²π²(4R−3)²(4R−5)² + (64μ/ρ0)(96R³ − 240R² + 188R − 45)]`.
 ///
 /// Boundary conditions: none. On `R = Ri, Ro`, `F = I` and `P = 0` (traction free) and `v = 0`.
-/// Note that `b_θ ≠ 0` on the boundary (`g'' = 8/w² ≠ 0` there).
+/// With `n = 2`, `b_θ ≠ 0` on the boundary (`g'' = 8/w² ≠ 0` there): the shear stress vanishes
+/// at the free surface but its gradient does not, which a particle discretisation resolves only
+/// to first order near the surface; `n = 3` removes that.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GeneralisedVortex {
     /// Young's modulus `E` (only `μ` enters the body force).
@@ -244,6 +248,8 @@ pub struct GeneralisedVortex {
     pub inner_radius: f64,
     /// Outer radius `Ro`.
     pub outer_radius: f64,
+    /// The profile's exponent `n` in `g = (1 − ξ²)ⁿ`: 2 (published) or 3 (smooth); at least 2.
+    pub exponent: u32,
 }
 
 impl Default for GeneralisedVortex {
@@ -257,6 +263,7 @@ impl Default for GeneralisedVortex {
             amplitude: 1.0,
             inner_radius: 0.75,
             outer_radius: 1.25,
+            exponent: 2,
         }
     }
 }
@@ -283,13 +290,31 @@ impl GeneralisedVortex {
         r >= self.inner_radius && r <= self.outer_radius
     }
 
-    /// `g(R)` and its first two derivatives `(g, g', g'')`.
+    /// The published set with the smooth profile `g = (1 − ξ²)³` (`n = 3`) at amplitude `A`.
+    pub fn smooth(amplitude: f64) -> Self {
+        GeneralisedVortex {
+            amplitude,
+            exponent: 3,
+            ..GeneralisedVortex::default()
+        }
+    }
+
+    /// `g(R)` and its first two derivatives `(g, g', g'')`, with `q = 1 − ξ²`:
+    ///
+    /// ```text
+    /// g = qⁿ,   g' = −2n ξ qⁿ⁻¹ / w,   g'' = (4n(n − 1) ξ² qⁿ⁻² − 2n qⁿ⁻¹) / w²
+    /// ```
     pub fn profile(&self, r: f64) -> (f64, f64, f64) {
         let rm = 0.5 * (self.inner_radius + self.outer_radius);
         let w = 0.5 * (self.outer_radius - self.inner_radius);
         let xi = (r - rm) / w;
         let q = 1.0 - xi * xi;
-        (q * q, -4.0 * xi * q / w, (12.0 * xi * xi - 4.0) / (w * w))
+        let n = self.exponent.max(2) as i32;
+        let nf = f64::from(n);
+        let g = q.powi(n);
+        let g1 = -2.0 * nf * xi * q.powi(n - 1) / w;
+        let g2 = (4.0 * nf * (nf - 1.0) * xi * xi * q.powi(n - 2) - 2.0 * nf * q.powi(n - 1)) / (w * w);
+        (g, g1, g2)
     }
 
     /// `(α, α̇, α̈, α', α'')` at radius `R` and time `t`.
@@ -440,8 +465,13 @@ impl Manufactured for AxisAlignedMms {
 }
 
 impl Manufactured for GeneralisedVortex {
+    /// `"mms_vortex"` (published profile) or `"mms_vortex_smooth"` (`n = 3`).
     fn name(&self) -> &'static str {
-        "mms_vortex"
+        if self.exponent >= 3 {
+            "mms_vortex_smooth"
+        } else {
+            "mms_vortex"
+        }
     }
     fn material(&self) -> NeoHookean {
         NeoHookean {
