@@ -12,6 +12,7 @@
 //! | two elastic disks in impact (B8) | energy conservation | [`disks`] |
 //! | cantilever under gravity (B9) | Richardson-extrapolated tip deflection | [`cantilever`] |
 //! | the dispersion relation over the whole spectrum | closed-form symbols | [`dispersion`] |
+//! | a velocity step and a pulse in a long bar | d'Alembert | [`wave`] |
 //! | disk in rigid rotation; projection of a rotation from a strip one cell thick | angular momentum; exact nodal field | [`rotation`] |
 
 use serde::{Deserialize, Serialize};
@@ -29,6 +30,7 @@ pub mod dispersion;
 pub mod manufactured;
 pub mod rotation;
 pub mod single_point;
+pub mod wave;
 
 /// The algorithmic choices of a verification run: the axes a study varies.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
