@@ -59,8 +59,9 @@ enum Command {
     },
     /// Run the verification problems over a matrix of choices and write a report with plots.
     ///
-    /// Writes DIR/report.md with its PNG plots and DIR/runs.csv (every run). Parts: frequency,
-    /// bar_energy, convergence, energy, time_step, cantilever, single_point, stabilization.
+    /// Writes DIR/report.md with its PNG plots and DIR/runs.csv (every run). Parts: dispersion,
+    /// frequency, bar_energy, convergence, energy, time_step, cantilever, single_point,
+    /// time_order, waves, stabilization.
     Study(StudyArgs),
     /// Time the peers' benchmark problem (a random block falling into a walled unit box,
     /// neo-Hookean, about 4 particles per cell; docs/performance.md) over whole steps.

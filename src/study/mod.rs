@@ -31,11 +31,13 @@ use crate::shape::ShapeFunction;
 use crate::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
 use crate::verification::bar::{Bar, Ends};
 use crate::verification::manufactured::{self, GeneralisedVortex};
+use crate::verification::wave::Wave;
 use crate::verification::{cantilever, disks, rotation, single_point, Choices, Outcome};
 
 pub mod plot;
 mod remedies;
 mod report;
+mod spectrum;
 
 use report::section;
 
@@ -59,11 +61,18 @@ pub enum Part {
     SinglePoint,
     /// The consistent mass's stabilisations on rotation, thin bodies and impact.
     Stabilization,
+    /// The discrete dispersion relation over the whole spectrum for each shape and mass pair.
+    Dispersion,
+    /// A step and a pulse in a long bar against d'Alembert for each mass pair.
+    Waves,
+    /// The single material point under a sequence of time steps for each update scheme.
+    TimeOrder,
 }
 
 impl Part {
     /// Every part, in report order.
-    pub const ALL: [Part; 8] = [
+    pub const ALL: [Part; 11] = [
+        Part::Dispersion,
         Part::Frequency,
         Part::BarEnergy,
         Part::Convergence,
@@ -71,6 +80,8 @@ impl Part {
         Part::TimeStep,
         Part::Cantilever,
         Part::SinglePoint,
+        Part::TimeOrder,
+        Part::Waves,
         Part::Stabilization,
     ];
 
@@ -85,6 +96,9 @@ impl Part {
             Part::Cantilever => "cantilever",
             Part::SinglePoint => "single_point",
             Part::Stabilization => "stabilization",
+            Part::Dispersion => "dispersion",
+            Part::Waves => "waves",
+            Part::TimeOrder => "time_order",
         }
     }
 }
@@ -117,6 +131,10 @@ pub struct StudySpec {
     pub stabilizations: Vec<Stabilization>,
     /// Cells across the spinning disk's unit square (stabilisation part).
     pub rotation_cells: usize,
+    /// Cells along the bar of the waves part.
+    pub wave_cells: usize,
+    /// Time steps of the time-order part (`Δt = 4e-3 / 2^k`, `k` below this).
+    pub time_steps: usize,
 }
 
 impl Default for StudySpec {
@@ -151,6 +169,8 @@ impl Default for StudySpec {
             particles_per_cell: vec![1, 2, 3, 4],
             stabilizations: remedies::default_stabilizations(),
             rotation_cells: 20,
+            wave_cells: 200,
+            time_steps: 4,
         }
     }
 }
@@ -169,6 +189,8 @@ impl StudySpec {
             particles_per_cell: vec![1, 2, 3],
             rotation_cells: 10,
             stabilizations: vec![Stabilization::default()],
+            wave_cells: 50,
+            time_steps: 3,
             ..StudySpec::default()
         }
     }
@@ -216,6 +238,12 @@ impl StudySpec {
                 return bad("stabilizations", &e.to_string());
             }
         }
+        if self.wave_cells < 20 || self.wave_cells > 4096 {
+            return bad("wave_cells", "must lie between 20 and 4096");
+        }
+        if !(2..=12).contains(&self.time_steps) {
+            return bad("time_steps", "must lie between 2 and 12");
+        }
         if self.particles_per_cell.iter().any(|&n| n == 0 || n > 8) {
             return bad("particles_per_cell", "must lie between 1 and 8");
         }
@@ -248,6 +276,9 @@ impl StudySpec {
             Part::Cantilever => self.plan_cantilever(),
             Part::SinglePoint => Self::plan_single_point(),
             Part::Stabilization => self.plan_stabilization(),
+            Part::Dispersion => self.plan_dispersion(),
+            Part::Waves => self.plan_waves(),
+            Part::TimeOrder => self.plan_time_order(),
         };
         runs.into_iter()
             .map(|(problem, choices, cells)| Planned {
@@ -391,6 +422,10 @@ enum Problem {
     SinglePoint,
     SpinningDisk,
     StripProjection,
+    Dispersion,
+    WaveStep,
+    WavePulse,
+    SinglePointStep,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -410,12 +445,10 @@ fn small_bar() -> Bar {
     }
 }
 
-/// The vortex of the convergence part: the published ring at amplitude 0.05.
+/// The vortex of the convergence part: the published ring with the smooth profile
+/// `(1 − ξ²)³` at amplitude 0.05.
 fn vortex() -> GeneralisedVortex {
-    GeneralisedVortex {
-        amplitude: 0.05,
-        ..GeneralisedVortex::default()
-    }
+    GeneralisedVortex::smooth(0.05)
 }
 
 /// The time-step part's block: 8 × 8 cells filled with `n × n` particles per cell in a 12 × 12
@@ -471,6 +504,10 @@ impl Planned {
             Problem::SinglePoint => single_point::run(0.01, &self.choices),
             Problem::SpinningDisk => rotation::spinning_disk(self.cells, &self.choices),
             Problem::StripProjection => rotation::strip_projection_error(&self.choices),
+            Problem::Dispersion => spectrum::dispersion_run(&self.choices),
+            Problem::WaveStep => Wave::step().run(self.cells, &self.choices),
+            Problem::WavePulse => Wave::pulse(0.1).run(self.cells, &self.choices),
+            Problem::SinglePointStep => spectrum::time_order_run(self.cells, &self.choices),
         }
     }
 

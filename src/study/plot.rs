@@ -225,13 +225,20 @@ fn valid(chart: &Chart, (x, y): (f64, f64)) -> bool {
     ok(x, chart.log_x) && ok(y, chart.log_y)
 }
 
-/// Axis range for the values `v`: whole decades on a log axis, else 5 % margins.
+/// Axis range for the values `v`: 5 % margins (in `log10` on a log axis, which spans at least a
+/// factor of 3).
 fn axis_range(v: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
     if log {
-        let (a, b) = ((lo.log10() + 1e-9).floor(), (hi.log10() - 1e-9).ceil());
-        // Nudged outwards so plotters' tick search keeps both end decades.
-        (10f64.powf(a) * (1.0 - 1e-9), 10f64.powf(b.max(a + 1.0)) * (1.0 + 1e-9))
+        let (a, b) = (lo.log10(), hi.log10());
+        let pad = 0.05 * (b - a);
+        let (mut a, mut b) = (a - pad, b + pad);
+        let least = 3f64.log10();
+        if b - a < least {
+            let mid = 0.5 * (a + b);
+            (a, b) = (mid - 0.5 * least, mid + 0.5 * least);
+        }
+        (10f64.powf(a), 10f64.powf(b))
     } else {
         let pad = if hi > lo {
             0.05 * (hi - lo)
@@ -244,6 +251,44 @@ fn axis_range(v: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     }
 }
 
+/// The multiples of each decade that a log axis over `decades` decades labels: fewer decades,
+/// more of them.
+fn labelled_multiples(decades: f64) -> &'static [u32] {
+    if decades <= 1.2 {
+        &[1, 2, 3, 4, 5, 6, 8]
+    } else if decades <= 2.5 {
+        &[1, 2, 3, 5]
+    } else {
+        &[1, 2, 5]
+    }
+}
+
+/// The ticks of a log axis over `(lo, hi)`: the labelled multiples of each decade (bold) and
+/// every multiple 1 … 9 (light) inside the range. plotters' own log ticks start at the first
+/// power of ten, which leaves the part of the axis below it bare.
+fn log_ticks((lo, hi): (f64, f64)) -> (Vec<f64>, Vec<f64>) {
+    let shown = labelled_multiples((hi / lo).log10());
+    let (mut bold, mut light) = (Vec::new(), Vec::new());
+    let (first, last) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    for e in first..=last {
+        for m in 1..=9u32 {
+            // m / 10^-e for negative e: the nearest double to the decimal (0.3, not 0.30…04)
+            let v = if e < 0 {
+                f64::from(m) / 10f64.powi(-e)
+            } else {
+                f64::from(m) * 10f64.powi(e)
+            };
+            if v >= lo && v <= hi {
+                light.push(v);
+                if shown.contains(&m) {
+                    bold.push(v);
+                }
+            }
+        }
+    }
+    (bold, light)
+}
+
 /// Tick label: `1e-3`, `2e-3`, `5e-3` on log axes (plain numbers from 1 to
 /// 9999; other multiples stay unlabelled). On linear axes, decimals enough to
 /// tell ticks about a tenth of the axis `range` apart, in scientific notation
@@ -252,10 +297,14 @@ fn tick_label(v: f64, log: bool, range: &Range<f64>) -> String {
     if log {
         let e = (v.log10() + 1e-9).floor();
         let m = (v / 10f64.powf(e)).round();
-        return match (m as u32, (0.0..=3.0).contains(&e)) {
-            (3 | 4 | 6.., _) => String::new(),
-            (_, true) => format!("{}", m * 10f64.powf(e)),
-            _ => format!("{m}e{e}"),
+        // Fewer decades on the axis, more of the multiples labelled.
+        if !labelled_multiples((range.end / range.start).abs().log10()).contains(&(m as u32)) {
+            return String::new();
+        }
+        return if (0.0..=3.0).contains(&e) {
+            format!("{}", m * 10f64.powf(e))
+        } else {
+            format!("{m}e{e}")
         };
     }
     crate::numbers::axis_tick(v, range.clone())
@@ -284,11 +333,15 @@ fn draw<DB: DrawingBackend>(
     }
     let x = axis_range(pts().map(|p| p.0), chart.log_x);
     let y = axis_range(pts().map(|p| p.1), chart.log_y);
+    let log_axis = |r: (f64, f64)| {
+        let (bold, light) = log_ticks(r);
+        (r.0..r.1).log_scale().with_key_points(bold).with_light_points(light)
+    };
     match (chart.log_x, chart.log_y) {
         (false, false) => draw_on(chart, root, x.0..x.1, y.0..y.1),
-        (true, false) => draw_on(chart, root, (x.0..x.1).log_scale(), y.0..y.1),
-        (false, true) => draw_on(chart, root, x.0..x.1, (y.0..y.1).log_scale()),
-        (true, true) => draw_on(chart, root, (x.0..x.1).log_scale(), (y.0..y.1).log_scale()),
+        (true, false) => draw_on(chart, root, log_axis(x), y.0..y.1),
+        (false, true) => draw_on(chart, root, x.0..x.1, log_axis(y)),
+        (true, true) => draw_on(chart, root, log_axis(x), log_axis(y)),
     }
 }
 
@@ -331,7 +384,9 @@ where
         .draw()?;
 
     for (i, s) in chart.series.iter().enumerate() {
+        // Colour and marker shape both change from series to series: 7 colours × 4 shapes.
         let colour = PALETTE[i % PALETTE.len()];
+        let shape = i % 4;
         let line = Color::stroke_width(&colour, 2);
         let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|&p| valid(chart, p)).collect();
         let anno = match s.style {
@@ -346,12 +401,12 @@ where
                 // Long series (time histories) get every k-th marker only, ≤ 40 in all.
                 let every = (style == SeriesStyle::LineAndMarkers).then(|| pts.len().div_ceil(40));
                 let marks = pts.into_iter().step_by(every.unwrap_or(1).max(1));
-                let anno = ctx.draw_series(marks.map(|p| Circle::new(p, 4, colour.filled())))?;
+                let anno = ctx.draw_series(marks.map(|p| EmptyElement::at(p) + marker(shape, colour)))?;
                 anno.legend(move |(x, y)| {
                     let dx = if style == SeriesStyle::Markers { 0 } else { 12 };
                     EmptyElement::at((x + 12, y))
                         + PathElement::new(vec![(-dx, 0), (dx, 0)], line)
-                        + Circle::new((0, 0), 4, colour.filled())
+                        + marker(shape, colour)
                 })
             }
         };
@@ -369,6 +424,18 @@ where
             .draw()?;
     }
     Ok(())
+}
+
+/// The marker of shape `k` (filled circle, triangle, square, diamond) in `colour`, centred on
+/// its anchor, in pixels.
+fn marker<DB: DrawingBackend>(k: usize, colour: RGBColor) -> DynElement<'static, DB, (i32, i32)> {
+    let fill = colour.filled();
+    match k % 4 {
+        0 => Circle::new((0, 0), 4, fill).into_dyn(),
+        1 => Polygon::new(vec![(0, -6), (5, 4), (-5, 4)], fill).into_dyn(),
+        2 => Rectangle::new([(-4, -4), (4, 4)], fill).into_dyn(),
+        _ => Polygon::new(vec![(0, -6), (5, 0), (0, 6), (-5, 0)], fill).into_dyn(),
+    }
 }
 
 /// The plot corner that the fewest points and line pieces fall into: the
@@ -421,7 +488,7 @@ mod tests {
 
     #[test]
     fn tick_labels() {
-        let log = |v| tick_label(v, true, &(0.0..1.0));
+        let log = |v| tick_label(v, true, &(1e-4..1.0));
         assert_eq!(
             [log(1e-3), log(2e-3), log(3e-3), log(5e-1), log(1.0), log(200.0)],
             ["1e-3", "2e-3", "", "5e-1", "1", "200"]
@@ -439,8 +506,18 @@ mod tests {
 
     #[test]
     fn axis_ranges() {
-        let (lo, hi) = axis_range([2e-4, 0.03].into_iter(), true);
-        assert!((lo / 1e-4 - 1.0).abs() < 1e-6 && (hi / 0.1 - 1.0).abs() < 1e-6);
+        // log axes: 5 % of the decades as margins, at least a factor of 3
+        let (lo, hi) = axis_range([1e-4, 1e-2].into_iter(), true);
+        assert!(
+            (lo.log10() + 4.1).abs() < 1e-9 && (hi.log10() + 1.9).abs() < 1e-9,
+            "{lo} {hi}"
+        );
+        let (lo, hi) = axis_range([2e-3, 2.2e-3].into_iter(), true);
+        assert!((hi / lo - 3.0).abs() < 1e-9 && lo < 2e-3 && hi > 2.2e-3, "{lo} {hi}");
+        // ticks below the first power of ten too
+        let (bold, light) = log_ticks((0.022, 0.36));
+        assert_eq!(bold, [0.03, 0.05, 0.1, 0.2, 0.3]);
+        assert_eq!(light.len(), 10);
         assert_eq!(axis_range([1.0, 3.0].into_iter(), false), (0.9, 3.1));
         assert_eq!(axis_range([2.0].into_iter(), false), (1.8, 2.2));
     }

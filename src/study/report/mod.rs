@@ -13,6 +13,7 @@ mod convergence;
 mod energy;
 mod frequency;
 mod single_point;
+mod spectrum;
 mod stabilization;
 mod time_step;
 
@@ -65,6 +66,9 @@ pub(super) fn section(
             stabilization::write(runs, &ok, page.md);
             Ok(())
         }
+        Part::Dispersion => spectrum::write_dispersion(&ok, &mut page),
+        Part::Waves => spectrum::write_waves(&ok, &mut page),
+        Part::TimeOrder => spectrum::write_time_order(&ok, &mut page),
     }
 }
 

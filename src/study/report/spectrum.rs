@@ -1,0 +1,237 @@
+//! The sections of the parts past the first mode: the dispersion curves, the wave fronts and
+//! the time order of the update schemes.
+
+use std::fmt::Write as _;
+
+use super::{empty_chart, fmt_order, mass_label, series, Finished, Page};
+use crate::error::Result;
+use crate::study::plot::{Series, SeriesStyle};
+use crate::verification::fitted_order;
+
+/// The dispersion section: a table of `c_h/c` at four wavenumbers for every shape and mass
+/// pair, and one chart per shape of `c_h/c` against θ.
+pub(super) fn write_dispersion(ok: &[Finished], page: &mut Page) -> Result<()> {
+    writeln!(
+        page.md,
+        "## Dispersion over the whole spectrum\n\nThe wave speed `c_h/c` of a Fourier mode against \
+         θ = kh on a uniform periodic bar with 2 particles per cell, from the symbols of \
+         `M_a⁻¹ K M_v⁻¹ M` (`verification::dispersion`, `mpm dispersion`). Below 1 the discrete waves \
+         are slow, above 1 fast; the vibrating bar's period error is `c/c_h − 1` at its own θ.\n\n\
+         | shape | mass | θ = π/4 | π/2 | 3π/4 | π |\n|---|---|---|---|---|---|"
+    )
+    .ok();
+    let mut shapes: Vec<String> = Vec::new();
+    for (r, o) in ok {
+        let m = |n: &str| o.metric(n).map_or("–".into(), |v| format!("{v:.4}"));
+        writeln!(
+            page.md,
+            "| {} | {} | {} | {} | {} | {} |",
+            r.choices.shape,
+            mass_label(r),
+            m("c_ratio_pi_4"),
+            m("c_ratio_pi_2"),
+            m("c_ratio_3pi_4"),
+            m("c_ratio_pi")
+        )
+        .ok();
+        let name = r.choices.shape.to_string();
+        if !shapes.contains(&name) {
+            shapes.push(name);
+        }
+    }
+    page.md.push('\n');
+    for shape in shapes {
+        let mut chart = empty_chart(
+            &format!("Dispersion, {shape}, 2 particles per cell"),
+            "theta = k h",
+            "c_h / c",
+            false,
+        );
+        for (r, o) in ok.iter().filter(|(r, _)| r.choices.shape.to_string() == shape) {
+            if let Some(h) = o.histories.iter().find(|h| h.name == "c_ratio") {
+                let points = h
+                    .time
+                    .iter()
+                    .copied()
+                    .zip(h.value.iter().copied())
+                    .filter(|p| p.1.is_finite())
+                    .collect();
+                chart.series.push(Series {
+                    label: mass_label(r),
+                    points,
+                    style: SeriesStyle::LineAndMarkers,
+                });
+            }
+        }
+        chart.series.push(Series {
+            label: "exact".into(),
+            points: vec![(0.0, 1.0), (std::f64::consts::PI, 1.0)],
+            style: SeriesStyle::Dashed,
+        });
+        page.embed(&chart, &format!("dispersion_{}", shape.replace(':', "_")))?;
+        page.md.push('\n');
+    }
+    writeln!(
+        page.md,
+        "With bilinear functions the lumped curve lies below 1 and the consistent one above 1 over the \
+         whole spectrum, and the mixed pairs between them; the B-splines' lumped masses are much slower \
+         at short wavelengths and their consistent masses close to exact (docs/mass.md).\n"
+    )
+    .ok();
+    Ok(())
+}
+
+/// The waves section: a table of the front metrics per wave and mass pair, and the profiles of
+/// the step and the pulse near the front, one series per mass pair.
+pub(super) fn write_waves(ok: &[Finished], page: &mut Page) -> Result<()> {
+    let cells = ok.first().map_or(0, |(r, _)| r.cells);
+    writeln!(
+        page.md,
+        "## Wave fronts against d'Alembert\n\nA right-going step and a square pulse (width L/10) in a \
+         free bar of {cells} cells (bilinear functions, 2 × 2 particles per cell, FLIP, Courant number \
+         0.5), read when d'Alembert's front has travelled half the bar (`verification::wave`). \
+         Arrival: the step's integral front or the pulse's centroid against d'Alembert's, in cells; \
+         front: where `v` crosses `v₀/2`; ahead and behind: the largest deviation from d'Alembert more \
+         than two cells ahead of the front and behind the rear edge, over v₀; stress: the RMS stress \
+         error near the front over `ρ c v₀`.\n\n\
+         | wave | mass | arrival (cells) | front (cells) | ahead | behind | overshoot | stress |\n\
+         |---|---|---|---|---|---|---|---|"
+    )
+    .ok();
+    for (r, o) in ok {
+        let m = |n: &str| o.metric(n).map_or("–".into(), |v| format!("{v:+.3}"));
+        let a = |n: &str| o.metric(n).map_or("–".into(), |v| format!("{v:.3}"));
+        writeln!(
+            page.md,
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            o.problem.trim_start_matches("wave_"),
+            mass_label(r),
+            m("arrival_error"),
+            m("front_error"),
+            a("precursor"),
+            a("trailing"),
+            m("overshoot"),
+            a("stress_error")
+        )
+        .ok();
+    }
+    page.md.push('\n');
+    for problem in ["wave_step", "wave_pulse"] {
+        let runs: Vec<&Finished> = ok.iter().filter(|(_, o)| o.problem == problem).collect();
+        let Some((_, first)) = runs.first() else { continue };
+        let h = first.cell_size;
+        // the window: 20 cells (at most L/8) behind the rear edge to 20 cells ahead of the front
+        let exact = first.histories.iter().find(|h| h.name == "velocity_exact");
+        let (lo, hi) = exact.map_or((0.0, 1.0), |e| {
+            let inside: Vec<f64> = e
+                .time
+                .iter()
+                .zip(&e.value)
+                .filter(|(_, v)| **v > 0.5)
+                .map(|(x, _)| *x)
+                .collect();
+            let front = inside.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let rear = if problem == "wave_step" {
+                front
+            } else {
+                inside.iter().copied().fold(f64::INFINITY, f64::min)
+            };
+            let length = first.cells as f64 * h;
+            (rear - (20.0 * h).min(0.125 * length), front + 20.0 * h)
+        });
+        let window = |hist: &crate::verification::History| -> Vec<(f64, f64)> {
+            hist.time
+                .iter()
+                .copied()
+                .zip(hist.value.iter().copied())
+                .filter(|(x, _)| *x >= lo && *x <= hi)
+                .collect()
+        };
+        let mut chart = empty_chart(
+            &format!(
+                "{} near the front",
+                if problem == "wave_step" {
+                    "Velocity step"
+                } else {
+                    "Square pulse"
+                }
+            ),
+            "x",
+            "v / v0",
+            false,
+        );
+        for (r, o) in &runs {
+            if let Some(p) = o.histories.iter().find(|h| h.name == "velocity_profile") {
+                chart.series.push(series(mass_label(r), window(p)));
+            }
+        }
+        if let Some(e) = exact {
+            chart.series.push(Series {
+                label: "d'Alembert".into(),
+                points: window(e),
+                style: SeriesStyle::Dashed,
+            });
+        }
+        page.embed(&chart, problem)?;
+        page.md.push('\n');
+    }
+    writeln!(
+        page.md,
+        "Every pair delivers the wave on time by momentum; the half-amplitude front is moved by \
+         dispersion, behind the exact front for the slow lumped and mixed masses, ahead of it for the \
+         fast consistent one, whose short waves ring ahead as precursors while the lumped mass's trail \
+         behind (docs/verification.md, \"Wave fronts\").\n"
+    )
+    .ok();
+    Ok(())
+}
+
+/// The time-order section: the single point's velocity error against Δt per update scheme,
+/// the fitted orders, and the chart.
+pub(super) fn write_time_order(ok: &[Finished], page: &mut Page) -> Result<()> {
+    writeln!(
+        page.md,
+        "## Time order of the update schemes\n\nThe single material point (v₀ = 10⁻³, lumped mass, \
+         FLIP) at Δt = 4e-3 and halvings: the largest velocity error over v₀ against Δt.\n\n\
+         | update | errors (largest Δt first) | fitted order |\n|---|---|---|"
+    )
+    .ok();
+    let mut chart = empty_chart(
+        "Single point: velocity error against time step",
+        "dt",
+        "max |v - v_exact| / v0",
+        true,
+    );
+    for update in ["Usf", "Usl", "Musl"] {
+        let points: Vec<(f64, f64)> = ok
+            .iter()
+            .filter(|(r, _)| format!("{:?}", r.choices.update) == update)
+            .filter_map(|(_, o)| Some((o.metric("dt")?, o.metric("velocity_error")?)))
+            .collect();
+        if points.is_empty() {
+            continue;
+        }
+        let errors: Vec<String> = points.iter().map(|p| format!("{:.3e}", p.1)).collect();
+        writeln!(
+            page.md,
+            "| {} | {} | {} |",
+            update.to_uppercase(),
+            errors.join(", "),
+            fmt_order(&points)
+        )
+        .ok();
+        chart.series.push(series(update.to_uppercase(), points));
+    }
+    page.md.push('\n');
+    page.embed(&chart, "time_order")?;
+    let orders: Vec<f64> = chart.series.iter().filter_map(|s| fitted_order(&s.points)).collect();
+    writeln!(
+        page.md,
+        "\nEvery scheme is first order at the report times (fitted orders {}): the update is the \
+         symplectic Euler method, whose velocity belongs half a step back (docs/verification.md, \
+         \"The time order\").\n",
+        orders.iter().map(|o| format!("{o:.2}")).collect::<Vec<_>>().join(", ")
+    )
+    .ok();
+    Ok(())
+}
