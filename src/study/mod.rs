@@ -290,7 +290,9 @@ impl StudySpec {
             .collect()
     }
 
-    /// The frequency part: the bar for every mass pair on every bar grid.
+    /// The frequency part: the bar for every mass pair on every bar grid with bilinear
+    /// functions, and with every other shape of the spec on the two finest bar grids of at most
+    /// 64 cells ([`StudySpec::kernel_bar_cells`]).
     fn plan_frequency(&self) -> Vec<(Problem, Choices, usize)> {
         let mut runs = Vec::new();
         for &mass in &self.masses {
@@ -298,7 +300,29 @@ impl StudySpec {
                 runs.push((Problem::BarFixedFixed, self.choices(mass), c));
             }
         }
+        for &shape in self.shapes.iter().filter(|&&s| s != ShapeFunction::Linear) {
+            for &mass in &self.masses {
+                for c in self.kernel_bar_cells() {
+                    let choices = Choices {
+                        shape,
+                        ..self.choices(mass)
+                    };
+                    runs.push((Problem::BarFixedFixed, choices, c));
+                }
+            }
+        }
         runs
+    }
+
+    /// The bar grids of the other kernels: the two finest of `bar_cells` with at most 64 cells
+    /// (the coarsest two when none is that small).
+    pub(crate) fn kernel_bar_cells(&self) -> Vec<usize> {
+        let mut cells: Vec<usize> = self.bar_cells.clone();
+        cells.sort_unstable();
+        cells.dedup();
+        let small: Vec<usize> = cells.iter().copied().filter(|&c| c <= 64).collect();
+        let pick = if small.len() >= 2 { small } else { cells };
+        pick[pick.len().saturating_sub(2)..].to_vec()
     }
 
     /// The bar-energy part: the bar on the middle bar grid under PIC, FLIP and FMPM with the

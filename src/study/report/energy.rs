@@ -25,7 +25,8 @@ pub(super) fn write_bar(ok: &[Finished], page: &mut Page) -> Result<()> {
 pub(super) fn write_two_disks(ok: &[Finished], page: &mut Page) -> Result<()> {
     writeln!(
         page.md,
-        "## Energy: two elastic disks in impact\n\nThe shipped two-disk scene ({} cells per side). No \
+        "## Energy: two elastic disks in impact\n\nThe two-disk scene of scenes/two_disks.toml (20 cells \
+         per side as shipped) on {} cells per side. No \
          exact solution: the total energy should stay at its initial value; the transfers' own \
          dissipation shows. Energy lost by the end: {}. (FLIP schemes dip during the impact and \
          recover; docs/verification.md explains the dip.)\n",

@@ -4,6 +4,8 @@ use std::fmt::Write as _;
 
 use super::{by_label, cells_header, empty_chart, fmt_order, header_rule, mass_label, series, Finished, Groups, Page};
 use crate::error::Result;
+use crate::mass::MassScheme;
+use crate::shape::ShapeFunction;
 use crate::study::plot::Chart;
 use crate::study::small_bar;
 
@@ -14,7 +16,9 @@ type Finest = (String, f64, f64);
 /// the plot of `|period error|` against cells, and what the finest grid shows.
 pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
     intro(page.md);
-    let groups = by_label(ok);
+    let (linear, others): (Vec<Finished>, Vec<Finished>) =
+        ok.iter().partition(|(r, _)| r.choices.shape == ShapeFunction::Linear);
+    let groups = by_label(&linear);
     let mut chart = empty_chart(
         "Bar period error against resolution",
         "cells along the bar",
@@ -25,7 +29,85 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
     page.md.push('\n');
     page.embed(&chart, "frequency_error")?;
     conclusion(&finest, page.md);
+    kernels(&others, page.md);
     Ok(())
+}
+
+/// The interior period-error coefficient `c` in `c θ²/96` of a kernel and mass pair (quarter
+/// points, docs/mass.md), where a closed form is known.
+fn coefficient(shape: ShapeFunction, velocity: MassScheme, acceleration: MassScheme) -> Option<f64> {
+    let lumped = |m: MassScheme| m == MassScheme::Lumped;
+    let consistent = |m: MassScheme| m == MassScheme::Consistent;
+    let (l, c) = match shape {
+        ShapeFunction::QuadraticBSpline => (25.0, 1.0),
+        ShapeFunction::CubicBSpline => (32.0, 0.0),
+        _ => return None,
+    };
+    if lumped(velocity) && lumped(acceleration) {
+        Some(l)
+    } else if consistent(velocity) && consistent(acceleration) {
+        Some(c)
+    } else {
+        None
+    }
+}
+
+/// The table of the other kernels: period error on the two grids, the spatial error (the
+/// explicit update's removed) and its order, and the interior theory where known.
+fn kernels(others: &[Finished], md: &mut String) {
+    let groups = by_label(others);
+    if groups.is_empty() {
+        return;
+    }
+    let cells: Vec<usize> = groups[0].1.iter().map(|(r, _)| r.cells).collect();
+    let columns: Vec<String> = cells.iter().map(|c| format!("{c} cells")).collect();
+    writeln!(
+        md,
+        "The other kernels on {} cells (mirrored walls, the default for fixed edges of GIMP and the \
+         B-splines): period error, the spatial period error (the explicit update's error removed, \
+         `Bar::spatial_period`) with its order, and the interior theory `c θ²/96` where docs/mass.md \
+         gives it.\n\n| shape | masses | {} | spatial, finest | spatial order | theory, finest |\n|---|---|{}---|---|---|",
+        cells.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(" and "),
+        columns.join(" | "),
+        "---|".repeat(cells.len())
+    )
+    .ok();
+    for (_, g) in &groups {
+        let r0 = g[0].0;
+        let total: Vec<String> = g
+            .iter()
+            .map(|(_, o)| {
+                o.metric("period_error")
+                    .map_or("–".into(), |e| format!("{:+.4}%", 100.0 * e))
+            })
+            .collect();
+        let spatial: Vec<(f64, f64)> = g
+            .iter()
+            .map(|(r, o)| (r.cells as f64, o.metric("spatial_period_error").unwrap_or(f64::NAN)))
+            .collect();
+        let order = match spatial.as_slice() {
+            [.., a, b] => format!("{:.2}", (a.1.abs() / b.1.abs()).log2() / (b.0 / a.0).log2()),
+            _ => "–".into(),
+        };
+        let finest = spatial.last().copied().unwrap_or((f64::NAN, f64::NAN));
+        let theory = coefficient(r0.choices.shape, r0.choices.mass.velocity, r0.choices.mass.acceleration).map_or(
+            "–".to_string(),
+            |c| {
+                let theta = small_bar().wavenumber() * small_bar().length / finest.0;
+                format!("{:+.5}%", 100.0 * c * theta * theta / 96.0)
+            },
+        );
+        writeln!(
+            md,
+            "| {} | {} | {} | {:+.5}% | {order} | {theory} |",
+            r0.choices.shape,
+            mass_label(r0),
+            total.join(" | "),
+            100.0 * finest.1
+        )
+        .ok();
+    }
+    md.push('\n');
 }
 
 /// The section's heading and the problem it solves, with the theory's error terms.
@@ -33,7 +115,8 @@ fn intro(md: &mut String) {
     writeln!(
         md,
         "## Frequency error: the vibrating bar\n\nThe bar with both ends fixed (E = 100, ρ = 1, L = 25, \
-         first mode, period {}), amplitude 1e-3, two periods, bilinear functions, FLIP. The period \
+         first mode, period {}), amplitude 1e-3, two periods, bilinear functions (the other kernels \
+         below), FLIP. The period \
          is measured from the zero crossings of the centre-of-mass velocity. Theory for particles at \
          the quarter points (docs/mass.md): lumped `+13θ²/96`, consistent `−5θ²/96`, mixed pairs \
          `+θ²/24`, the blend γ = 13/18 zero at order θ².\n",
