@@ -8,7 +8,7 @@
 //! |---|---|---|
 //! | axially vibrating bar, fixed–free and fixed–fixed (B1, B2) | exact centre-of-mass velocity and period | [`bar`] |
 //! | single material point (B3) | exact `x(t)`, `v(t)` | [`single_point`] |
-//! | axis-aligned manufactured solution (B5), generalised vortex (B6) | exact displacement | [`manufactured`] |
+//! | axis-aligned manufactured solution (B5), generalised vortex (B6) and its smooth profile, expanding ring | exact displacement | [`manufactured`] |
 //! | two elastic disks in impact (B8) | energy conservation | [`disks`] |
 //! | cantilever under gravity (B9) | Richardson-extrapolated tip deflection | [`cantilever`] |
 //! | the dispersion relation over the whole spectrum | closed-form symbols | [`dispersion`] |
