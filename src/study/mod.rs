@@ -131,8 +131,8 @@ pub struct StudySpec {
     pub stabilizations: Vec<Stabilization>,
     /// Cells across the spinning disk's unit square (stabilisation part).
     pub rotation_cells: usize,
-    /// Cells along the bar of the waves part.
-    pub wave_cells: usize,
+    /// Cells along the bar of the waves part (the profiles are plotted on the finest).
+    pub wave_cells: Vec<usize>,
     /// Time steps of the time-order part (`Δt = 4e-3 / 2^k`, `k` below this).
     pub time_steps: usize,
 }
@@ -169,7 +169,7 @@ impl Default for StudySpec {
             particles_per_cell: vec![1, 2, 3, 4],
             stabilizations: remedies::default_stabilizations(),
             rotation_cells: 20,
-            wave_cells: 200,
+            wave_cells: vec![100, 200, 400],
             time_steps: 4,
         }
     }
@@ -189,7 +189,7 @@ impl StudySpec {
             particles_per_cell: vec![1, 2, 3],
             rotation_cells: 10,
             stabilizations: vec![Stabilization::default()],
-            wave_cells: 50,
+            wave_cells: vec![50, 100],
             time_steps: 3,
             ..StudySpec::default()
         }
@@ -238,8 +238,8 @@ impl StudySpec {
                 return bad("stabilizations", &e.to_string());
             }
         }
-        if self.wave_cells < 20 || self.wave_cells > 4096 {
-            return bad("wave_cells", "must lie between 20 and 4096");
+        if self.wave_cells.is_empty() || self.wave_cells.iter().any(|&c| !(20..=4096).contains(&c)) {
+            return bad("wave_cells", "cell counts must lie between 20 and 4096 (at least one)");
         }
         if !(2..=12).contains(&self.time_steps) {
             return bad("time_steps", "must lie between 2 and 12");

@@ -37,7 +37,7 @@ impl StudySpec {
     }
 
     /// The waves part: the step and the pulse with bilinear functions for every mass pair on
-    /// the spec's wave grid.
+    /// every wave grid of the spec.
     pub(super) fn plan_waves(&self) -> Vec<(Problem, Choices, usize)> {
         let mut runs = Vec::new();
         for problem in [Problem::WaveStep, Problem::WavePulse] {
@@ -47,7 +47,9 @@ impl StudySpec {
                     cfl: 0.5,
                     ..self.choices(mass)
                 };
-                runs.push((problem, choices, self.wave_cells));
+                for &cells in &self.wave_cells {
+                    runs.push((problem, choices, cells));
+                }
             }
         }
         runs

@@ -84,21 +84,22 @@ pub(super) fn write_dispersion(ok: &[Finished], page: &mut Page) -> Result<()> {
 /// The waves section: a table of the front metrics per wave and mass pair, and the profiles of
 /// the step and the pulse near the front, one series per mass pair.
 pub(super) fn write_waves(ok: &[Finished], page: &mut Page) -> Result<()> {
-    let cells = ok.first().map_or(0, |(r, _)| r.cells);
+    let finest_cells = ok.iter().map(|(r, _)| r.cells).max().unwrap_or(0);
+    let finest: Vec<Finished> = ok.iter().filter(|(r, _)| r.cells == finest_cells).copied().collect();
     writeln!(
         page.md,
         "## Wave fronts against d'Alembert\n\nA right-going step and a square pulse (width L/10) in a \
-         free bar of {cells} cells (bilinear functions, 2 × 2 particles per cell, FLIP, Courant number \
-         0.5), read when d'Alembert's front has travelled half the bar (`verification::wave`). \
-         Arrival: the step's integral front or the pulse's centroid against d'Alembert's, in cells; \
-         front: where `v` crosses `v₀/2`; ahead and behind: the largest deviation from d'Alembert more \
-         than two cells ahead of the front and behind the rear edge, over v₀; stress: the RMS stress \
-         error near the front over `ρ c v₀`.\n\n\
+         free bar (bilinear functions, 2 × 2 particles per cell, FLIP, Courant number 0.5), read when \
+         d'Alembert's front has travelled half the bar (`verification::wave`). Arrival: the step's \
+         integral front or the pulse's centroid against d'Alembert's, in cells; front: where `v` \
+         crosses `v₀/2`; ahead and behind: the largest deviation from d'Alembert more than two cells \
+         ahead of the front and behind the rear edge, over v₀; stress: the RMS stress error near the \
+         front over `ρ c v₀`. On {finest_cells} cells:\n\n\
          | wave | mass | arrival (cells) | front (cells) | ahead | behind | overshoot | stress |\n\
          |---|---|---|---|---|---|---|---|"
     )
     .ok();
-    for (r, o) in ok {
+    for (r, o) in &finest {
         let m = |n: &str| o.metric(n).map_or("–".into(), |v| format!("{v:+.3}"));
         let a = |n: &str| o.metric(n).map_or("–".into(), |v| format!("{v:.3}"));
         writeln!(
@@ -116,8 +117,9 @@ pub(super) fn write_waves(ok: &[Finished], page: &mut Page) -> Result<()> {
         .ok();
     }
     page.md.push('\n');
+    refinement(ok, page)?;
     for problem in ["wave_step", "wave_pulse"] {
-        let runs: Vec<&Finished> = ok.iter().filter(|(_, o)| o.problem == problem).collect();
+        let runs: Vec<&Finished> = finest.iter().filter(|(_, o)| o.problem == problem).collect();
         let Some((_, first)) = runs.first() else { continue };
         let h = first.cell_size;
         // the window: 20 cells (at most L/8) behind the rear edge to 20 cells ahead of the front
@@ -183,6 +185,77 @@ pub(super) fn write_waves(ok: &[Finished], page: &mut Page) -> Result<()> {
          behind (docs/verification.md, \"Wave fronts\").\n"
     )
     .ok();
+    Ok(())
+}
+
+/// Under refinement: the stress error and the half-amplitude front against the cell size, one
+/// row per wave and mass pair, and the chart of the stress error.
+fn refinement(ok: &[Finished], page: &mut Page) -> Result<()> {
+    let cells: Vec<usize> = {
+        let mut c: Vec<usize> = ok.iter().map(|(r, _)| r.cells).collect();
+        c.sort_unstable();
+        c.dedup();
+        c
+    };
+    if cells.len() < 2 {
+        return Ok(());
+    }
+    writeln!(
+        page.md,
+        "Under refinement ({} cells): the stress error with its fitted order, and the half-amplitude \
+         front in cells, which dispersion moves by about `(c t/h)^{{1/3}}` cells.\n\n\
+         | wave | mass | stress error | order | front (cells) |\n|---|---|---|---|---|",
+        cells.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", ")
+    )
+    .ok();
+    let mut chart = empty_chart(
+        "Wave fronts: stress error against cell size",
+        "cell size h",
+        "RMS stress error / (rho c v0)",
+        true,
+    );
+    let mut seen: Vec<(String, String)> = Vec::new();
+    for (r, o) in ok {
+        let key = (o.problem.clone(), mass_label(r));
+        if seen.contains(&key) {
+            continue;
+        }
+        seen.push(key.clone());
+        let runs: Vec<&Finished> = ok
+            .iter()
+            .filter(|(q, p)| p.problem == key.0 && mass_label(q) == key.1)
+            .collect();
+        let points: Vec<(f64, f64)> = runs
+            .iter()
+            .filter_map(|(_, p)| Some((p.cell_size, p.metric("stress_error")?)))
+            .collect();
+        let fronts: Vec<String> = runs
+            .iter()
+            .filter_map(|(_, p)| p.metric("front_error"))
+            .map(|f| format!("{f:+.2}"))
+            .collect();
+        writeln!(
+            page.md,
+            "| {} | {} | {} | {} | {} |",
+            key.0.trim_start_matches("wave_"),
+            key.1,
+            points
+                .iter()
+                .map(|p| format!("{:.3}", p.1))
+                .collect::<Vec<_>>()
+                .join(", "),
+            fmt_order(&points),
+            fronts.join(", ")
+        )
+        .ok();
+        chart.series.push(series(
+            format!("{}, {}", key.0.trim_start_matches("wave_"), key.1),
+            points,
+        ));
+    }
+    page.md.push('\n');
+    page.embed(&chart, "wave_stress_error")?;
+    page.md.push('\n');
     Ok(())
 }
 
