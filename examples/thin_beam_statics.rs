@@ -28,11 +28,9 @@ use sparse_mpm::material::{LinearElastic, PlaneCondition};
 use sparse_mpm::scene::Scene;
 use sparse_mpm::stiffness::stiffness_matrix;
 
-const LENGTH: f64 = 8.0;
-const E: f64 = 1.0e9;
-const NU: f64 = 0.3;
-const RHO: f64 = 1050.0;
-const G: f64 = 10.0;
+use sparse_mpm::verification::cantilever::thin_beam::{
+    self, GRAVITY as G, LENGTH, POISSON_RATIO as NU, YOUNGS_MODULUS as E,
+};
 
 fn dense(m: &CscMatrix<f64>) -> DMatrix<f64> {
     let mut d = DMatrix::zeros(m.nrows(), m.ncols());
@@ -53,38 +51,7 @@ fn sqrt_psd(a: &DMatrix<f64>) -> DMatrix<f64> {
 
 /// The scene of the beam `cells_thick` cells thick with `mass` in both solves.
 fn scene(cells_thick: usize, mass: &str) -> Scene {
-    let h = 1.0 / cells_thick as f64;
-    let text = format!(
-        r#"
-[grid]
-origin = [{o}, -2.0]
-cell_size = [{h}, {h}]
-cells = [{nx}, {ny}]
-[schemes]
-shape = "quadratic_bspline"
-update = "musl"
-transfer = "flip"
-mass = {{ velocity = "{mass}", acceleration = "{mass}" }}
-[time]
-end = 0.6
-cfl = 0.5
-[loads]
-gravity = [0.0, -{G}]
-[[bodies]]
-name = "beam"
-material = {{ model = "neo_hookean", youngs_modulus = {E}, poisson_ratio = {NU} }}
-density = {RHO}
-particles_per_cell = 2
-geometry = {{ rectangle = {{ min = [0.0, 0.0], max = [{LENGTH}, 1.0] }} }}
-[[boundaries]]
-edge = "left"
-condition = "fixed"
-"#,
-        o = -h,
-        nx = ((LENGTH + 2.0) / h).round() as usize + 1,
-        ny = (4.0 / h).round() as usize,
-    );
-    Scene::from_toml_str(&text).expect("the beam scene is valid")
+    thin_beam::scene(cells_thick, mass).expect("the beam scene is valid")
 }
 
 /// Zero-energy modes of K, the static tip deflection and the first peak of the linearised update.
@@ -162,7 +129,7 @@ fn response(cells_thick: usize, mass: &str) -> (usize, usize, usize, f64, f64) {
 }
 
 fn main() {
-    let eb = RHO * G * LENGTH.powi(4) / (8.0 * (E / (1.0 - NU * NU)) / 12.0);
+    let eb = 0.5 * thin_beam::euler_bernoulli_first_swing();
     println!(
         "Euler–Bernoulli static tip deflection {eb:.5} (first swing {:.5})",
         2.0 * eb

@@ -5,58 +5,13 @@
 //! zero-energy modes and the static deflection of the MUSL update depends on the mass
 //! (`examples/thin_beam_statics.rs`: 0.0563 lumped, 0.0617 consistent, 0.0596 four cells thick).
 
-use sparse_mpm::scene::Scene;
+use sparse_mpm::verification::cantilever::thin_beam::{self, LENGTH};
 
-/// Beam length, Young's modulus, Poisson's ratio, density and gravity of the test beam.
-const LENGTH: f64 = 8.0;
-const E: f64 = 1.0e9;
-const NU: f64 = 0.3;
-const RHO: f64 = 1050.0;
-const G: f64 = 10.0;
-
-/// The cantilever `LENGTH × 1` (neo-Hookean, plane strain) clamped at `x = 0` by a fixed left
-/// edge (the mirror rule puts the wall on the node line at `x = 0`), on cells `1/cells_thick`,
-/// with `mass` in both solves: the largest downward deflection of the middle of its free end
-/// during the first swing (until it has come back up by half).
+/// The largest downward deflection of the middle of the free end of the thin beam
+/// (`verification::cantilever::thin_beam`) `cells_thick` cells thick with `mass` in both
+/// solves during the first swing (until it has come back up by half).
 fn first_swing(cells_thick: usize, mass: &str) -> f64 {
-    let h = 1.0 / cells_thick as f64;
-    let text = format!(
-        r#"
-[grid]
-origin = [{o}, {oy}]
-cell_size = [{h}, {h}]
-cells = [{nx}, {ny}]
-
-[schemes]
-shape = "quadratic_bspline"
-update = "musl"
-transfer = "flip"
-mass = {{ velocity = "{mass}", acceleration = "{mass}" }}
-
-[time]
-end = 0.6
-cfl = 0.5
-
-[loads]
-gravity = [0.0, -{G}]
-
-[[bodies]]
-name = "beam"
-material = {{ model = "neo_hookean", youngs_modulus = {E}, poisson_ratio = {NU} }}
-density = {RHO}
-particles_per_cell = 2
-geometry = {{ rectangle = {{ min = [0.0, 0.0], max = [{LENGTH}, 1.0] }} }}
-
-[[boundaries]]
-edge = "left"
-condition = "fixed"
-"#,
-        o = -h,
-        oy = -2.0,
-        nx = ((LENGTH + 2.0) / h).round() as usize + 1,
-        ny = (4.0 / h).round() as usize,
-    );
-    let scene = Scene::from_toml_str(&text).unwrap();
+    let scene = thin_beam::scene(cells_thick, mass).unwrap();
     let mut sim = scene.build().unwrap();
     let p = sim.particles();
     let tip = (0..p.len())
@@ -91,16 +46,9 @@ condition = "fixed"
     largest
 }
 
-/// Euler–Bernoulli under a suddenly applied weight: twice the static tip deflection
-/// `q L⁴ / (8 E' I)`, `q = ρ g t`, `I = t³/12`, `E' = E/(1 − ν²)` (plane strain), `t = 1`.
-fn euler_bernoulli_first_swing() -> f64 {
-    let (q, i, e) = (RHO * G, 1.0 / 12.0, E / (1.0 - NU * NU));
-    2.0 * q * LENGTH.powi(4) / (8.0 * e * i)
-}
-
 #[test]
 fn cantilevers_one_and_two_cells_thick_swing_as_far_with_the_consistent_mass() {
-    let theory = euler_bernoulli_first_swing();
+    let theory = thin_beam::euler_bernoulli_first_swing();
     // The converged answer (lumped and consistent agree to 0.4% four cells thick: 0.1203 and
     // 0.1208) lies 2.5% above Euler–Bernoulli (shear, large rotation).
     let converged = first_swing(4, "consistent");

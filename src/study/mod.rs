@@ -15,7 +15,6 @@
 //! | `single_point` | one material point | update scheme | (a table) |
 //! | `stabilization` | spinning disk, strip projection, thin cantilevers, two disks | stabilisation of the consistent mass | (tables) |
 
-use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -37,9 +36,11 @@ use crate::verification::{cantilever, disks, rotation, single_point, Choices, Ou
 pub mod plot;
 mod remedies;
 mod report;
+mod runs_csv;
 mod spectrum;
 
 use report::section;
+use runs_csv::write_runs_csv;
 
 /// One part of a study.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
@@ -659,80 +660,5 @@ pub fn run_study(spec: &StudySpec, out: &Path, mut progress: impl FnMut(&StudyPr
         report: report_path,
         csv,
         plots,
-    })
-}
-
-/// `runs.csv`: one row per run, the choices, then every metric any run measured.
-fn write_runs_csv(runs: &[StudyRun], path: &Path) -> Result<()> {
-    let names: BTreeSet<&str> = runs
-        .iter()
-        .filter_map(|r| r.outcome.as_ref().ok())
-        .flat_map(|o| o.metrics.iter().map(|(n, _)| n.as_str()))
-        .collect();
-    let io = |e: csv::Error| MpmError::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(e.to_string()),
-    };
-    let mut w = csv::Writer::from_path(path).map_err(io)?;
-    let mut header = vec![
-        "part",
-        "problem",
-        "label",
-        "shape",
-        "update",
-        "transfer",
-        "velocity_mass",
-        "acceleration_mass",
-        "particles_per_cell",
-        "cfl",
-        "cells",
-        "cell_size",
-        "steps",
-        "seconds",
-        "ms_per_step",
-        "error",
-    ];
-    header.extend(names.iter());
-    w.write_record(&header).map_err(io)?;
-    for r in runs {
-        let c = &r.choices;
-        let mut row = vec![
-            r.part.name().to_string(),
-            r.outcome.as_ref().map_or(String::new(), |o| o.problem.clone()),
-            c.label(),
-            c.shape.name().to_string(),
-            format!("{:?}", c.update).to_lowercase(),
-            format!("{:?}", c.transfer).to_lowercase(),
-            format!("{:#}", c.mass.velocity),
-            format!("{:#}", c.mass.acceleration),
-            c.particles_per_cell.to_string(),
-            c.cfl.to_string(),
-            r.cells.to_string(),
-        ];
-        match &r.outcome {
-            Ok(o) => {
-                row.push(o.cell_size.to_string());
-                row.push(o.steps.to_string());
-                row.push(o.seconds.to_string());
-                row.push(if o.steps > 0 {
-                    (1e3 * o.seconds / o.steps as f64).to_string()
-                } else {
-                    String::new()
-                });
-                row.push(String::new());
-                for n in &names {
-                    row.push(o.metric(n).map_or(String::new(), |v| v.to_string()));
-                }
-            }
-            Err(e) => {
-                row.extend([String::new(), String::new(), String::new(), String::new(), e.clone()]);
-                row.extend(names.iter().map(|_| String::new()));
-            }
-        }
-        w.write_record(&row).map_err(io)?;
-    }
-    w.flush().map_err(|source| MpmError::Io {
-        path: path.to_path_buf(),
-        source,
     })
 }

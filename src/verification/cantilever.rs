@@ -96,3 +96,79 @@ pub fn extrapolate(f: [f64; 3], r: f64) -> Option<(f64, f64)> {
     let p = (d1 / d2).ln() / r.ln();
     Some((f[2] + (f[2] - f[1]) / (r.powf(p) - 1.0), p))
 }
+
+/// The thin beam of tests/thin_cantilever.rs and `examples/thin_beam_statics`: an 8 × 1
+/// neo-Hookean beam (E = 10⁹, ν = 0.3, plane strain, ρ = 1050, g = 10) clamped by a fixed left
+/// edge on the node line `x = 0` (mirrored with B-splines), on cells `1/cells_thick`, quadratic
+/// B-splines, 2 × 2 particles per cell, MUSL, FLIP, `mass` in both solves (a scheme as text:
+/// `"lumped"`, `"consistent"` …), Courant number 0.5, to t = 0.6.
+pub mod thin_beam {
+    use crate::error::Result;
+    use crate::scene::Scene;
+
+    /// Length of the beam (its thickness is 1).
+    pub const LENGTH: f64 = 8.0;
+    /// Young's modulus.
+    pub const YOUNGS_MODULUS: f64 = 1.0e9;
+    /// Poisson's ratio.
+    pub const POISSON_RATIO: f64 = 0.3;
+    /// Density.
+    pub const DENSITY: f64 = 1050.0;
+    /// Gravity (downwards).
+    pub const GRAVITY: f64 = 10.0;
+
+    /// The scene (module docs).
+    ///
+    /// # Errors
+    /// [`crate::MpmError::InvalidScene`] for a `mass` that is not a scheme, or `cells_thick = 0`.
+    pub fn scene(cells_thick: usize, mass: &str) -> Result<Scene> {
+        let h = 1.0 / cells_thick.max(1) as f64;
+        let text = format!(
+            r#"
+[grid]
+origin = [{o}, -2.0]
+cell_size = [{h}, {h}]
+cells = [{nx}, {ny}]
+
+[schemes]
+shape = "quadratic_bspline"
+update = "musl"
+transfer = "flip"
+mass = {{ velocity = "{mass}", acceleration = "{mass}" }}
+
+[time]
+end = 0.6
+cfl = 0.5
+
+[loads]
+gravity = [0.0, -{GRAVITY}]
+
+[[bodies]]
+name = "beam"
+material = {{ model = "neo_hookean", youngs_modulus = {YOUNGS_MODULUS}, poisson_ratio = {POISSON_RATIO} }}
+density = {DENSITY}
+particles_per_cell = 2
+geometry = {{ rectangle = {{ min = [0.0, 0.0], max = [{LENGTH}, 1.0] }} }}
+
+[[boundaries]]
+edge = "left"
+condition = "fixed"
+"#,
+            o = -h,
+            nx = ((LENGTH + 2.0) / h).round() as usize + 1,
+            ny = (4.0 / h).round() as usize,
+        );
+        Scene::from_toml_str(&text)
+    }
+
+    /// Euler–Bernoulli under a suddenly applied weight: twice the static tip deflection
+    /// `q L⁴ / (8 E' I)`, `q = ρ g t`, `I = t³/12`, `E' = E/(1 − ν²)` (plane strain), `t = 1`.
+    pub fn euler_bernoulli_first_swing() -> f64 {
+        let (q, i, e) = (
+            DENSITY * GRAVITY,
+            1.0 / 12.0,
+            YOUNGS_MODULUS / (1.0 - POISSON_RATIO * POISSON_RATIO),
+        );
+        2.0 * q * LENGTH.powi(4) / (8.0 * e * i)
+    }
+}
