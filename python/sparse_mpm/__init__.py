@@ -42,6 +42,7 @@ __all__ = [
     "external_force",
     "internal_force",
     "mass_diagnostics",
+    "dispersion",
     "critical_time_step",
     "explicit_step",
     "MASS_SCHEMES",
@@ -192,6 +193,24 @@ def mass_diagnostics(ops: Operators, m, mass: str = "lumped") -> Dict[str, Any]:
     ``M_AA``), ``lambda_min_estimate`` (smallest eigenvalue of ``M_L⁻¹ M`` on the active nodes,
     Lanczos) and ``condition_number`` (of the matrix the scheme solves with; inf if singular)."""
     return _core.mass_diagnostics(_core_ops(ops), m, mass)
+
+
+def dispersion(
+    shape: Union[str, Mapping[str, Any]] = "linear",
+    mass: str = "lumped",
+    acceleration_mass: Optional[str] = None,
+    particles_per_cell: int = 2,
+    samples: int = 64,
+    cells: Optional[int] = None,
+) -> Tuple[np.ndarray, np.ndarray]:
+    """The discrete dispersion relation of the explicit update (``verification::dispersion``,
+    ``mpm dispersion``): ``(theta, c_ratio)``, the wave speed ``c_h/c`` of a Fourier mode against
+    ``θ = kh`` on a uniform periodic bar with ``particles_per_cell`` particles per cell, from the
+    symbols of ``M_a⁻¹ K M_v⁻¹ M``. ``mass`` is the velocity projection's scheme (see
+    ``MASS_SCHEMES``), ``acceleration_mass`` the acceleration solve's (default: ``mass``).
+    Sampled at ``θ = π j / samples``, or with ``cells`` at the wavenumbers ``2π j / cells`` of a
+    periodic bar of that many cells. NaN where a mass symbol vanishes."""
+    return _core.dispersion(shape, mass, acceleration_mass, particles_per_cell, samples, cells)
 
 
 def critical_time_step(

@@ -119,6 +119,14 @@ def external_force(ops: Operators, m: ArrayLike, bx: ArrayLike, by: ArrayLike) -
 def internal_force(ops: Operators, volume: ArrayLike, sxx: ArrayLike, syy: ArrayLike, sxy: ArrayLike) -> Pair:
     """``f_int,x = −(Gx (V ∘ σxx) + Gy (V ∘ σxy))``, ``f_int,y = −(Gx (V ∘ σxy) + Gy (V ∘ σyy))``."""
 
+def dispersion(
+    shape: Union[str, Mapping[str, Any]],
+    mass: str,
+    acceleration_mass: Optional[str] = None,
+    particles_per_cell: int = 2,
+    samples: int = 64,
+    cells: Optional[int] = None,
+) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def mass_diagnostics(ops: Operators, m: ArrayLike, mass: str = "lumped") -> Dict[str, Union[int, float]]:
     """``MassDiagnostics::compute`` as a dict of its fields."""
 

@@ -25,7 +25,7 @@ use operators::{consistent_mass_csc, lumped_mass, scene_operators, PyOperators};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use simulation::{report_columns, PySimulation};
-use step::{critical_time_step, explicit_step, external_force, internal_force, mass_diagnostics, momentum};
+use step::{critical_time_step, dispersion, explicit_step, external_force, internal_force, mass_diagnostics, momentum};
 
 pyo3::create_exception!(
     _core,
@@ -78,6 +78,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(external_force, m)?)?;
     m.add_function(wrap_pyfunction!(internal_force, m)?)?;
     m.add_function(wrap_pyfunction!(mass_diagnostics, m)?)?;
+    m.add_function(wrap_pyfunction!(dispersion, m)?)?;
     m.add_function(wrap_pyfunction!(critical_time_step, m)?)?;
     m.add_function(wrap_pyfunction!(explicit_step, m)?)?;
     Ok(())

@@ -95,6 +95,40 @@ pub(crate) fn mass_diagnostics<'py>(
     Ok(out)
 }
 
+/// The discrete dispersion relation `c_h/c` against `θ = kh` (`verification::dispersion`):
+/// `(theta, c_ratio)` arrays, at `θ = π j / samples` or, with `cells`, at the wavenumbers of a
+/// periodic bar of that many cells.
+#[pyfunction]
+#[pyo3(signature = (shape, mass, acceleration_mass=None, particles_per_cell=2, samples=64, cells=None))]
+pub(crate) fn dispersion<'py>(
+    py: Python<'py>,
+    shape: &Bound<'_, PyAny>,
+    mass: &str,
+    acceleration_mass: Option<&str>,
+    particles_per_cell: usize,
+    samples: usize,
+    cells: Option<usize>,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    let shape = parse_shape(shape)?;
+    let velocity = mass_scheme(mass)?;
+    let acceleration = match acceleration_mass {
+        Some(a) => mass_scheme(a)?,
+        None => velocity,
+    };
+    let curve = sparse_mpm::verification::dispersion::dispersion(
+        shape,
+        velocity,
+        acceleration,
+        particles_per_cell,
+        samples,
+        cells,
+    )
+    .map_err(mpm_err)?;
+    let theta: Vec<f64> = curve.iter().map(|p| p.theta).collect();
+    let ratio: Vec<f64> = curve.iter().map(|p| p.c_ratio).collect();
+    Ok((f64_array(py, &theta), f64_array(py, &ratio)))
+}
+
 /// `Δt_crit = 2 / ω_max`, `ω²_max = λ_max(M⁻¹ K)` (`stiffness::critical_time_step`, the
 /// acceleration role of `GridMass::new(ops, m, MassOptions::both(scheme))`).
 #[pyfunction]

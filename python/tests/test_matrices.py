@@ -81,3 +81,21 @@ def test_seed_problem_lumped_mass_equals_homework(run_mpm):
     m_c = mpm.consistent_mass(ops, particles.mass).toarray()
     np.testing.assert_allclose(m_c, answers["2A_mass_matrix"], rtol=0, atol=1e-15)
 
+
+
+def test_dispersion_matches_the_bilinear_reference_values_and_names_bad_input():
+    import math
+
+    theta, ratio = mpm.dispersion("linear", "consistent", cells=8)
+    assert theta.shape == ratio.shape == (4,)
+    np.testing.assert_allclose(theta, [math.pi / 4, math.pi / 2, 3 * math.pi / 4, math.pi], rtol=1e-14)
+    np.testing.assert_allclose(ratio[[0, 1, 3]], [1.033, 1.139, 4 / math.pi], atol=1e-3)
+    # the mixed pair is 2 sin(θ/2)/θ over the whole spectrum
+    theta, mixed = mpm.dispersion("linear", "lumped", acceleration_mass="consistent", samples=50)
+    np.testing.assert_allclose(mixed, 2 * np.sin(theta / 2) / theta, rtol=1e-12)
+    _, lumped = mpm.dispersion({"gimp": {"half_width": 0.25}}, "lumped")
+    assert (lumped < 1).all()
+    with pytest.raises(mpm.MpmError, match="particles_per_cell"):
+        mpm.dispersion("linear", "lumped", particles_per_cell=0)
+    with pytest.raises(mpm.MpmError, match="mass"):
+        mpm.dispersion("linear", "heavy")
