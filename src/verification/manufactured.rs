@@ -197,6 +197,26 @@ impl AxisAlignedMms {
 // B6: generalised vortex MMS
 // ---------------------------------------------------------------------------------------------
 
+/// The ring profile of the vortex and the expanding ring, `g = qⁿ` with `q = 1 − ξ²`,
+/// `ξ = (R − Rm)/w`, `Rm = (Ri + Ro)/2`, `w = (Ro − Ri)/2` (`n` at least 2), and its first two
+/// derivatives:
+///
+/// ```text
+/// g = qⁿ,   g' = −2n ξ qⁿ⁻¹ / w,   g'' = (4n(n − 1) ξ² qⁿ⁻² − 2n qⁿ⁻¹) / w²
+/// ```
+pub fn ring_profile(inner_radius: f64, outer_radius: f64, exponent: u32, r: f64) -> (f64, f64, f64) {
+    let rm = 0.5 * (inner_radius + outer_radius);
+    let w = 0.5 * (outer_radius - inner_radius);
+    let xi = (r - rm) / w;
+    let q = 1.0 - xi * xi;
+    let n = exponent.max(2) as i32;
+    let nf = f64::from(n);
+    let g = q.powi(n);
+    let g1 = -2.0 * nf * xi * q.powi(n - 1) / w;
+    let g2 = (4.0 * nf * (nf - 1.0) * xi * xi * q.powi(n - 2) - 2.0 * nf * q.powi(n - 1)) / (w * w);
+    (g, g1, g2)
+}
+
 /// **B6**, generalised vortex MMS (Kamojjala, Brannon, Sadeghirad & Guilkey, "Establishing
 /// credibility of particle methods through verification testing", Particles 2011; Uintah
 /// `MMS.cc`). A ring `Ri ≤ R ≤ Ro` about the origin; each circle of radius `R` rotates rigidly
@@ -302,22 +322,9 @@ impl GeneralisedVortex {
         }
     }
 
-    /// `g(R)` and its first two derivatives `(g, g', g'')`, with `q = 1 − ξ²`:
-    ///
-    /// ```text
-    /// g = qⁿ,   g' = −2n ξ qⁿ⁻¹ / w,   g'' = (4n(n − 1) ξ² qⁿ⁻² − 2n qⁿ⁻¹) / w²
-    /// ```
+    /// `g(R)` and its first two derivatives `(g, g', g'')` ([`ring_profile`] of this ring).
     pub fn profile(&self, r: f64) -> (f64, f64, f64) {
-        let rm = 0.5 * (self.inner_radius + self.outer_radius);
-        let w = 0.5 * (self.outer_radius - self.inner_radius);
-        let xi = (r - rm) / w;
-        let q = 1.0 - xi * xi;
-        let n = self.exponent.max(2) as i32;
-        let nf = f64::from(n);
-        let g = q.powi(n);
-        let g1 = -2.0 * nf * xi * q.powi(n - 1) / w;
-        let g2 = (4.0 * nf * (nf - 1.0) * xi * xi * q.powi(n - 2) - 2.0 * nf * q.powi(n - 1)) / (w * w);
-        (g, g1, g2)
+        ring_profile(self.inner_radius, self.outer_radius, self.exponent, r)
     }
 
     /// `(α, α̇, α̈, α', α'')` at radius `R` and time `t`.

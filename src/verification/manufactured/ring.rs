@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 
 use crate::material::NeoHookean;
-use crate::verification::manufactured::{lame, neo_hookean_first_piola, GeneralisedVortex, Manufactured};
+use crate::verification::manufactured::{lame, neo_hookean_first_piola, ring_profile, Manufactured};
 
 /// **The expanding ring**: the vortex's ring `Ri ≤ R ≤ Ro` breathing radially, which the
 /// isochoric vortex cannot: `J ≠ 1`, so the λ term of the neo-Hookean stress and its
@@ -70,15 +70,9 @@ impl ExpandingRing {
         (self.youngs_modulus / self.density).sqrt()
     }
 
-    /// The profile `(g, g', g'')`: the vortex's with this ring's radii and exponent.
+    /// The profile `(g, g', g'')` ([`ring_profile`] of this ring).
     pub fn profile(&self, r: f64) -> (f64, f64, f64) {
-        GeneralisedVortex {
-            inner_radius: self.inner_radius,
-            outer_radius: self.outer_radius,
-            exponent: self.exponent,
-            ..GeneralisedVortex::default()
-        }
-        .profile(r)
+        ring_profile(self.inner_radius, self.outer_radius, self.exponent, r)
     }
 
     /// `(r, ṙ, r̈, r', r'')` at reference radius `R` and time `t`.
