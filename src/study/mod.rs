@@ -29,6 +29,7 @@ use crate::particles::{lattice, Particles};
 use crate::shape::ShapeFunction;
 use crate::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
 use crate::verification::bar::{Bar, Ends};
+use crate::verification::impulse::ImpulseBar;
 use crate::verification::manufactured::{self, GeneralisedVortex};
 use crate::verification::wave::Wave;
 use crate::verification::{cantilever, disks, rotation, single_point, Choices, Outcome};
@@ -134,6 +135,8 @@ pub struct StudySpec {
     pub rotation_cells: usize,
     /// Cells along the bar of the waves part (the profiles are plotted on the finest).
     pub wave_cells: Vec<usize>,
+    /// Cells along the impulse-loaded bar of the waves part.
+    pub impulse_cells: Vec<usize>,
     /// Time steps of the time-order part (`Δt = 4e-3 / 2^k`, `k` below this).
     pub time_steps: usize,
 }
@@ -171,6 +174,7 @@ impl Default for StudySpec {
             stabilizations: remedies::default_stabilizations(),
             rotation_cells: 20,
             wave_cells: vec![100, 200, 400],
+            impulse_cells: vec![25, 50, 100],
             time_steps: 4,
         }
     }
@@ -191,6 +195,7 @@ impl StudySpec {
             rotation_cells: 10,
             stabilizations: vec![Stabilization::default()],
             wave_cells: vec![50, 100],
+            impulse_cells: vec![25, 50],
             time_steps: 3,
             ..StudySpec::default()
         }
@@ -241,6 +246,9 @@ impl StudySpec {
         }
         if self.wave_cells.is_empty() || self.wave_cells.iter().any(|&c| !(20..=4096).contains(&c)) {
             return bad("wave_cells", "cell counts must lie between 20 and 4096 (at least one)");
+        }
+        if self.impulse_cells.iter().any(|&c| !(10..=4096).contains(&c)) {
+            return bad("impulse_cells", "cell counts must lie between 10 and 4096");
         }
         if !(2..=12).contains(&self.time_steps) {
             return bad("time_steps", "must lie between 2 and 12");
@@ -450,6 +458,7 @@ enum Problem {
     Dispersion,
     WaveStep,
     WavePulse,
+    ImpulseBar,
     SinglePointStep,
 }
 
@@ -532,6 +541,7 @@ impl Planned {
             Problem::Dispersion => spectrum::dispersion_run(&self.choices),
             Problem::WaveStep => Wave::step().run(self.cells, &self.choices),
             Problem::WavePulse => Wave::pulse(0.1).run(self.cells, &self.choices),
+            Problem::ImpulseBar => ImpulseBar::default().run(self.cells, &self.choices),
             Problem::SinglePointStep => spectrum::time_order_run(self.cells, &self.choices),
         }
     }

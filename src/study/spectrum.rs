@@ -37,17 +37,21 @@ impl StudySpec {
     }
 
     /// The waves part: the step and the pulse with bilinear functions for every mass pair on
-    /// every wave grid of the spec.
+    /// every wave grid of the spec, then the impulse-loaded bar on every impulse grid.
     pub(super) fn plan_waves(&self) -> Vec<(Problem, Choices, usize)> {
         let mut runs = Vec::new();
-        for problem in [Problem::WaveStep, Problem::WavePulse] {
+        for (problem, grids) in [
+            (Problem::WaveStep, &self.wave_cells),
+            (Problem::WavePulse, &self.wave_cells),
+            (Problem::ImpulseBar, &self.impulse_cells),
+        ] {
             for &mass in &self.masses {
                 let choices = Choices {
                     shape: ShapeFunction::Linear,
                     cfl: 0.5,
                     ..self.choices(mass)
                 };
-                for &cells in &self.wave_cells {
+                for &cells in grids {
                     runs.push((problem, choices, cells));
                 }
             }

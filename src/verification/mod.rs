@@ -13,6 +13,7 @@
 //! | cantilever under gravity (B9) | Richardson-extrapolated tip deflection | [`cantilever`] |
 //! | the dispersion relation over the whole spectrum | closed-form symbols | [`dispersion`] |
 //! | a velocity step and a pulse in a long bar | d'Alembert | [`wave`] |
+//! | the impulse-loaded bar: a pressure pulse at the free end of a fixed–free bar | d'Alembert with images | [`impulse`] |
 //! | disk in rigid rotation; projection of a rotation from a strip one cell thick | angular momentum; exact nodal field | [`rotation`] |
 
 use serde::{Deserialize, Serialize};
@@ -27,6 +28,7 @@ pub mod bar;
 pub mod cantilever;
 pub mod disks;
 pub mod dispersion;
+pub mod impulse;
 pub mod manufactured;
 pub mod rotation;
 pub mod single_point;
