@@ -248,6 +248,10 @@ struct BenchArgs {
     /// Print the share of each phase of the step.
     #[arg(long)]
     profile: bool,
+    /// Run the transfers particle by particle instead of in lanes (the same results, to the
+    /// bit; for comparing their speed).
+    #[arg(long)]
+    scalar_kernels: bool,
 }
 
 /// A finite positive number.
@@ -533,6 +537,7 @@ fn study(args: &StudyArgs) -> Result<(), String> {
 }
 
 fn bench(args: &BenchArgs) -> Result<(), String> {
+    sparse_mpm::kernels::set_scalar_kernels(args.scalar_kernels);
     let defaults = sparse_mpm::bench::BenchSpec::default();
     let spec = sparse_mpm::bench::BenchSpec {
         shape: args.shape,
@@ -555,13 +560,14 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
         ..defaults
     };
     println!(
-        "# sparse-mpm {}: shape {:#}, mass {:#}, transfer {:#}, update {}, {} thread(s), f64",
+        "# sparse-mpm {}: shape {:#}, mass {:#}, transfer {:#}, update {}, {} thread(s), f64, {} transfers",
         env!("CARGO_PKG_VERSION"),
         spec.shape,
         spec.mass,
         spec.transfer,
         spec.update,
-        spec.threads
+        spec.threads,
+        if args.scalar_kernels { "scalar" } else { "lane" }
     );
     println!("particles,n_grid,steps,dt,reps,setup_s,min_psps,median_psps,max_psps,peak_bytes_per_particle");
     let rows = sparse_mpm::bench::run(&spec, |row| {

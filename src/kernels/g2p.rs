@@ -1,5 +1,6 @@
 //! (9)–(11): the grid-to-particle pass, and the velocity gradient `L = [Gxᵀ u, Gyᵀ u]` alone.
 
+use super::simd::dispatch;
 use super::{ApicInertia, GridField, GridState, KineticEnergies, ParticleScratch};
 use crate::fields::VectorField;
 use crate::operators::Operators;
@@ -207,80 +208,156 @@ impl Splittable for G2pOutput<'_> {
     }
 }
 
-/// The particle loop of [`g2p`] for the particles from `first` (a block), for a support of
-/// `S` nodes per axis; the block's kinetic energies.
-///
-/// A hot kernel, longer than the crate's functions otherwise are: every quantity of (9)–(11)
-/// is gathered in one sweep over the particle's stencil, so that each node's packed velocities
-/// are read once per particle and the sums stay in registers (splitting it into passes per
-/// quantity costs a pass over the grid each; docs/performance.md).
-fn g2p_block<const S: usize>(input: &G2pInput, first: usize, out: G2pOutput) -> KineticEnergies {
-    let G2pOutput {
-        velocity: [vel_x, vel_y],
-        affine,
-        gradient: grad,
-        displacement: [disp_x, disp_y],
-    } = out;
-    let G2pInput {
-        ops,
-        packed,
-        lo,
-        rule,
-        dt,
-        ..
-    } = *input;
-    let transfer = rule.transfer;
-    let apic = transfer == Transfer::Apic;
-    let linear_apic = apic && rule.inertia == ApicInertia::StoredC;
-    let with_gradient = rule.gradient.is_some();
-    let need_l = with_gradient || linear_apic;
-    let trapezoidal = rule.position == PositionUpdate::Trapezoidal;
-    let mut kinetic = KineticEnergies::default();
-    for j in 0..vel_x.len() {
-        let k = first + j;
-        let (mut vx, mut vy, mut tx, mut ty, mut rx, mut ry) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        let mut l = [0.0; 4];
-        let mut lw = [0.0; 4];
-        let mut b = [0.0; 4];
-        let st = ops.stencil::<S>(k);
-        let offsets = st.offsets(input.x[k], input.y[k]);
-        for row in 0..S {
-            let (start, n, gxv, gyv) = st.row(row);
-            let nodes = &packed[start - lo..start - lo + S];
-            let (dxs, dys) = st.run_offsets(&offsets, row);
-            for a in 0..S {
-                let [wx, wy, v_x, v_y, t_x, t_y, gx, gy] = nodes[a];
-                vx += n[a] * wx;
-                vy += n[a] * wy;
-                tx += n[a] * t_x;
-                ty += n[a] * t_y;
-                rx += n[a] * v_x;
-                ry += n[a] * v_y;
-                if need_l {
-                    add_gradient(&mut l, gxv[a], gyv[a], gx, gy);
+/// What one particle gathers over its stencil: `Nᵀ w`, `Nᵀ v*`, `Nᵀ v`, `L` of the gradient
+/// field, `L` of `w` and APIC's `B_p` (the last three when asked for).
+#[derive(Clone, Copy, Default)]
+struct Gathered {
+    w: [f64; 2],
+    t: [f64; 2],
+    r: [f64; 2],
+    l: [f64; 4],
+    lw: [f64; 4],
+    b: [f64; 4],
+}
+
+/// Which of the optional sums of [`Gathered`] a pass forms.
+#[derive(Clone, Copy)]
+struct Wanted {
+    /// `L` of the gradient field (USL).
+    l: bool,
+    /// `L` of `w` and `B_p`.
+    apic: bool,
+}
+
+/// Particle `k`'s sums, node by node in stencil order.
+#[inline(always)]
+fn gather_one<const S: usize>(input: &G2pInput, k: usize, wanted: Wanted) -> Gathered {
+    let mut g = Gathered::default();
+    let st = input.ops.stencil::<S>(k);
+    let offsets = st.offsets(input.x[k], input.y[k]);
+    for row in 0..S {
+        let (start, n, gxv, gyv) = st.row(row);
+        let nodes = &input.packed[start - input.lo..start - input.lo + S];
+        let (dxs, dys) = st.run_offsets(&offsets, row);
+        for a in 0..S {
+            let [wx, wy, v_x, v_y, t_x, t_y, gx, gy] = nodes[a];
+            g.w[0] += n[a] * wx;
+            g.w[1] += n[a] * wy;
+            g.t[0] += n[a] * t_x;
+            g.t[1] += n[a] * t_y;
+            g.r[0] += n[a] * v_x;
+            g.r[1] += n[a] * v_y;
+            if wanted.l {
+                add_gradient(&mut g.l, gxv[a], gyv[a], gx, gy);
+            }
+            if wanted.apic {
+                add_gradient(&mut g.lw, gxv[a], gyv[a], wx, wy);
+                let (dx, dy) = (dxs[a], dys[a]);
+                g.b[0] += n[a] * wx * dx;
+                g.b[1] += n[a] * wx * dy;
+                g.b[2] += n[a] * wy * dx;
+                g.b[3] += n[a] * wy * dy;
+            }
+        }
+    }
+    g
+}
+
+/// [`gather_one`] with the node's fields in 4-wide vectors: the same products and sums, lane by
+/// lane, in the same order (so the same bits; see [`super::simd`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn gather_one_avx2<const S: usize>(input: &G2pInput, k: usize, wanted: Wanted) -> Gathered {
+    use std::arch::x86_64::*;
+    let st = input.ops.stencil::<S>(k);
+    let offsets = st.offsets(input.x[k], input.y[k]);
+    let z = _mm256_setzero_pd();
+    // [w_x, w_y, v_x, v_y], [v*_x, v*_y, ·, ·], L, L of w, B.
+    let (mut wv, mut tu, mut l, mut lw, mut b) = (z, z, z, z, z);
+    for row in 0..S {
+        let (start, n, gxv, gyv) = st.row(row);
+        let nodes = &input.packed[start - input.lo..start - input.lo + S];
+        let (dxs, dys) = st.run_offsets(&offsets, row);
+        for a in 0..S {
+            let node = &nodes[a];
+            // SAFETY: a node holds 8 values; both loads are in bounds.
+            let (lo, hi) = unsafe { (_mm256_loadu_pd(node.as_ptr()), _mm256_loadu_pd(node.as_ptr().add(4))) };
+            let nn = _mm256_set1_pd(n[a]);
+            wv = _mm256_add_pd(wv, _mm256_mul_pd(nn, lo));
+            tu = _mm256_add_pd(tu, _mm256_mul_pd(nn, hi));
+            if wanted.l || wanted.apic {
+                let gv = _mm256_setr_pd(gxv[a], gyv[a], gxv[a], gyv[a]);
+                if wanted.l {
+                    // [u_x, u_x, u_y, u_y] of the gradient field.
+                    let uu = _mm256_permute4x64_pd::<0b11_11_10_10>(hi);
+                    l = _mm256_add_pd(l, _mm256_mul_pd(gv, uu));
                 }
-                if apic {
-                    add_gradient(&mut lw, gxv[a], gyv[a], wx, wy);
-                    let (dx, dy) = (dxs[a], dys[a]);
-                    b[0] += n[a] * wx * dx;
-                    b[1] += n[a] * wx * dy;
-                    b[2] += n[a] * wy * dx;
-                    b[3] += n[a] * wy * dy;
+                if wanted.apic {
+                    let ww = _mm256_permute4x64_pd::<0b01_01_00_00>(lo); // [w_x, w_x, w_y, w_y]
+                    lw = _mm256_add_pd(lw, _mm256_mul_pd(gv, ww));
+                    let d = _mm256_setr_pd(dxs[a], dys[a], dxs[a], dys[a]);
+                    b = _mm256_add_pd(b, _mm256_mul_pd(_mm256_mul_pd(nn, ww), d));
                 }
             }
         }
-        if with_gradient {
+    }
+    let mut out = [[0.0; 4]; 5];
+    for (slot, v) in out.iter_mut().zip([wv, tu, l, lw, b]) {
+        // SAFETY: each slot holds 4 values.
+        unsafe { _mm256_storeu_pd(slot.as_mut_ptr(), v) };
+    }
+    let [wv, tu, l, lw, b] = out;
+    Gathered {
+        w: [wv[0], wv[1]],
+        r: [wv[2], wv[3]],
+        t: [tu[0], tu[1]],
+        l,
+        lw,
+        b,
+    }
+}
+
+dispatch! {
+    /// The particle loop of [`g2p`] for the particles from `first` (a block), for a support of
+    /// `S` nodes per axis; the block's kinetic energies.
+    fn g2p_block / g2p_block_avx2 = g2p_block_body(input: &G2pInput, first: usize, out: G2pOutput) -> KineticEnergies
+}
+
+/// What a block of [`g2p`] writes, with the rule's flags: the per-particle update from a
+/// particle's sums.
+struct Finish<'a> {
+    out: G2pOutput<'a>,
+    mass: &'a [f64],
+    first: usize,
+    transfer: Transfer,
+    apic: bool,
+    linear_apic: bool,
+    with_gradient: bool,
+    trapezoidal: bool,
+    dt: f64,
+    kinetic: KineticEnergies,
+}
+
+impl Finish<'_> {
+    /// Particle `first + j`'s new velocity, APIC moment, velocity gradient, position increment
+    /// and kinetic energies from its sums `g`.
+    #[inline(always)]
+    fn apply(&mut self, j: usize, g: &Gathered) {
+        let ([vx, vy], [tx, ty], [rx, ry]) = (g.w, g.t, g.r);
+        let out = &mut self.out;
+        if self.with_gradient {
             for c in 0..4 {
-                grad[c][j] = l[c];
+                out.gradient[c][j] = g.l[c];
             }
         }
-        let (old_x, old_y) = (vel_x[j], vel_y[j]);
-        let half_m = 0.5 * input.mass[k];
-        kinetic.before += half_m * (old_x * old_x + old_y * old_y);
-        kinetic.projected += half_m * (rx * rx + ry * ry);
-        kinetic.updated += half_m * (vx * vx + vy * vy);
+        let (old_x, old_y) = (out.velocity[0][j], out.velocity[1][j]);
+        let half_m = 0.5 * self.mass[self.first + j];
+        self.kinetic.before += half_m * (old_x * old_x + old_y * old_y);
+        self.kinetic.projected += half_m * (rx * rx + ry * ry);
+        self.kinetic.updated += half_m * (vx * vx + vy * vy);
         let (dvx, dvy) = (vx - rx, vy - ry);
-        let (new_x, new_y) = match transfer {
+        let (new_x, new_y) = match self.transfer {
             Transfer::Pic | Transfer::Apic => (vx, vy),
             Transfer::Xpic { .. } | Transfer::Fmpm { .. } => (tx, ty),
             Transfer::Flip => (old_x + dvx, old_y + dvy),
@@ -289,24 +366,62 @@ fn g2p_block<const S: usize>(input: &G2pInput, first: usize, out: G2pOutput) -> 
                 flip * (old_y + dvy) + (1.0 - flip) * vy,
             ),
         };
-        vel_x[j] = new_x;
-        vel_y[j] = new_y;
-        if apic {
-            let b = if linear_apic { lw } else { b };
+        out.velocity[0][j] = new_x;
+        out.velocity[1][j] = new_y;
+        if self.apic {
+            let b = if self.linear_apic { g.lw } else { g.b };
             for c in 0..4 {
-                affine[c][j] = b[c];
+                out.affine[c][j] = b[c];
             }
         }
-        let (ux, uy) = match transfer {
+        let (ux, uy) = match self.transfer {
             Transfer::Xpic { .. } => (rx + 0.5 * (new_x - old_x), ry + 0.5 * (new_y - old_y)),
             Transfer::Fmpm { .. } => (0.5 * (old_x + new_x), 0.5 * (old_y + new_y)),
-            Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic if trapezoidal => {
+            Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic if self.trapezoidal => {
                 (0.5 * (old_x + vx), 0.5 * (old_y + vy))
             }
             Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic => (vx, vy),
         };
-        disp_x[j] = dt * ux;
-        disp_y[j] = dt * uy;
+        out.displacement[0][j] = self.dt * ux;
+        out.displacement[1][j] = self.dt * uy;
     }
-    kinetic
+}
+
+/// The body of [`g2p_block`]: each particle's sums ([`gather_one`], or its AVX2 form), then its
+/// update from them.
+#[inline(always)]
+fn g2p_block_body<const S: usize, const AVX2: bool>(input: &G2pInput, first: usize, out: G2pOutput) -> KineticEnergies {
+    let G2pInput { rule, dt, .. } = *input;
+    let transfer = rule.transfer;
+    let apic = transfer == Transfer::Apic;
+    let with_gradient = rule.gradient.is_some();
+    let wanted = Wanted { l: with_gradient, apic };
+    let np = out.len();
+    let mut finish = Finish {
+        out,
+        mass: input.mass,
+        first,
+        transfer,
+        apic,
+        linear_apic: apic && rule.inertia == ApicInertia::StoredC,
+        with_gradient,
+        trapezoidal: rule.position == PositionUpdate::Trapezoidal,
+        dt,
+        kinetic: KineticEnergies::default(),
+    };
+    for j in 0..np {
+        let g = if AVX2 {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the AVX2 instance runs only where the CPU has AVX2 (`dispatch!`).
+            unsafe {
+                gather_one_avx2::<S>(input, first + j, wanted)
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            gather_one::<S>(input, first + j, wanted)
+        } else {
+            gather_one::<S>(input, first + j, wanted)
+        };
+        finish.apply(j, &g);
+    }
+    finish.kinetic
 }

@@ -19,10 +19,12 @@
 mod extend;
 mod g2p;
 mod p2g;
+mod simd;
 
 pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
 pub use g2p::{g2p, velocity_gradient_into, G2pRule};
 pub use p2g::{add_internal_force, p2g, reproject_momentum};
+pub use simd::set_scalar_kernels;
 
 use crate::fields::VectorField;
 use crate::grid::Grid;

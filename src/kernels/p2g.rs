@@ -1,7 +1,8 @@
 //! (2)–(5) and MUSL's re-projection: the particle-to-grid passes, into interleaved per-node
 //! accumulators over bands of grid lines (one band per worker, see [`crate::parallel`]).
 
-use super::{apic_affine, ApicInertia, GridState, Stress};
+use super::simd::dispatch;
+use super::{apic_affine, Affine, ApicInertia, GridState, Stress};
 use crate::fields::VectorField;
 use crate::operators::Operators;
 use crate::parallel::Workers;
@@ -85,9 +86,49 @@ fn scatter_bands<'a>(
     (acc, lines.start * line_len)
 }
 
-/// The particle loop of [`p2g`] for a support of `S` nodes per axis, into the interleaved
-/// accumulator of the nodes from `lo`.
-fn p2g_columns<const S: usize>(
+dispatch! {
+    /// The particle loop of [`p2g`] for a support of `S` nodes per axis, into the interleaved
+    /// accumulator of the nodes from `base`.
+    fn p2g_columns / p2g_columns_avx2 = p2g_columns_body(
+        ops: &Operators,
+        p: &Particles,
+        apic: Option<ApicInertia>,
+        internal: f64,
+        acc: &mut [[f64; 5]],
+        base: usize,
+        lines: std::ops::Range<usize>
+    ) -> ()
+}
+
+/// One particle's terms of (2)–(5) that do not depend on the node.
+#[derive(Clone, Copy)]
+struct Sources {
+    m: f64,
+    mv: [f64; 2],
+    mb: [f64; 2],
+    /// `V σ` as `[xx, yy, xy]` (zero when the stress is omitted).
+    vs: [f64; 3],
+    /// APIC's `C_p` (zero without APIC).
+    c: [f64; 4],
+}
+
+#[inline(always)]
+fn sources(ops: &Operators, p: &Particles, apic: Option<ApicInertia>, internal: f64, k: usize) -> Sources {
+    let m = p.mass[k];
+    let v = internal * p.volume[k];
+    Sources {
+        m,
+        mv: [m * p.vx[k], m * p.vy[k]],
+        mb: [m * p.bx[k], m * p.by[k]],
+        vs: [v * p.sxx[k], v * p.syy[k], v * p.sxy[k]],
+        c: apic.map_or([0.0; 4], |kind| apic_affine(p, k, ops, kind).c),
+    }
+}
+
+/// The body of [`p2g_columns`]: every particle whose stencil reaches the band, in order, its
+/// terms added to the nodes of the band ([`scatter_one`], or its AVX2 form).
+#[inline(always)]
+fn p2g_columns_body<const S: usize, const AVX2: bool>(
     ops: &Operators,
     p: &Particles,
     apic: Option<ApicInertia>,
@@ -97,32 +138,110 @@ fn p2g_columns<const S: usize>(
     lines: std::ops::Range<usize>,
 ) {
     in_band::<S>(ops, p.len(), &lines, |k, rows| {
-        let m = p.mass[k];
-        let (mvx, mvy) = (m * p.vx[k], m * p.vy[k]);
-        let (mbx, mby) = (m * p.bx[k], m * p.by[k]);
-        let v = internal * p.volume[k];
-        let (vsxx, vsyy, vsxy) = (v * p.sxx[k], v * p.syy[k], v * p.sxy[k]);
-        let affine = apic.map(|kind| apic_affine(p, k, ops, kind));
-        let st = ops.stencil::<S>(k);
-        let offsets = st.offsets(p.x[k], p.y[k]);
-        for b in 0..S {
-            if !rows.contains(&b) {
-                continue;
+        let q = sources(ops, p, apic, internal, k);
+        if AVX2 {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the AVX2 instance runs only where the CPU has AVX2 (`dispatch!`).
+            unsafe {
+                scatter_one_avx2::<S>(ops, p, &q, k, acc, base, rows)
             }
-            let (start, n, gx, gy) = st.row(b);
-            let (dx, dy) = st.run_offsets(&offsets, b);
-            let r = &mut acc[start - base..start - base + S];
-            for a in 0..S {
-                let [ax, ay] = affine.map_or([0.0, 0.0], |af| af.velocity(dx[a], dy[a], n[a]));
-                let r = &mut r[a];
-                r[0] += n[a] * m;
-                r[1] += n[a] * mvx + m * ax;
-                r[2] += n[a] * mvy + m * ay;
-                r[3] += n[a] * mbx - (gx[a] * vsxx + gy[a] * vsxy);
-                r[4] += n[a] * mby - (gx[a] * vsxy + gy[a] * vsyy);
-            }
+            #[cfg(not(target_arch = "x86_64"))]
+            scatter_one::<S>(ops, p, &q, k, acc, base, rows)
+        } else {
+            scatter_one::<S>(ops, p, &q, k, acc, base, rows)
         }
     });
+}
+
+/// Particle `k`'s terms of (2)–(5), `q` its node-independent factors, added to the nodes of
+/// its stencil rows `rows`.
+#[inline(always)]
+fn scatter_one<const S: usize>(
+    ops: &Operators,
+    p: &Particles,
+    q: &Sources,
+    k: usize,
+    acc: &mut [[f64; 5]],
+    base: usize,
+    rows: std::ops::Range<usize>,
+) {
+    let affine = Affine { c: q.c };
+    let st = ops.stencil::<S>(k);
+    let offsets = st.offsets(p.x[k], p.y[k]);
+    for b in rows {
+        let (start, n, gx, gy) = st.row(b);
+        let (dx, dy) = st.run_offsets(&offsets, b);
+        let r = &mut acc[start - base..start - base + S];
+        for a in 0..S {
+            let [ax, ay] = affine.velocity(dx[a], dy[a], n[a]);
+            let r = &mut r[a];
+            r[0] += n[a] * q.m;
+            r[1] += n[a] * q.mv[0] + q.m * ax;
+            r[2] += n[a] * q.mv[1] + q.m * ay;
+            r[3] += n[a] * q.mb[0] - (gx[a] * q.vs[0] + gy[a] * q.vs[2]);
+            r[4] += n[a] * q.mb[1] - (gx[a] * q.vs[2] + gy[a] * q.vs[1]);
+        }
+    }
+}
+
+/// [`scatter_one`] with a node's `[m, q_x, q_y, f_x]` in one 4-wide vector (`f_y` beside it):
+/// the same products and sums, lane by lane, in the same order (so the same bits; see
+/// [`super::simd`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn scatter_one_avx2<const S: usize>(
+    ops: &Operators,
+    p: &Particles,
+    q: &Sources,
+    k: usize,
+    acc: &mut [[f64; 5]],
+    base: usize,
+    rows: std::ops::Range<usize>,
+) {
+    use std::arch::x86_64::*;
+    let st = ops.stencil::<S>(k);
+    let offsets = st.offsets(p.x[k], p.y[k]);
+    let sources = _mm256_setr_pd(q.m, q.mv[0], q.mv[1], q.mb[0]);
+    let mass = _mm256_set1_pd(q.m);
+    // Lanes 1 and 2: Affine::velocity's C rows; lane 3: the stress of f_x.
+    let (c_dx, c_dy) = (
+        _mm256_setr_pd(0.0, q.c[0], q.c[2], 0.0),
+        _mm256_setr_pd(0.0, q.c[1], q.c[3], 0.0),
+    );
+    let (s_gx, s_gy) = (
+        _mm256_setr_pd(0.0, 0.0, 0.0, q.vs[0]),
+        _mm256_setr_pd(0.0, 0.0, 0.0, q.vs[2]),
+    );
+    let sign = _mm256_set1_pd(-0.0);
+    for b in rows {
+        let (start, n, gx, gy) = st.row(b);
+        let (dx, dy) = st.run_offsets(&offsets, b);
+        let r = &mut acc[start - base..start - base + S];
+        for a in 0..S {
+            let nn = _mm256_set1_pd(n[a]);
+            // [·, ax, ay, ·] = n (C (x_I − x_p)), as Affine::velocity.
+            let dxy = _mm256_add_pd(
+                _mm256_mul_pd(c_dx, _mm256_set1_pd(dx[a])),
+                _mm256_mul_pd(c_dy, _mm256_set1_pd(dy[a])),
+            );
+            let affine = _mm256_mul_pd(mass, _mm256_mul_pd(nn, dxy));
+            // −(gx V σxx + gy V σxy) in lane 3 (a − b is a + (−b) exactly).
+            let stress = _mm256_add_pd(
+                _mm256_mul_pd(_mm256_set1_pd(gx[a]), s_gx),
+                _mm256_mul_pd(_mm256_set1_pd(gy[a]), s_gy),
+            );
+            let extra = _mm256_blend_pd::<0b1000>(affine, _mm256_xor_pd(stress, sign));
+            let term = _mm256_add_pd(_mm256_mul_pd(nn, sources), extra);
+            let r = &mut r[a];
+            // SAFETY: a node's accumulator holds 5 values; the load and store take the first 4.
+            unsafe {
+                let sum = _mm256_add_pd(_mm256_loadu_pd(r.as_ptr()), term);
+                _mm256_storeu_pd(r.as_mut_ptr(), sum);
+            }
+            r[4] += n[a] * q.mb[1] - (gx[a] * q.vs[2] + gy[a] * q.vs[1]);
+        }
+    }
 }
 
 /// Calls `f(k, rows)` for every particle `k` (in order) whose stencil reaches the band of grid
