@@ -137,20 +137,150 @@ fn p2g_columns_body<const S: usize, const AVX2: bool>(
     base: usize,
     lines: std::ops::Range<usize>,
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: the AVX2 instance runs only where the CPU has AVX2 (`dispatch!`).
+        unsafe { p2g_four_lanes::<S>(ops, p, apic, internal, acc, base, lines) };
+        return;
+    }
     in_band::<S>(ops, p.len(), &lines, |k, rows| {
         let q = sources(ops, p, apic, internal, k);
-        if AVX2 {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: the AVX2 instance runs only where the CPU has AVX2 (`dispatch!`).
-            unsafe {
-                scatter_one_avx2::<S>(ops, p, &q, k, acc, base, rows)
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            scatter_one::<S>(ops, p, &q, k, acc, base, rows)
-        } else {
-            scatter_one::<S>(ops, p, &q, k, acc, base, rows)
-        }
+        scatter_one::<S>(ops, p, &q, k, acc, base, rows)
     });
+}
+
+/// [`p2g_columns_body`]'s particle walk in the AVX2 build: four particles at a time where all
+/// four stencils lie in the band ([`scatter_four`]), one at a time otherwise
+/// ([`scatter_one_avx2`]); every node still receives its terms in particle order.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn p2g_four_lanes<const S: usize>(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    internal: f64,
+    acc: &mut [[f64; 5]],
+    base: usize,
+    lines: std::ops::Range<usize>,
+) {
+    let np = p.len();
+    let inside = |k: usize| {
+        let l0 = ops.first_line(k);
+        l0 >= lines.start && l0 + S <= lines.end
+    };
+    let mut k = 0;
+    while k < np {
+        if k + 4 <= np && inside(k) && inside(k + 1) && inside(k + 2) && inside(k + 3) {
+            scatter_four::<S>(ops, p, apic, internal, k, acc, base);
+            k += 4;
+            continue;
+        }
+        let l0 = ops.first_line(k);
+        if l0 + S > lines.start && l0 < lines.end {
+            let rows = lines.start.saturating_sub(l0)..(lines.end - l0).min(S);
+            let q = sources(ops, p, apic, internal, k);
+            scatter_one_avx2::<S>(ops, p, &q, k, acc, base, rows);
+        }
+        k += 1;
+    }
+}
+
+/// The terms of particles `k … k + 3`, one per lane, formed with [`scatter_one`]'s operations
+/// in its order, then added to each node lane after lane (particle order): the same bits as
+/// four calls of [`scatter_one`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn scatter_four<const S: usize>(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    internal: f64,
+    k: usize,
+    acc: &mut [[f64; 5]],
+    base: usize,
+) {
+    use super::simd::four::{four, lanes, load, transpose};
+    use std::arch::x86_64::*;
+    let f = four::<S>(ops, &p.x, &p.y, k);
+    let m = load(&p.mass, k);
+    let (mvx, mvy) = (_mm256_mul_pd(m, load(&p.vx, k)), _mm256_mul_pd(m, load(&p.vy, k)));
+    let (mbx, mby) = (_mm256_mul_pd(m, load(&p.bx, k)), _mm256_mul_pd(m, load(&p.by, k)));
+    let v = _mm256_mul_pd(_mm256_set1_pd(internal), load(&p.volume, k));
+    let (vsxx, vsyy, vsxy) = (
+        _mm256_mul_pd(v, load(&p.sxx, k)),
+        _mm256_mul_pd(v, load(&p.syy, k)),
+        _mm256_mul_pd(v, load(&p.sxy, k)),
+    );
+    // C_p as apic_affine forms it.
+    let c: [__m256d; 4] = match apic {
+        None => [_mm256_setzero_pd(); 4],
+        Some(ApicInertia::StoredC) => [
+            load(&p.affine_xx, k),
+            load(&p.affine_xy, k),
+            load(&p.affine_yx, k),
+            load(&p.affine_yy, k),
+        ],
+        Some(ApicInertia::Constant([dxx, dyy])) => {
+            let (dxx, dyy) = (_mm256_set1_pd(dxx), _mm256_set1_pd(dyy));
+            [
+                _mm256_div_pd(load(&p.affine_xx, k), dxx),
+                _mm256_div_pd(load(&p.affine_xy, k), dyy),
+                _mm256_div_pd(load(&p.affine_yx, k), dxx),
+                _mm256_div_pd(load(&p.affine_yy, k), dyy),
+            ]
+        }
+        Some(kind @ ApicInertia::Column) => {
+            let cs: [[f64; 4]; 4] = std::array::from_fn(|l| apic_affine(p, k + l, ops, kind).c);
+            std::array::from_fn(|i| _mm256_setr_pd(cs[0][i], cs[1][i], cs[2][i], cs[3][i]))
+        }
+    };
+    // Every lane's terms first, then lane after lane into the grid: lanes whose stencils
+    // overlap at different stencil positions still reach a shared node in particle order.
+    let mut terms = [[_mm256_setzero_pd(); 4]; 16];
+    let mut fy = [[0.0; 4]; 16];
+    for b in 0..S {
+        for a in 0..S {
+            let (xi, yi) = if f.runs_along_x { (a, b) } else { (b, a) };
+            let n = _mm256_mul_pd(f.wx[xi], f.wy[yi]);
+            let gx = _mm256_mul_pd(f.dwx[xi], f.wy[yi]);
+            let gy = _mm256_mul_pd(f.wx[xi], f.dwy[yi]);
+            let (ddx, ddy) = (f.dx[xi], f.dy[yi]);
+            // Affine::velocity: n (C (x_I − x_p)).
+            let ax = _mm256_mul_pd(n, _mm256_add_pd(_mm256_mul_pd(c[0], ddx), _mm256_mul_pd(c[1], ddy)));
+            let ay = _mm256_mul_pd(n, _mm256_add_pd(_mm256_mul_pd(c[2], ddx), _mm256_mul_pd(c[3], ddy)));
+            let t0 = _mm256_mul_pd(n, m);
+            let t1 = _mm256_add_pd(_mm256_mul_pd(n, mvx), _mm256_mul_pd(m, ax));
+            let t2 = _mm256_add_pd(_mm256_mul_pd(n, mvy), _mm256_mul_pd(m, ay));
+            let t3 = _mm256_sub_pd(
+                _mm256_mul_pd(n, mbx),
+                _mm256_add_pd(_mm256_mul_pd(gx, vsxx), _mm256_mul_pd(gy, vsxy)),
+            );
+            let t4 = _mm256_sub_pd(
+                _mm256_mul_pd(n, mby),
+                _mm256_add_pd(_mm256_mul_pd(gx, vsxy), _mm256_mul_pd(gy, vsyy)),
+            );
+            // Lane l's [m, q_x, q_y, f_x] terms, and its f_y term.
+            terms[b * S + a] = transpose([t0, t1, t2, t3]);
+            fy[b * S + a] = lanes(t4);
+        }
+    }
+    for l in 0..4 {
+        for b in 0..S {
+            let start = f.first[l] + b * f.run_stride - base;
+            let r = &mut acc[start..start + S];
+            for a in 0..S {
+                let r = &mut r[a];
+                // SAFETY: a node's accumulator holds 5 values; the load and store take the first 4.
+                unsafe {
+                    let sum = _mm256_add_pd(_mm256_loadu_pd(r.as_ptr()), terms[b * S + a][l]);
+                    _mm256_storeu_pd(r.as_mut_ptr(), sum);
+                }
+                r[4] += fy[b * S + a][l];
+            }
+        }
+    }
 }
 
 /// Particle `k`'s terms of (2)–(5), `q` its node-independent factors, added to the nodes of

@@ -351,6 +351,16 @@ impl Operators {
         }
     }
 
+    /// The factors of particles `p … p + count − 1`, `4 S` values each (as in [`Stencil`]).
+    ///
+    /// # Panics
+    /// If `p + count > num_particles()`.
+    #[inline(always)]
+    pub(crate) fn factors_block(&self, p: usize, count: usize) -> &[f64] {
+        let per = 4 * self.support;
+        &self.factors[per * p..per * (p + count)]
+    }
+
     /// Each particle's first node as grid indices `[i, j]` (the lowest x and y indices of its
     /// support).
     pub(crate) fn first_nodes(&self) -> &[[u32; 2]] {
