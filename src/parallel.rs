@@ -19,6 +19,10 @@ use crate::error::{MpmError, Result};
 /// Items per block of a deterministic reduction.
 pub const REDUCTION_BLOCK: usize = 4096;
 
+/// The most worker threads a simulation starts (`Options::threads`, `execution.threads`,
+/// `--threads`): more would only cost memory and start-up time on any machine this runs on.
+pub const MAX_THREADS: usize = 256;
+
 /// The worker threads of a simulation: none (serial) or a pool of its own.
 #[derive(Debug, Default)]
 pub struct Workers {
@@ -36,6 +40,13 @@ impl Workers {
                 name: "threads",
                 value: 0.0,
                 reason: "at least one thread is needed",
+            });
+        }
+        if threads > MAX_THREADS {
+            return Err(MpmError::InvalidParameter {
+                name: "threads",
+                value: threads as f64,
+                reason: "at most MAX_THREADS (256) worker threads",
             });
         }
         if threads == 1 {

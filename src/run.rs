@@ -43,6 +43,8 @@ pub struct RunOptions {
     pub checkpoint_every: Option<usize>,
     /// Run even when the estimated memory or output exceeds [`crate::limits::Limits::default`].
     pub allow_large: bool,
+    /// Worker threads instead of the scene's `execution.threads` (or the checkpoint's).
+    pub threads: Option<usize>,
 }
 
 /// Whether `name` is a file a run writes into its output folder.
@@ -276,6 +278,17 @@ pub fn run_scene_with(
     } else {
         crate::limits::Limits::default()
     };
+    let threaded;
+    let scene = match options.threads {
+        Some(threads) => {
+            threaded = Scene {
+                execution: crate::scene::Execution { threads },
+                ..scene.clone()
+            };
+            &threaded
+        }
+        None => scene,
+    };
     let (sim, _) = crate::limits::prepare_run(scene, &limits)?;
     prepare_output(out, options.output)?;
     write_scene_copy(scene, out)?;
@@ -324,7 +337,10 @@ pub fn resume_run(
     if state.format != RUN_STATE_FORMAT {
         return Err(bad(format!("run.json is `{}`, not `{RUN_STATE_FORMAT}`", state.format)));
     }
-    let sim = Simulation::read_checkpoint(&checkpoint.join("simulation.ckpt"))?;
+    let mut sim = Simulation::read_checkpoint(&checkpoint.join("simulation.ckpt"))?;
+    if let Some(threads) = options.threads {
+        sim.set_threads(threads)?;
+    }
     if sim.steps() != state.report_rows {
         return Err(bad(format!(
             "run.json says {} steps, the simulation {}",

@@ -302,3 +302,82 @@ fn dispersion_prints_the_curve_as_csv_and_names_bad_input() {
     let bad = mpm(&["dispersion", "--mass", "blended:3"], &dir);
     assert!(!bad.status.success() && text(&bad).contains("gamma"), "{}", text(&bad));
 }
+
+#[test]
+fn threads_from_the_command_line_or_the_scene_change_no_bit_of_the_output() {
+    let dir = scratch("threads");
+    std::fs::write(
+        dir.join("threaded.toml"),
+        format!("{}\n[execution]\nthreads = 3\n", two_disks()),
+    )
+    .unwrap();
+    let serial = mpm(&["run", "--out", "serial", "--steps", "60", "-q"], &dir);
+    let flag = mpm(&["run", "--out", "flag", "--steps", "60", "--threads", "2", "-q"], &dir);
+    let key = mpm(&["run", "threaded.toml", "--out", "key", "--steps", "60", "-q"], &dir);
+    // Cut at step 30 and resumed on 2 threads.
+    let cut = mpm(
+        &[
+            "run",
+            "threaded.toml",
+            "--out",
+            "cut",
+            "--steps",
+            "30",
+            "--checkpoint-every",
+            "30",
+            "-q",
+        ],
+        &dir,
+    );
+    for o in [&serial, &flag, &key, &cut] {
+        assert!(o.status.success(), "{}", text(o));
+    }
+    let resumed = mpm(
+        &[
+            "resume",
+            "cut/checkpoints/step_00000030",
+            "--steps",
+            "60",
+            "--threads",
+            "2",
+            "-q",
+        ],
+        &dir,
+    );
+    assert!(resumed.status.success(), "{}", text(&resumed));
+    for entry in std::fs::read_dir(dir.join("serial")).unwrap() {
+        let name = entry.unwrap().file_name();
+        let name = name.to_string_lossy().into_owned();
+        if name.ends_with(".vtp") || name == "report.csv" {
+            let want = std::fs::read(dir.join("serial").join(&name)).unwrap();
+            for other in ["flag", "key", "cut"] {
+                assert_eq!(
+                    want,
+                    std::fs::read(dir.join(other).join(&name)).unwrap_or_default(),
+                    "{other}/{name} differs from the serial run's"
+                );
+            }
+        }
+    }
+    // The scene copy keeps the key; out-of-range counts name where they came from.
+    let copy = std::fs::read_to_string(dir.join("key/scene.toml")).unwrap();
+    assert!(copy.contains("[execution]") && copy.contains("threads = 3"), "{copy}");
+    std::fs::write(
+        dir.join("zero.toml"),
+        format!("{}\n[execution]\nthreads = 0\n", two_disks()),
+    )
+    .unwrap();
+    let zero = mpm(&["check", "zero.toml"], &dir);
+    assert!(
+        !zero.status.success() && text(&zero).contains("execution.threads"),
+        "{}",
+        text(&zero)
+    );
+    let many = mpm(&["run", "--threads", "100000", "--out", "many"], &dir);
+    assert!(
+        !many.status.success() && text(&many).contains("--threads"),
+        "{}",
+        text(&many)
+    );
+    assert!(!dir.join("many").exists(), "a refused run writes nothing");
+}

@@ -130,6 +130,10 @@ struct StepArgs {
     /// Print only the final throughput line.
     #[arg(long, short = 'q')]
     quiet: bool,
+    /// Worker threads [default: the scene's execution.threads, or the checkpoint's]; the
+    /// results are the same bits for any count.
+    #[arg(long, value_name = "T", value_parser = clap::value_parser!(u64).range(1..=sparse_mpm::parallel::MAX_THREADS as u64))]
+    threads: Option<u64>,
 }
 
 impl StepArgs {
@@ -142,6 +146,7 @@ impl StepArgs {
             output,
             checkpoint_every: self.checkpoint_every.map(|k| k as usize),
             allow_large: self.allow_large,
+            threads: self.threads.map(|t| t as usize),
         }
     }
 }
@@ -234,7 +239,7 @@ struct BenchArgs {
     #[arg(long, value_name = "N[,N…]", value_delimiter = ',', value_parser = particle_count)]
     particles: Option<Vec<usize>>,
     /// Worker threads (results are bit-identical for any count).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=sparse_mpm::parallel::MAX_THREADS as u64))]
     threads: u64,
     /// Timed steps per repetition [default: max(20, min(2000, 2e7/N))].
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]

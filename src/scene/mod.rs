@@ -41,6 +41,9 @@
 //!
 //! [output]
 //! snapshot_interval = 0.05       # time between particle snapshots (default: end / 50)
+//!
+//! [execution]
+//! threads = 1                    # worker threads (the results are the same bits for any count)
 //! ```
 //!
 //! Geometries: `{ rectangle = { min = [x, y], max = [x, y] } }`, `{ disk = { center = [x, y],
@@ -110,6 +113,9 @@ pub struct Scene {
     /// What to write.
     #[serde(default)]
     pub output: OutputSpec,
+    /// How the run is executed (worker threads); never changes the results.
+    #[serde(default, skip_serializing_if = "Execution::is_default")]
+    pub execution: Execution,
     /// The folder relative paths (particle files) are taken from; set by [`Scene::load`]. When
     /// `None`, the current directory.
     #[serde(skip)]
@@ -165,6 +171,26 @@ impl Default for Schemes {
             mass: o.mass,
             sort_interval: o.sort_interval,
         }
+    }
+}
+
+/// How a run is executed: choices that change its speed, never its results (to the bit).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Execution {
+    /// Worker threads (1 to [`crate::parallel::MAX_THREADS`]; 1 runs serially).
+    pub threads: usize,
+}
+
+impl Default for Execution {
+    fn default() -> Self {
+        Execution { threads: 1 }
+    }
+}
+
+impl Execution {
+    fn is_default(&self) -> bool {
+        *self == Execution::default()
     }
 }
 
@@ -375,7 +401,7 @@ impl Scene {
                 .time
                 .stability_interval
                 .unwrap_or(crate::simulation::DEFAULT_STABILITY_INTERVAL),
-            threads: 1,
+            threads: self.execution.threads,
         }
     }
 
@@ -411,6 +437,7 @@ impl Scene {
             "transfer.k" => format!("schemes.transfer.{}.k", self.schemes.transfer.name()),
             "transfer" => "schemes.transfer".to_string(),
             "gravity" => "loads.gravity".to_string(),
+            "threads" => "execution.threads".to_string(),
             other => format!("schemes.{other}"),
         };
         invalid(key, reason)

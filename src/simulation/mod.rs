@@ -177,6 +177,26 @@ impl Simulation {
     pub fn options(&self) -> &Options {
         &self.options
     }
+
+    /// Runs the following steps on `threads` worker threads (a resumed run on another machine,
+    /// say). The results are the same bits for any count.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidOption`] for 0 or more than [`crate::parallel::MAX_THREADS`] threads,
+    /// or when the pool cannot be started; the simulation is unchanged then.
+    pub fn set_threads(&mut self, threads: usize) -> Result<()> {
+        let options = Options {
+            threads,
+            ..self.options.clone()
+        };
+        options.validate()?;
+        self.setup.workers = Workers::new(threads).map_err(|e| MpmError::InvalidOption {
+            option: "threads",
+            reason: e.to_string(),
+        })?;
+        self.options.threads = threads;
+        Ok(())
+    }
     /// The resolved boundary conditions.
     pub fn prescribed(&self) -> &Prescribed {
         &self.setup.prescribed

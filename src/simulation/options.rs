@@ -162,10 +162,14 @@ impl Options {
                 ),
             });
         }
-        if self.threads == 0 {
+        if self.threads == 0 || self.threads > crate::parallel::MAX_THREADS {
             return Err(MpmError::InvalidOption {
                 option: "threads",
-                reason: "at least one thread is needed (1 runs serially)".into(),
+                reason: format!(
+                    "{} threads: give 1 to {} (1 runs serially; the results are the same bits for any count)",
+                    self.threads,
+                    crate::parallel::MAX_THREADS
+                ),
             });
         }
         if !self.gravity.iter().all(|g| g.is_finite()) {
