@@ -22,7 +22,7 @@ use crate::operators::weighted_product;
 use crate::operators::{Operator, Operators};
 use crate::shape::ShapeFunction;
 use crate::spectral::{lanczos_extremes, lanczos_max, start_vector, DEFAULT_LANCZOS_STEPS};
-use crate::transfer::{internal_force, velocity_gradient, VectorField};
+use crate::transfer::VectorField;
 
 /// The grid stiffness `K = Bᵀ D B` (2n × 2n, x degrees of freedom first), from four weighted
 /// products per block as in the [module docs](self).
@@ -97,20 +97,54 @@ pub fn apply_stiffness(ops: &Operators, volume: &[f64], material: &LinearElastic
 /// # Panics
 /// If `u` does not have one entry per node, or `volume` and `tangent` one per particle.
 pub fn apply_tangent_stiffness(ops: &Operators, volume: &[f64], tangent: &[[f64; 3]], u: &VectorField) -> VectorField {
-    let l = velocity_gradient(ops, u);
     let np = ops.num_particles();
     assert_eq!(tangent.len(), np, "one tangent per particle");
-    let (mut sxx, mut syy, mut sxy) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
-    for p in 0..np {
-        let [c11, c12, g] = tangent[p];
-        sxx[p] = c11 * l.xx[p] + c12 * l.yy[p];
-        syy[p] = c12 * l.xx[p] + c11 * l.yy[p];
-        sxy[p] = g * (l.xy[p] + l.yx[p]);
+    assert_eq!(volume.len(), np, "one volume per particle");
+    assert_eq!(u.len(), ops.num_nodes(), "one displacement per node");
+    let mut f = VectorField::zeros(ops.num_nodes());
+    crate::with_support!(ops, tangent_columns::<S>(ops, volume, tangent, u, &mut f));
+    // f holds f_int(σ); K u is its negation (exact).
+    for v in f.x.iter_mut().chain(f.y.iter_mut()) {
+        *v = -*v;
     }
-    let f = internal_force(ops, volume, &sxx, &syy, &sxy);
-    VectorField {
-        x: f.x.iter().map(|v| -v).collect(),
-        y: f.y.iter().map(|v| -v).collect(),
+    f
+}
+
+/// The particle loop of [`apply_tangent_stiffness`]: per particle its `L = [Gxᵀ u, Gyᵀ u]`,
+/// `σ = C : sym L` and its part of `f_int`, in one sweep over its stencil (no per-particle
+/// arrays; the sums in the order of `transfer::velocity_gradient` and
+/// `kernels::add_internal_force`, so the same bits as those products in turn).
+fn tangent_columns<const S: usize>(
+    ops: &Operators,
+    volume: &[f64],
+    tangent: &[[f64; 3]],
+    u: &VectorField,
+    f: &mut VectorField,
+) {
+    for p in 0..ops.num_particles() {
+        let st = ops.stencil::<S>(p);
+        let (mut lxx, mut lxy, mut lyx, mut lyy) = (0.0, 0.0, 0.0, 0.0);
+        for b in 0..S {
+            let (start, _, gx, gy) = st.row(b);
+            let (ux, uy) = (&u.x[start..start + S], &u.y[start..start + S]);
+            for a in 0..S {
+                lxx += gx[a] * ux[a];
+                lyx += gx[a] * uy[a];
+                lxy += gy[a] * ux[a];
+                lyy += gy[a] * uy[a];
+            }
+        }
+        let [c11, c12, g] = tangent[p];
+        let (sxx, syy, sxy) = (c11 * lxx + c12 * lyy, c12 * lxx + c11 * lyy, g * (lxy + lyx));
+        let (txx, tyy, txy) = (volume[p] * sxx, volume[p] * syy, volume[p] * sxy);
+        for b in 0..S {
+            let (start, _, gx, gy) = st.row(b);
+            let (fx, fy) = (&mut f.x[start..start + S], &mut f.y[start..start + S]);
+            for a in 0..S {
+                fx[a] -= gx[a] * txx + gy[a] * txy;
+                fy[a] -= gx[a] * txy + gy[a] * tyy;
+            }
+        }
     }
 }
 
