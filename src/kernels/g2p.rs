@@ -409,6 +409,8 @@ fn g2p_block_body<const S: usize, const AVX2: bool>(input: &G2pInput, first: usi
         dt,
         kinetic: KineticEnergies::default(),
     };
+    #[cfg(target_arch = "x86_64")]
+    debug_assert!(!AVX2 || std::arch::is_x86_feature_detected!("avx2"));
     for j in 0..np {
         let g = if AVX2 {
             #[cfg(target_arch = "x86_64")]

@@ -139,6 +139,7 @@ fn p2g_columns_body<const S: usize, const AVX2: bool>(
 ) {
     #[cfg(target_arch = "x86_64")]
     if AVX2 {
+        debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
         // SAFETY: the AVX2 instance runs only where the CPU has AVX2 (`dispatch!`).
         unsafe { p2g_four_lanes::<S>(ops, p, apic, internal, acc, base, lines) };
         return;
@@ -343,7 +344,6 @@ fn scatter_one_avx2<const S: usize>(
         _mm256_setr_pd(0.0, 0.0, 0.0, q.vs[0]),
         _mm256_setr_pd(0.0, 0.0, 0.0, q.vs[2]),
     );
-    let sign = _mm256_set1_pd(-0.0);
     for b in rows {
         let (start, n, gx, gy) = st.row(b);
         let (dx, dy) = st.run_offsets(&offsets, b);
@@ -356,13 +356,17 @@ fn scatter_one_avx2<const S: usize>(
                 _mm256_mul_pd(c_dy, _mm256_set1_pd(dy[a])),
             );
             let affine = _mm256_mul_pd(mass, _mm256_mul_pd(nn, dxy));
-            // −(gx V σxx + gy V σxy) in lane 3 (a − b is a + (−b) exactly).
+            // gx V σxx + gy V σxy in lane 3.
             let stress = _mm256_add_pd(
                 _mm256_mul_pd(_mm256_set1_pd(gx[a]), s_gx),
                 _mm256_mul_pd(_mm256_set1_pd(gy[a]), s_gy),
             );
-            let extra = _mm256_blend_pd::<0b1000>(affine, _mm256_xor_pd(stress, sign));
-            let term = _mm256_add_pd(_mm256_mul_pd(nn, sources), extra);
+            // Lane 0 n m, lanes 1–2 n m v + m a, lane 3 n m b − stress: the scalar operations
+            // exactly, non-finite values included.
+            let own = _mm256_mul_pd(nn, sources);
+            let plus = _mm256_add_pd(own, affine);
+            let minus = _mm256_sub_pd(own, stress);
+            let term = _mm256_blend_pd::<0b1000>(_mm256_blend_pd::<0b0110>(own, plus), minus);
             let r = &mut r[a];
             // SAFETY: a node's accumulator holds 5 values; the load and store take the first 4.
             unsafe {
