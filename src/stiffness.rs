@@ -136,15 +136,8 @@ fn tangent_columns<const S: usize>(
         }
         let [c11, c12, g] = tangent[p];
         let (sxx, syy, sxy) = (c11 * lxx + c12 * lyy, c12 * lxx + c11 * lyy, g * (lxy + lyx));
-        let (txx, tyy, txy) = (volume[p] * sxx, volume[p] * syy, volume[p] * sxy);
-        for b in 0..S {
-            let (start, _, gx, gy) = st.row(b);
-            let (fx, fy) = (&mut f.x[start..start + S], &mut f.y[start..start + S]);
-            for a in 0..S {
-                fx[a] -= gx[a] * txx + gy[a] * txy;
-                fy[a] -= gx[a] * txy + gy[a] * tyy;
-            }
-        }
+        let t = [volume[p] * sxx, volume[p] * syy, volume[p] * sxy];
+        crate::kernels::subtract_particle_force(&st, t, f);
     }
 }
 

@@ -4,7 +4,7 @@
 use super::simd::dispatch;
 use super::{apic_affine, Affine, ApicInertia, GridState, Stress};
 use crate::fields::VectorField;
-use crate::operators::Operators;
+use crate::operators::{Operators, Stencil};
 use crate::parallel::Workers;
 use crate::particles::Particles;
 
@@ -416,15 +416,24 @@ pub fn add_internal_force(ops: &Operators, volume: &[f64], sxx: &[f64], syy: &[f
 
 fn internal_force_columns<const S: usize>(ops: &Operators, [volume, sxx, syy, sxy]: [&[f64]; 4], f: &mut VectorField) {
     for k in 0..ops.num_particles() {
-        let (txx, tyy, txy) = (volume[k] * sxx[k], volume[k] * syy[k], volume[k] * sxy[k]);
-        let st = ops.stencil::<S>(k);
-        for b in 0..S {
-            let (start, _, gx, gy) = st.row(b);
-            let (fx, fy) = (&mut f.x[start..start + S], &mut f.y[start..start + S]);
-            for a in 0..S {
-                fx[a] -= gx[a] * txx + gy[a] * txy;
-                fy[a] -= gx[a] * txy + gy[a] * tyy;
-            }
+        let t = [volume[k] * sxx[k], volume[k] * syy[k], volume[k] * sxy[k]];
+        subtract_particle_force(&ops.stencil::<S>(k), t, f);
+    }
+}
+
+/// One particle's part of (5) over its stencil `st`, with `t = V σ` as `[xx, yy, xy]`:
+///
+/// ```text
+/// f_x −= Gx t_xx + Gy t_xy,   f_y −= Gx t_xy + Gy t_yy     (the particle's column)
+/// ```
+#[inline(always)]
+pub(crate) fn subtract_particle_force<const S: usize>(st: &Stencil<S>, [txx, tyy, txy]: [f64; 3], f: &mut VectorField) {
+    for b in 0..S {
+        let (start, _, gx, gy) = st.row(b);
+        let (fx, fy) = (&mut f.x[start..start + S], &mut f.y[start..start + S]);
+        for a in 0..S {
+            fx[a] -= gx[a] * txx + gy[a] * txy;
+            fy[a] -= gx[a] * txy + gy[a] * tyy;
         }
     }
 }
