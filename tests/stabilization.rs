@@ -268,3 +268,76 @@ fn the_linear_extension_penalty_is_symmetric_semidefinite_zero_on_linear_fields_
         );
     }
 }
+
+#[test]
+fn the_stencil_form_of_the_linear_extension_penalty_equals_the_compressed_column_one() {
+    use sparse_mpm::mass::extension::{extension_penalty, full_support_inertia};
+    use sparse_mpm::mass::StencilMass;
+    use sparse_mpm::NodeOrder;
+    for order in [NodeOrder::XFastest, NodeOrder::YFastest] {
+        for shape in SHAPES {
+            // A non-square grid, so that the two strides differ.
+            let grid = Grid::new([0.0, 0.0], [1.0, 1.0], [18, 16])
+                .unwrap()
+                .with_node_order(order);
+            let particles = disk();
+            let ops = Operators::assemble(&grid, shape, &particles).unwrap();
+            let lumped = lumped_mass(&ops, &particles.mass);
+            let mut active = vec![false; lumped.len()];
+            active_nodes(&lumped, 1e-12).into_iter().for_each(|i| active[i] = true);
+            let m = consistent_mass(&ops, &particles.mass);
+            let (gamma, threshold) = (0.7, 0.5);
+            let reference = dense(&(&m + &extension_penalty(&ops, &m, &lumped, &active, gamma, threshold)));
+            let mut stencil = StencilMass::default();
+            stencil.reassemble_extended(&ops, &particles.mass);
+            // The widened layout holds the same plain matrix.
+            let plain = dense(&stencil.to_csc());
+            let scale = dense(&m).abs().max();
+            assert!(
+                (&plain - dense(&m)).abs().max() <= ROUND_OFF * scale,
+                "{} {order:?}: plain",
+                shape.name()
+            );
+            let full = full_support_inertia(shape, &grid);
+            stencil.add_extension_penalty(grid.nodes_per_axis(), &lumped, &active, gamma, threshold, full);
+            let stabilized = dense(&stencil.to_csc());
+            let penalised = (&reference - dense(&m)).abs().max();
+            assert!(penalised > 1e-3 * scale, "{}: the fringe is penalised", shape.name());
+            let diff = (&stabilized - &reference).abs().max();
+            assert!(
+                diff <= ROUND_OFF * scale,
+                "{} {order:?}: |M_s − ref| = {diff:e}",
+                shape.name()
+            );
+            // The stencil product is the same matrix, and row sums are the lumped mass.
+            let ones = vec![1.0; grid.num_nodes()];
+            let row_sums = stencil.mul(&ones);
+            for (i, (r, l)) in row_sums.iter().zip(&lumped).enumerate() {
+                assert!(
+                    (r - l).abs() <= ROUND_OFF * scale,
+                    "{}: row {i}: {r} vs {l}",
+                    shape.name()
+                );
+            }
+            let x: Vec<f64> = (0..grid.num_nodes())
+                .map(|i| ((i * 37 % 101) as f64 - 50.0) / 50.0)
+                .collect();
+            let y = stencil.mul(&x);
+            let expected = &reference * nalgebra::DVector::from_column_slice(&x);
+            for i in 0..x.len() {
+                assert!(
+                    (y[i] - expected[i]).abs() <= 1e-11 * scale,
+                    "{}: (M_s x)_{i}",
+                    shape.name()
+                );
+            }
+            // Within the diagonal preconditioner: the penalty raises some diagonals above m_L.
+            let diagonal = stencil.diagonal();
+            assert!(
+                (0..diagonal.len()).any(|i| diagonal[i] > lumped[i] * (1.0 + 1e-9)),
+                "{}: some diagonal exceeds its row sum",
+                shape.name()
+            );
+        }
+    }
+}

@@ -105,11 +105,13 @@ fn conjugate_gradient_on_the_stencil_form_matches_the_cholesky_solve_with_walls(
             x: vec![0.3; n],
             y: vec![-0.2; n],
         };
-        // Partial lumping keeps the stencil's pattern, so the CG runs on the stencil form; the
-        // default penalty reaches two nodes along a line, so it runs on compressed columns.
+        // Partial lumping keeps the stencil's pattern; the default penalty widens it by the
+        // couplings two nodes apart along a line. Both run on the stencil form; the ghost
+        // penalty on compressed columns.
         for (stabilization, on_stencil) in [
             ("partial_lumping:0.5".parse().unwrap(), true),
-            (Stabilization::default(), false),
+            (Stabilization::default(), true),
+            ("ghost_penalty:0.1".parse().unwrap(), false),
         ] {
             let solve = |scheme: MassScheme| {
                 let options = MassOptions {

@@ -87,10 +87,7 @@ impl GridMass {
             // With prescribed values the right-hand side is r − M_FD u_D: never below its own norm.
             let own = dofs.free.iter().map(|&i| b[i] * b[i]).sum::<f64>().sqrt();
             let scale = norm_r.max(own);
-            let preconditioner = match m {
-                MassOperator::Csc(_) => self.matrices.preconditioner.as_deref().unwrap_or(&self.lumped),
-                MassOperator::Stencil(_) => &self.lumped,
-            };
+            let preconditioner = self.matrices.preconditioner.as_deref().unwrap_or(&self.lumped);
             let args = (&dofs.free[..], preconditioner, &b[..], tolerance, max_iterations, scale);
             let solved = match m {
                 MassOperator::Stencil(s) => pcg(s, args.0, args.1, args.2, xc, args.3, args.4, args.5, work),

@@ -19,13 +19,14 @@ use crate::operators::Operators;
 #[derive(Debug, Default)]
 pub(super) struct Matrices {
     /// `M = N diag(m) Nᵀ` in compressed columns, when a factorized scheme (consistent,
-    /// blended), the ghost penalty or a singularity policy other than an error needs it.
+    /// blended) or a singularity policy other than an error needs it, or the ghost penalty.
     pub(super) csc: Option<CscMatrix<f64>>,
     /// The stabilised `M` in compressed columns (a stabilisation other than none, with `csc`).
     pub(super) stabilized_csc: Option<CscMatrix<f64>>,
     /// `M` in stencil form, when only the conjugate gradient and the series apply it.
     pub(super) stencil: Option<StencilMass>,
-    /// The partially lumped `M` in stencil form, for the conjugate gradient.
+    /// The stabilised `M` in stencil form (partial lumping, or the linear-extension penalty on
+    /// a layout widened to couplings two lines apart), for the conjugate gradient.
     stencil_stabilized: Option<StencilMass>,
     /// Buffers of the stencil assembly of the factorized schemes.
     buffers: Option<StencilMass>,
@@ -85,6 +86,19 @@ fn diagonal_preconditioner(m: &CscMatrix<f64>, lumped: &[f64]) -> Vec<f64> {
     d
 }
 
+/// Adds the linear-extension penalty to `m`, a stencil assembled with
+/// [`StencilMass::reassemble_extended`].
+fn add_extension(m: &mut StencilMass, ops: &Operators, lumped: &[f64], active: &[bool], gamma: f64, threshold: f64) {
+    let grid = ops.grid().expect("operators assembled on a grid");
+    let full = super::extension::full_support_inertia(ops.shape_function(), grid);
+    m.add_extension_penalty(grid.nodes_per_axis(), lumped, active, gamma, threshold, full);
+}
+
+/// [`diagonal_preconditioner`] of a matrix in stencil form.
+fn stencil_preconditioner(m: &StencilMass, lumped: &[f64]) -> Vec<f64> {
+    lumped.iter().zip(m.diagonal()).map(|(l, d)| l.max(d)).collect()
+}
+
 /// Whether `scheme` solves by a Cholesky factorization.
 fn factorized(scheme: MassScheme) -> bool {
     match scheme {
@@ -118,8 +132,8 @@ impl Matrices {
             || options.acceleration.needs_consistent_matrix()
             || options.singularity != SingularityPolicy::Error;
         let in_stencil = match options.stabilization {
-            Stabilization::None | Stabilization::PartialLumping { .. } => true,
-            Stabilization::GhostPenalty { .. } | Stabilization::LinearExtension { .. } => false,
+            Stabilization::None | Stabilization::PartialLumping { .. } | Stabilization::LinearExtension { .. } => true,
+            Stabilization::GhostPenalty { .. } => false,
         };
         let stencil_only = needs_matrix
             && !factorized(options.velocity)
@@ -127,9 +141,9 @@ impl Matrices {
             && options.singularity == SingularityPolicy::Error
             && in_stencil;
         if stencil_only {
-            self.assemble_stencil(ops, m, options, lumped);
+            self.assemble_stencil(ops, m, options, lumped, is_active);
         } else if needs_matrix && in_stencil {
-            self.assemble_csc_from_stencil(ops, m, options, lumped);
+            self.assemble_csc_from_stencil(ops, m, options, lumped, is_active);
         } else {
             self.clear();
             self.csc = needs_matrix.then(|| consistent_mass(ops, m));
@@ -143,25 +157,50 @@ impl Matrices {
 
     /// The factorized schemes' matrices: assembled in stencil form, handed over in compressed
     /// columns (the stencil kept for its buffers only).
-    fn assemble_csc_from_stencil(&mut self, ops: &Operators, m: &[f64], options: &MassOptions, lumped: &[f64]) {
+    fn assemble_csc_from_stencil(
+        &mut self,
+        ops: &Operators,
+        m: &[f64],
+        options: &MassOptions,
+        lumped: &[f64],
+        is_active: &[bool],
+    ) {
         let mut stencil = self.buffers.take().or(self.stencil.take()).unwrap_or_default();
-        stencil.reassemble(ops, m);
-        self.csc = Some(stencil.to_csc());
-        self.stabilized_csc = match options.stabilization {
-            Stabilization::PartialLumping { threshold } => {
-                stencil.partially_lump(lumped, threshold);
-                Some(stencil.to_csc())
+        self.preconditioner = None;
+        match options.stabilization {
+            Stabilization::LinearExtension { gamma, threshold } => {
+                stencil.reassemble_extended(ops, m);
+                self.csc = Some(stencil.to_csc());
+                add_extension(&mut stencil, ops, lumped, is_active, gamma, threshold);
+                self.preconditioner = Some(stencil_preconditioner(&stencil, lumped));
+                self.stabilized_csc = Some(stencil.to_csc());
             }
-            Stabilization::None | Stabilization::GhostPenalty { .. } | Stabilization::LinearExtension { .. } => None,
-        };
+            Stabilization::PartialLumping { threshold } => {
+                stencil.reassemble(ops, m);
+                self.csc = Some(stencil.to_csc());
+                stencil.partially_lump(lumped, threshold);
+                self.stabilized_csc = Some(stencil.to_csc());
+            }
+            Stabilization::None | Stabilization::GhostPenalty { .. } => {
+                stencil.reassemble(ops, m);
+                self.csc = Some(stencil.to_csc());
+                self.stabilized_csc = None;
+            }
+        }
         self.buffers = Some(stencil);
         self.stencil = None;
         self.stencil_stabilized = None;
-        self.preconditioner = None;
     }
 
     /// The conjugate gradient's and the series' matrices, in stencil form only.
-    fn assemble_stencil(&mut self, ops: &Operators, m: &[f64], options: &MassOptions, lumped: &[f64]) {
+    fn assemble_stencil(
+        &mut self,
+        ops: &Operators,
+        m: &[f64],
+        options: &MassOptions,
+        lumped: &[f64],
+        is_active: &[bool],
+    ) {
         if self.stencil.is_none() {
             self.stencil = self.buffers.take();
         }
@@ -177,19 +216,24 @@ impl Matrices {
             | MassScheme::Blended { .. }
             | MassScheme::TruncatedSeries { .. } => false,
         };
+        let solves = iterative(options.velocity) || iterative(options.acceleration);
+        let mut stabilized = self.stencil_stabilized.take().unwrap_or_default();
         self.stencil_stabilized = match options.stabilization {
-            Stabilization::PartialLumping { threshold }
-                if iterative(options.velocity) || iterative(options.acceleration) =>
-            {
-                let mut lumped_stencil = self.stencil_stabilized.take().unwrap_or_default();
-                lumped_stencil.clone_from(&stencil);
-                lumped_stencil.partially_lump(lumped, threshold);
-                Some(lumped_stencil)
+            Stabilization::PartialLumping { threshold } if solves => {
+                stabilized.clone_from(&stencil);
+                stabilized.partially_lump(lumped, threshold);
+                Some(stabilized)
+            }
+            Stabilization::LinearExtension { gamma, threshold } if solves => {
+                stabilized.reassemble_extended(ops, m);
+                add_extension(&mut stabilized, ops, lumped, is_active, gamma, threshold);
+                self.preconditioner = Some(stencil_preconditioner(&stabilized, lumped));
+                Some(stabilized)
             }
             Stabilization::PartialLumping { .. }
+            | Stabilization::LinearExtension { .. }
             | Stabilization::None
-            | Stabilization::GhostPenalty { .. }
-            | Stabilization::LinearExtension { .. } => None,
+            | Stabilization::GhostPenalty { .. } => None,
         };
         self.stencil = Some(stencil);
     }

@@ -16,7 +16,7 @@ use nalgebra_sparse::CscMatrix;
 
 use super::cg::lanes_sum;
 use crate::operators::Operators;
-use crate::shape::{bspline, gimp, linear, ShapeFunction};
+use crate::shape::ShapeFunction;
 use crate::with_support;
 
 /// The consistent mass (optionally partially lumped) stored per node over the node span.
@@ -28,7 +28,12 @@ pub struct StencilMass {
     /// First node of the span and its length.
     start: usize,
     len: usize,
-    /// `(2S − 1)²` offsets in node numbers, `dx·sx + dy·sy`, `dx` fastest.
+    /// Node-number strides along x and y.
+    strides: [usize; 2],
+    /// The offsets in node numbers, `dx·sx + dy·sy`, ascending: the `(2S − 1)²` of the
+    /// kernel's couplings, and with [`StencilMass::reassemble_extended`] also `±2` grid lines
+    /// along each axis where the kernel's own reach is shorter (the linear-extension penalty's
+    /// couplings). Symmetric: offset `K − 1 − o` is `−offset o`, the centre is `K/2`.
     offsets: Vec<isize>,
     /// Largest `|offset|`: the padding of work vectors.
     pad: usize,
@@ -59,8 +64,22 @@ impl StencilMass {
     /// # Panics
     /// If `m.len()` is not the particle count.
     pub fn reassemble(&mut self, ops: &Operators, m: &[f64]) {
+        self.reassemble_with(ops, m, false);
+    }
+
+    /// [`StencilMass::reassemble`] with room for couplings two grid lines apart along each
+    /// axis (stored as zeros where the kernel does not couple them), which
+    /// [`StencilMass::add_extension_penalty`] needs with linear shape functions.
+    ///
+    /// # Panics
+    /// If `m.len()` is not the particle count.
+    pub fn reassemble_extended(&mut self, ops: &Operators, m: &[f64]) {
+        self.reassemble_with(ops, m, true);
+    }
+
+    fn reassemble_with(&mut self, ops: &Operators, m: &[f64], extended: bool) {
         assert_eq!(m.len(), ops.num_particles(), "one mass per particle");
-        with_support!(ops, assemble_into::<S>(self, ops, m));
+        with_support!(ops, assemble_into::<S>(self, ops, m, extended));
         self.segments.clear();
         let line = ops.line_length().max(1);
         let mut r = 0;
@@ -84,7 +103,7 @@ impl StencilMass {
         self.num_nodes
     }
 
-    /// Offsets per node, `(2S − 1)²`.
+    /// Offsets per node.
     fn width(&self) -> usize {
         self.offsets.len()
     }
@@ -162,13 +181,107 @@ impl StencilMass {
     /// `out = mask ∘ M x` on the padded layout over the segments (elsewhere left as it was),
     /// with `mask` zero where the product is to be dropped; returns `x · out`.
     fn apply_padded(&self, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
-        match self.shape {
-            ShapeFunction::Linear => apply_segments::<{ width(linear::SUPPORT) }>(self, x, out, mask),
-            ShapeFunction::Gimp { .. } => apply_segments::<{ width(gimp::SUPPORT) }>(self, x, out, mask),
-            ShapeFunction::QuadraticBSpline => {
-                apply_segments::<{ width(bspline::QUADRATIC_SUPPORT) }>(self, x, out, mask)
+        apply_segments(self, x, out, mask)
+    }
+
+    /// The position of `offset` in [`StencilMass::offsets`], if stored.
+    fn offset_index(&self, offset: isize) -> Option<usize> {
+        self.offsets.binary_search(&offset).ok()
+    }
+
+    /// The diagonal `M_II` over all nodes (0 off the span).
+    pub fn diagonal(&self) -> Vec<f64> {
+        let mut d = vec![0.0; self.num_nodes];
+        d[self.start..self.start + self.len].copy_from_slice(&self.values[self.pad..self.pad + self.len]);
+        d
+    }
+
+    /// Adds the linear-extension penalty in place (the same matrix as
+    /// `M + `[`super::extension::extension_penalty`], up to the order of the sums):
+    ///
+    /// ```text
+    /// M_s = M + γ Σ_T w_T d_T d_Tᵀ,   d_T = e_a − 2 e_b + e_c,
+    /// w_T = max_{I ∈ T} m_L,I · max(0, 1 − ψ_T/θ),   ψ_T = min_{I ∈ T} ψ_I,
+    /// ψ_I = min(φ_I, δ_I/δ_full),   φ_I = m_L,I / max_{J: M_IJ ≠ 0} m_L,J,   δ_I = M_II / m_L,I
+    /// ```
+    ///
+    /// over the triples `T = (a, b, c)` of consecutive active nodes along each grid line, with
+    /// `φ` and `δ` of the plain matrix this stencil holds on entry; `full` is `δ_full`
+    /// ([`super::extension::full_support_inertia`]).
+    ///
+    /// # Panics
+    /// On length mismatch, or if the couplings two grid lines apart are not stored (assemble
+    /// with [`StencilMass::reassemble_extended`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_extension_penalty(
+        &mut self,
+        nodes_per_axis: [usize; 2],
+        lumped: &[f64],
+        active: &[bool],
+        gamma: f64,
+        threshold: f64,
+        full: f64,
+    ) {
+        let n = self.num_nodes;
+        assert!(
+            lumped.len() == n && active.len() == n,
+            "one lumped mass and one flag per node"
+        );
+        let (start, len, pad) = (self.start, self.len, self.pad);
+        let plen = len + 2 * pad;
+        let centre = self.width() / 2;
+        let k = self.width();
+        // ψ on the span rows with couplings (0 elsewhere: such nodes are never in a triple).
+        let mut psi = vec![0.0; len];
+        for &(lo, hi) in &self.segments {
+            for r in lo..hi {
+                let own = lumped[start + r];
+                let bits = self.pattern[r];
+                let heaviest = (0..k)
+                    .filter(|&o| bits >> o & 1 == 1)
+                    .map(|o| lumped[(start as isize + r as isize + self.offsets[o]) as usize])
+                    .fold(own, f64::max);
+                let phi = if heaviest > 0.0 { own / heaviest } else { 1.0 };
+                let delta = if own > 0.0 { self.values[pad + r] / own } else { 0.0 };
+                psi[r] = phi.min(delta / full);
             }
-            ShapeFunction::CubicBSpline => apply_segments::<{ width(bspline::CUBIC_SUPPORT) }>(self, x, out, mask),
+        }
+        let [nx, ny] = nodes_per_axis;
+        let [sx, sy] = self.strides;
+        // Per axis: the stride, the slots of offsets +1 and +2 lines, and the line count.
+        for (stride, lines_along, count_across) in [(sx, nx, ny), (sy, ny, nx)] {
+            let other = if stride == sx { sy } else { sx };
+            let (o1, o2) = (
+                self.offset_index(stride as isize).expect("couplings one line apart"),
+                self.offset_index(2 * stride as isize)
+                    .expect("couplings two lines apart (reassemble_extended)"),
+            );
+            let (m1, m2) = (k - 1 - o1, k - 1 - o2);
+            for across in 0..count_across {
+                for along in 1..lines_along.saturating_sub(1) {
+                    let b = along * stride + across * other;
+                    let (a, c) = (b - stride, b + stride);
+                    if a < start || c >= start + len || !(active[a] && active[b] && active[c]) {
+                        continue;
+                    }
+                    let (ra, rb, rc) = (a - start, b - start, c - start);
+                    let psi_t = psi[ra].min(psi[rb]).min(psi[rc]);
+                    let ramp = 1.0 - psi_t / threshold;
+                    if ramp <= 0.0 {
+                        continue;
+                    }
+                    let w = gamma * ramp * lumped[a].max(lumped[b]).max(lumped[c]);
+                    self.values[pad + ra] += w;
+                    self.values[pad + rb] += 4.0 * w;
+                    self.values[pad + rc] += w;
+                    self.values[(o1 - centre) * plen + pad + ra] -= 2.0 * w;
+                    self.values[(o1 - centre) * plen + pad + rb] -= 2.0 * w;
+                    self.values[(o2 - centre) * plen + pad + ra] += w;
+                    self.pattern[ra] |= 1 << o1 | 1 << o2;
+                    self.pattern[rb] |= 1 << o1 | 1 << m1;
+                    self.pattern[rc] |= 1 << m1 | 1 << m2;
+                }
+            }
         }
     }
 
@@ -242,8 +355,9 @@ impl super::cg::CgLayout for StencilMass {
 /// `out[r] = mask[r] Σ_o M_o[r] x[r + offset_o]` over the segments, padded layout: the centre,
 /// then each upper offset and its mirror, one sweep along each segment (SIMD across nodes).
 /// Returns `Σ x[r] out[r]`.
-fn apply_segments<const K: usize>(m: &StencilMass, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
-    let centre = K / 2;
+fn apply_segments(m: &StencilMass, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
+    let k = m.offsets.len();
+    let centre = k / 2;
     let plen = m.len + 2 * m.pad;
     let mut dot = [0.0; 8];
     for &(lo, hi) in &m.segments {
@@ -252,7 +366,7 @@ fn apply_segments<const K: usize>(m: &StencilMass, x: &[f64], out: &mut [f64], m
         for ((y, a), x) in y.iter_mut().zip(&m.values[lo..hi]).zip(&x[lo..hi]) {
             *y = a * x;
         }
-        for o in centre + 1..K {
+        for o in centre + 1..k {
             let off = m.offsets[o];
             let base = (o - centre) * plen;
             let up = &m.values[base + lo..base + hi];
@@ -282,30 +396,54 @@ fn apply_segments<const K: usize>(m: &StencilMass, x: &[f64], out: &mut [f64], m
     lanes_sum(&dot)
 }
 
-/// Couplings per node of a kernel of support `s`: `(2s − 1)²`.
-const fn width(s: usize) -> usize {
-    (2 * s - 1) * (2 * s - 1)
-}
-
-fn assemble_into<const S: usize>(s: &mut StencilMass, ops: &Operators, m: &[f64]) {
+fn assemble_into<const S: usize>(s: &mut StencilMass, ops: &Operators, m: &[f64], extended: bool) {
     let w = 2 * S - 1;
-    let k = w * w;
     let [sx, sy] = ops.strides();
     let span = ops.node_span();
     s.num_nodes = ops.num_nodes();
     s.shape = ops.shape_function();
+    s.strides = [sx, sy];
     s.start = span.start;
     s.len = span.len();
     let len = s.len;
-    s.offsets.clear();
+    // The square of the kernel's couplings, `dx` fastest, then where each lands in the
+    // ascending list of stored offsets.
+    let mut square = Vec::with_capacity(w * w);
     for dy in -(S as isize - 1)..S as isize {
         for dx in -(S as isize - 1)..S as isize {
-            s.offsets.push(dx * sx as isize + dy * sy as isize);
+            square.push(dx * sx as isize + dy * sy as isize);
         }
     }
+    s.offsets.clone_from(&square);
+    if extended && S < 3 {
+        s.offsets
+            .extend([-2 * sx as isize, 2 * sx as isize, -2 * sy as isize, 2 * sy as isize]);
+    }
+    s.offsets.sort_unstable();
+    s.offsets.dedup();
+    let k = s.offsets.len();
+    assert!(k <= 64, "at most 64 couplings per node");
+    let at: Vec<usize> = square
+        .iter()
+        .map(|o| s.offsets.binary_search(o).expect("every square offset is stored"))
+        .collect();
     s.pad = s.offsets.iter().map(|o| o.unsigned_abs()).max().unwrap_or(0);
     let plen = len + 2 * s.pad;
     let centre = k / 2;
+    // Where a square offset's value goes, relative to `pad + row`: its own slot past the
+    // list's centre, or the mirror slot of the node it couples to (when the node order makes
+    // the square's upper half differ from the list's).
+    let rel: Vec<isize> = square
+        .iter()
+        .zip(&at)
+        .map(|(&o, &i)| {
+            if i >= centre {
+                ((i - centre) * plen) as isize
+            } else {
+                ((k - 1 - i - centre) * plen) as isize + o
+            }
+        })
+        .collect();
     s.values.clear();
     s.values.resize((k - centre) * plen, 0.0);
     s.pattern.clear();
@@ -316,7 +454,7 @@ fn assemble_into<const S: usize>(s: &mut StencilMass, ops: &Operators, m: &[f64]
             let mut bits = 0u64;
             for d in 0..S {
                 for c in 0..S {
-                    bits |= 1 << ((d + S - 1 - b) * w + c + S - 1 - a);
+                    bits |= 1 << at[(d + S - 1 - b) * w + c + S - 1 - a];
                 }
             }
             bits
@@ -329,13 +467,14 @@ fn assemble_into<const S: usize>(s: &mut StencilMass, ops: &Operators, m: &[f64]
             for a in 0..S {
                 let row = st.first + a * sx + b * sy - s.start;
                 s.pattern[row] |= masks[b][a];
-                // The upper half: offsets o = (d − b + S − 1) w + (c − a + S − 1) ≥ centre.
+                // Each coupling once: the square offsets (d − b + S − 1) w + (c − a + S − 1)
+                // past the square's centre, stored where `rel` says.
                 for d in b..S {
                     let cy = mp * st.wy[b] * st.wy[d];
                     let base = (d + S - 1 - b) * w + S - 1 - a;
                     let c0 = if d == b { a } else { 0 };
                     for c in c0..S {
-                        s.values[(base + c - centre) * plen + s.pad + row] += cy * wxx[a][c];
+                        s.values[(rel[base + c] + (s.pad + row) as isize) as usize] += cy * wxx[a][c];
                     }
                 }
             }
