@@ -232,19 +232,12 @@ impl StencilMass {
         let centre = self.width() / 2;
         let k = self.width();
         // ψ on the span rows with couplings (0 elsewhere: such nodes are never in a triple).
+        let phi = self.relative_support(lumped);
         let mut psi = vec![0.0; len];
-        for &(lo, hi) in &self.segments {
-            for r in lo..hi {
-                let own = lumped[start + r];
-                let bits = self.pattern[r];
-                let heaviest = (0..k)
-                    .filter(|&o| bits >> o & 1 == 1)
-                    .map(|o| lumped[(start as isize + r as isize + self.offsets[o]) as usize])
-                    .fold(own, f64::max);
-                let phi = if heaviest > 0.0 { own / heaviest } else { 1.0 };
-                let delta = if own > 0.0 { self.values[pad + r] / own } else { 0.0 };
-                psi[r] = phi.min(delta / full);
-            }
+        for r in self.segments.iter().flat_map(|&(lo, hi)| lo..hi) {
+            let own = lumped[start + r];
+            let delta = if own > 0.0 { self.values[pad + r] / own } else { 0.0 };
+            psi[r] = phi[r].min(delta / full);
         }
         let [nx, ny] = nodes_per_axis;
         let [sx, sy] = self.strides;
@@ -288,6 +281,26 @@ impl StencilMass {
     /// Partial lumping of the nodes with little mass relative to their neighbours (the same
     /// matrix as [`super::stabilization::partially_lumped`]):
     ///
+    /// Per span row, the node's lumped mass relative to the heaviest node it is coupled to:
+    ///
+    /// ```text
+    /// φ_I = m_L,I / max_{J: M_IJ stored} m_L,J     (1 where no coupled node has mass, and off the segments)
+    /// ```
+    fn relative_support(&self, lumped: &[f64]) -> Vec<f64> {
+        let (k, start) = (self.width(), self.start);
+        let mut phi = vec![1.0; self.len];
+        for r in self.segments.iter().flat_map(|&(lo, hi)| lo..hi) {
+            let own = lumped[start + r];
+            let bits = self.pattern[r];
+            let heaviest = (0..k)
+                .filter(|&o| bits >> o & 1 == 1)
+                .map(|o| lumped[(start as isize + r as isize + self.offsets[o]) as usize])
+                .fold(own, f64::max);
+            phi[r] = if heaviest > 0.0 { own / heaviest } else { 1.0 };
+        }
+        phi
+    }
+
     /// ```text
     /// M'_IJ = s_IJ M_IJ  (I ≠ J),   M'_II = M_II + Σ_{J≠I} (1 − s_IJ) M_IJ,
     /// s_IJ = min(1, min(φ_I, φ_J)/θ),   φ_I = m_L,I / max_{J: M_IJ stored} m_L,J
@@ -302,19 +315,7 @@ impl StencilMass {
         let (start, len) = (self.start, self.len);
         let offsets = &self.offsets;
         let node = |r: usize, o: usize| (start as isize + r as isize + offsets[o]) as usize;
-        // φ on the rows with couplings (elsewhere it is never read).
-        let mut phi = vec![1.0; len];
-        for &(lo, hi) in &self.segments {
-            for r in lo..hi {
-                let own = lumped[start + r];
-                let bits = self.pattern[r];
-                let heaviest = (0..k)
-                    .filter(|&o| bits >> o & 1 == 1)
-                    .map(|o| lumped[node(r, o)])
-                    .fold(own, f64::max);
-                phi[r] = if heaviest > 0.0 { own / heaviest } else { 1.0 };
-            }
-        }
+        let phi = self.relative_support(lumped);
         // Each coupling once (upper half), its removed part onto both diagonals.
         let plen = len + 2 * self.pad;
         for r in self.segments.iter().flat_map(|&(lo, hi)| lo..hi) {
