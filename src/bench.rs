@@ -111,6 +111,8 @@ pub struct BenchRow {
     pub steps: usize,
     /// The time step of the first step (the fixed step, or the first Courant step).
     pub dt: f64,
+    /// The shortest and the longest timed step over every repetition.
+    pub dt_range: [f64; 2],
     /// Wall seconds of the timed steps of each repetition.
     pub seconds: Vec<f64>,
     /// Wall seconds of the first set-up (build and warm-up step).
@@ -174,6 +176,11 @@ pub const BENCH_COURANT: f64 = 0.9;
 /// about √3 times the lumped mass's with linear shape functions), [`BENCH_COURANT`] times the
 /// stable step.
 ///
+/// The peers' step is taken unchecked, as the peers take it, and the frozen-configuration
+/// stable step does not see every instability: with linear shape functions and the lumped
+/// mass (APIC, PIC or FLIP, USL) the random block inverts a particle after about 100 steps at
+/// 16,384 particles at the peers' step, and after 865 steps at half of it (docs/performance.md).
+///
 /// # Errors
 /// [`MpmError::InvalidParameter`] for fewer than 16 particles; the errors of
 /// [`Simulation::new`].
@@ -199,7 +206,7 @@ fn cells_per_side(n: usize) -> usize {
 }
 
 /// The peers' fixed step, `2·10⁻⁴ · 128 / n_grid`.
-fn peers_time_step(n: usize) -> f64 {
+pub fn peers_time_step(n: usize) -> f64 {
     2e-4 * 128.0 / cells_per_side(n) as f64
 }
 
@@ -298,6 +305,7 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
         let mut seconds = Vec::with_capacity(spec.reps);
         let mut setup_seconds = 0.0;
         let (mut n_grid, mut dt) = (0, 0.0);
+        let mut dt_range = [f64::INFINITY, 0.0f64];
         let mut profile = spec.profile.then(Profile::default);
         for rep in 0..spec.reps {
             let start = Instant::now();
@@ -311,7 +319,9 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
             sim.set_profiling(spec.profile);
             let start = Instant::now();
             for _ in 0..steps {
-                sim.step()?;
+                let report = sim.step()?;
+                dt_range[0] = dt_range[0].min(report.dt);
+                dt_range[1] = dt_range[1].max(report.dt);
             }
             seconds.push(start.elapsed().as_secs_f64());
             if let (Some(total), Some(p)) = (&mut profile, sim.profile()) {
@@ -324,6 +334,7 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
             n_grid,
             steps,
             dt,
+            dt_range,
             seconds,
             setup_seconds,
             peak_bytes_per_particle: match (peak, before) {

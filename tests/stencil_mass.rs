@@ -167,8 +167,9 @@ fn a_second_solve_starts_from_the_first_and_needs_fewer_iterations() {
             ..MassOptions::both(scheme)
         };
         let mass = GridMass::new(&ops, &m, &options, &Constraints::none()).unwrap();
-        let (u1, first) = mass.solve(Role::Velocity, &r, None, &ops).unwrap();
-        let (u2, second) = mass.solve(Role::Velocity, &r, None, &ops).unwrap();
+        let (mut u1, mut u2) = (VectorField::default(), VectorField::default());
+        let first = mass.solve_warm_into(Role::Velocity, &r, None, &ops, &mut u1).unwrap();
+        let second = mass.solve_warm_into(Role::Velocity, &r, None, &ops, &mut u2).unwrap();
         assert!(first.iterations > 10);
         assert!(
             second.iterations <= again && second.iterations * 5 < first.iterations,

@@ -593,6 +593,19 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     for row in &rows {
         let [_, med, _] = row.rate_summary();
         println!("N = {}: particle-steps/s: {med:.4e}", row.particles);
+        let rule = match spec.dt {
+            Some(_) => "the fixed --dt".to_string(),
+            None => format!(
+                "the peers' {:.4e} unchecked, or {} of the stable step where that is shorter",
+                sparse_mpm::bench::peers_time_step(row.particles),
+                sparse_mpm::bench::BENCH_COURANT
+            ),
+        };
+        let [shortest, longest] = row.dt_range;
+        println!(
+            "N = {}: timed steps {shortest:.4e} to {longest:.4e} ({rule})",
+            row.particles
+        );
         match row.peak_bytes_per_particle {
             Some(b) => println!("N = {}: peak bytes/particle: {b:.0}", row.particles),
             None => println!(

@@ -55,13 +55,16 @@ impl CgLayout for CscMatrix<f64> {
 }
 
 impl GridMass {
-    /// The conjugate gradient on each component (`cg.rs`) from the previous solution of the
-    /// same role and component (the lumped solution on nodes that were not free then): the
+    /// The conjugate gradient on each component (`cg.rs`) from the lumped solution, or with
+    /// `warm` from the previous warm solution of the same role and component (the lumped
+    /// solution on nodes that were not free then), which this one then replaces: the
     /// solution, the iterations and the largest relative residual; or the failing component,
     /// the iterations before it, and the reason.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn solve_cg(
         &self,
         role: Role,
+        warm_start: bool,
         rhs: &VectorField,
         tolerance: f64,
         max_iterations: usize,
@@ -79,7 +82,7 @@ impl GridMass {
         for (c, dofs) in self.dofs.iter().enumerate() {
             let (b, xc) = if c == 0 { (&rhs.x, &mut x.x) } else { (&rhs.y, &mut x.y) };
             let last = &mut warm[2 * (role as usize) + c];
-            if last.len() == self.lumped.len() {
+            if warm_start && last.len() == self.lumped.len() {
                 for &i in dofs.free.iter().filter(|&&i| last[i].is_finite()) {
                     xc[i] = last[i];
                 }
@@ -96,6 +99,9 @@ impl GridMass {
             let (its, residual) = solved.map_err(|reason| (c, iterations, reason))?;
             iterations += its;
             worst = worst.max(residual);
+            if !warm_start {
+                continue;
+            }
             last.clear();
             last.resize(self.lumped.len(), f64::NAN);
             for &i in &dofs.free {

@@ -34,6 +34,7 @@ mod matrices;
 mod options;
 mod series;
 mod solve;
+pub use solve::ESTIMATE_SOLVE_TOLERANCE;
 pub mod stabilization;
 mod stencil;
 

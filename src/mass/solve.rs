@@ -9,6 +9,30 @@ use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::operators::Operators;
 
+/// Where the conjugate gradient starts and what it leaves for the next solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Start {
+    /// From the lumped solution, leaving the warm-start vectors as they were: the same `r`
+    /// gives the same `u` whatever was solved before. The tolerance is the larger of the
+    /// scheme's and `tolerance_floor`.
+    Cold {
+        /// The loosest relative residual accepted (0 for the scheme's own).
+        tolerance_floor: f64,
+    },
+    /// From the last warm solve of the same role (the time loop's, whose right-hand sides change
+    /// little from one step to the next), and kept for the next one.
+    Warm,
+}
+
+/// The relative residual of the mass solves inside a frequency estimate
+/// ([`GridMass::solve_for_estimate`]).
+///
+/// Lanczos with an operator applied to a relative error `ε` gives Ritz values within about
+/// `ε λ_max` of the exact operator's, far inside the estimate's own tolerance
+/// ([`crate::stiffness::FREQUENCY_TOLERANCE`], 10⁻³) and its safety factor
+/// ([`crate::stiffness::TIME_STEP_SAFETY`], 0.98).
+pub const ESTIMATE_SOLVE_TOLERANCE: f64 = 1e-8;
+
 /// How a prepared scheme solves this step.
 enum Method {
     /// `M_L⁻¹` (the lumped scheme, a blend of weight 0, and a fallback to lumped).
@@ -47,7 +71,9 @@ impl GridMass {
     }
 
     /// [`GridMass::solve`] into `u` (resized to the node count). With the lumped scheme it
-    /// allocates nothing once `u` has one entry per node.
+    /// allocates nothing once `u` has one entry per node. The conjugate gradient starts from the
+    /// lumped solution, so the result depends on `r` alone, not on earlier solves (the time
+    /// loop's own solves start from the previous step's solution instead).
     ///
     /// # Errors
     /// As [`GridMass::solve`].
@@ -56,6 +82,57 @@ impl GridMass {
     /// As [`GridMass::solve`].
     pub fn solve_into(
         &self,
+        role: Role,
+        r: &VectorField,
+        prescribed: Option<&VectorField>,
+        ops: &Operators,
+        u: &mut VectorField,
+    ) -> Result<SolveReport> {
+        self.solve_from(Start::Cold { tolerance_floor: 0.0 }, role, r, prescribed, ops, u)
+    }
+
+    /// [`GridMass::solve_into`] warm-started, as the time loop solves: the conjugate gradient
+    /// starts from the last warm solution of the same role (per component; the lumped solution
+    /// on nodes that were not free then) and keeps this one for the next warm solve. Where the
+    /// right-hand side changes little between calls (one step to the next) this saves most
+    /// iterations; the result then depends on the earlier warm solves, to within the tolerance.
+    /// Schemes other than the iterative one solve as [`GridMass::solve_into`].
+    ///
+    /// # Errors
+    /// As [`GridMass::solve`].
+    ///
+    /// # Panics
+    /// As [`GridMass::solve`].
+    pub fn solve_warm_into(
+        &self,
+        role: Role,
+        r: &VectorField,
+        prescribed: Option<&VectorField>,
+        ops: &Operators,
+        u: &mut VectorField,
+    ) -> Result<SolveReport> {
+        self.solve_from(Start::Warm, role, r, prescribed, ops, u)
+    }
+
+    /// [`GridMass::solve_into`] inside a frequency estimate: a cold start at the relative residual
+    /// [`ESTIMATE_SOLVE_TOLERANCE`] (or the scheme's, if looser).
+    pub(crate) fn solve_for_estimate(
+        &self,
+        role: Role,
+        r: &VectorField,
+        ops: &Operators,
+        u: &mut VectorField,
+    ) -> Result<()> {
+        let start = Start::Cold {
+            tolerance_floor: ESTIMATE_SOLVE_TOLERANCE,
+        };
+        self.solve_from(start, role, r, None, ops, u).map(|_| ())
+    }
+
+    /// [`GridMass::solve_into`] from `start`.
+    fn solve_from(
+        &self,
+        start: Start,
         role: Role,
         r: &VectorField,
         prescribed: Option<&VectorField>,
@@ -95,7 +172,11 @@ impl GridMass {
             } => {
                 let rhs = self.coupled_rhs(scheme, 1.0, r, prescribed);
                 let norm_r = self.free_norm(r);
-                match self.solve_cg(role, &rhs, tolerance, max_iterations, norm_r) {
+                let tolerance = match start {
+                    Start::Cold { tolerance_floor } => tolerance.max(tolerance_floor),
+                    Start::Warm => tolerance,
+                };
+                match self.solve_cg(role, start == Start::Warm, &rhs, tolerance, max_iterations, norm_r) {
                     Ok((x, iterations, residual)) => {
                         self.write_solution(&x, prescribed, u);
                         Ok(report(iterations, residual, outcome))

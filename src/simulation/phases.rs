@@ -249,7 +249,7 @@ fn project_velocity(
     q: &VectorField,
     v: &mut VectorField,
 ) -> Result<SolveReport> {
-    let report = mass.solve_into(Role::Velocity, q, Some(&setup.prescribed_velocity), ops, v)?;
+    let report = mass.solve_warm_into(Role::Velocity, q, Some(&setup.prescribed_velocity), ops, v)?;
     setup.prescribed.apply_velocity(&mut v.x, &mut v.y);
     Ok(report)
 }
@@ -262,7 +262,7 @@ fn solve_acceleration(
     f: &VectorField,
     a: &mut VectorField,
 ) -> Result<SolveReport> {
-    let report = mass.solve_into(Role::Acceleration, f, None, ops, a)?;
+    let report = mass.solve_warm_into(Role::Acceleration, f, None, ops, a)?;
     prescribed.zero(&mut a.x, &mut a.y);
     Ok(report)
 }
