@@ -31,7 +31,8 @@ pub(super) struct Stability {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub(super) struct Basis {
     /// A hash of the active nodes ([`active_fingerprint`]); 0 with the lumped mass in both
-    /// solves, whose frequencies do not depend on it.
+    /// solves, whose frequencies do not depend on it, and with a mass that bounds every node's
+    /// inertia in both (`GridMass::bounding_mass`: the linear-extension penalty).
     pub(super) active: u64,
     /// Whether the velocity and the acceleration solves substituted another mass for their
     /// scheme's ([`GridMass::substitutes`]).
@@ -179,6 +180,12 @@ pub(super) fn measure_speeds(setup: &Setup, p: &Particles) -> Speeds {
 /// mass for its scheme's or stops doing so (the singularity policies), and, for every mass but
 /// the lumped one in both solves, a change of the active nodes (a node whose support starts or
 /// stops being read, where the consistent mass and the series meet their highest frequencies).
+/// The consistent and iterative schemes with the linear-extension penalty, which holds such a
+/// node by about a full node's mass, are not re-estimated on that change: on the benchmark's
+/// random block (linear, FLIP, 262,144 particles) it came at every step and halved the
+/// estimates' share of the step when left out, and the falling block of `tests/stable_step.rs`
+/// stays within +1.2% (linear) and +0.43% (quadratic) of its energy without it (+0.94% and
+/// +0.79% with it).
 pub(super) fn estimate_due(options: &Options, state: &State, mass: &GridMass) -> bool {
     match state.stability {
         None => true,
@@ -192,8 +199,12 @@ pub(super) fn estimate_due(options: &Options, state: &State, mass: &GridMass) ->
 /// The [`Basis`] of the grid mass as prepared now.
 pub(super) fn basis(options: &Options, mass: &GridMass) -> Basis {
     let lumped = options.mass.velocity == MassScheme::Lumped && options.mass.acceleration == MassScheme::Lumped;
+    // A mass that holds every node's inertia (the linear-extension penalty: a node whose
+    // support empties keeps about a full node's mass) has no frequency peak where the active
+    // set changes; its estimates follow the schedule alone.
+    let bounded = mass.bounding_mass(Role::Velocity).is_some() && mass.bounding_mass(Role::Acceleration).is_some();
     Basis {
-        active: if lumped {
+        active: if lumped || bounded {
             0
         } else {
             active_fingerprint(mass.is_active())
@@ -401,8 +412,8 @@ mod tests {
 
     /// The mass bound of `ω²_max` lies above the exact estimate, and close to it, on the
     /// benchmark's random block with the linear-extension penalty, at the start and after the
-    /// particles have moved; started from the mode the time loop keeps it is no lower than from
-    /// the cold start.
+    /// particles have moved; started from the mode the time loop keeps it is not lower than from
+    /// the cold start beyond the stopping tolerance.
     #[test]
     fn the_mass_bound_is_above_the_exact_frequency_and_close_to_it() {
         for shape in [ShapeFunction::Linear, ShapeFunction::QuadraticBSpline] {
@@ -438,10 +449,12 @@ mod tests {
                     "{}: bound {bound:e}, exact {exact:e}",
                     shape.name()
                 );
-                // LOBPCG rises to the top from below: the warm start may get further than the
-                // cold one (measured: 6% on the quadratic block after 15 steps), never less far.
+                // LOBPCG rises to the top from below and stops once five steps moved it by less
+                // than the tolerance: the warm start may get further than the cold one
+                // (measured: 6% on the quadratic block after 15 steps), and stop a little short
+                // of it (0.2% after 30 steps), within the safety factor's margin.
                 assert!(
-                    warm >= bound * (1.0 - 2.0 * crate::stiffness::FREQUENCY_TOLERANCE) && warm < 1.2 * exact,
+                    warm >= bound * (1.0 - 5.0 * crate::stiffness::FREQUENCY_TOLERANCE) && warm < 1.2 * exact,
                     "{}: warm {warm:e}, cold {bound:e}, exact {exact:e}",
                     shape.name()
                 );
