@@ -236,3 +236,36 @@ fn a_singular_node_is_named_by_the_direct_solve_of_a_large_mass_matrix() {
     let options = MassOptions::plain(MassScheme::Consistent);
     assert!(GridMass::new(&ops, &body.mass, &options, &Constraints::none()).is_ok());
 }
+
+/// The time loop's velocity solve starts from the last updated grid velocity, which is the next
+/// projection but for the particles' motion: for a body falling freely (uniform velocity, the
+/// penalty zero on it) the projection then needs no iteration, where a start from the last
+/// projection needed about 30 (the acceleration then needs none either).
+#[test]
+fn a_freely_falling_body_is_projected_from_its_updated_velocity_without_iterations() {
+    use sparse_mpm::bench::{falling_block, BenchSpec};
+    use sparse_mpm::simulation::{TimeStep, Transfer};
+    let spec = BenchSpec {
+        shape: ShapeFunction::Linear,
+        transfer: Transfer::Flip,
+        mass: MassScheme::Iterative {
+            tolerance: 1e-10,
+            max_iterations: 1000,
+        },
+        ..BenchSpec::default()
+    };
+    let mut sim = falling_block(4096, &spec, TimeStep::Cfl { number: 0.9 }, 100).unwrap();
+    // The first solves start from the lumped solution, exact for a uniform field.
+    sim.step().unwrap();
+    for _ in 0..5 {
+        let r = sim.step().unwrap();
+        assert_eq!(
+            (r.velocity_solve.iterations, r.acceleration_solve.iterations),
+            (0, 0),
+            "step {}: {:?} {:?}",
+            r.step,
+            r.velocity_solve,
+            r.acceleration_solve
+        );
+    }
+}

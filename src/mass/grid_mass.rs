@@ -381,6 +381,27 @@ impl GridMass {
             .clone()
     }
 
+    /// Makes `w` the start of the next warm velocity solve, on the active nodes (the lumped
+    /// solution elsewhere): the updated grid velocity of a step is the next step's projection
+    /// but for the particles' motion.
+    pub(crate) fn set_velocity_warm_start(&self, w: &crate::fields::VectorField) {
+        let mut guard = self.cg.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let state = &mut *guard;
+        if state.warm[0].is_empty() {
+            return;
+        }
+        for (c, values) in [&w.x, &w.y].into_iter().enumerate() {
+            let last = &mut state.warm[2 * (Role::Velocity as usize) + c];
+            last.clear();
+            last.extend(
+                values
+                    .iter()
+                    .zip(&self.is_active)
+                    .map(|(v, &a)| if a { *v } else { f64::NAN }),
+            );
+        }
+    }
+
     /// Sets the warm-start vectors of [`GridMass::warm_start`] (resuming from a checkpoint).
     pub(crate) fn set_warm_start(&mut self, warm: [Vec<f64>; 4]) {
         self.cg

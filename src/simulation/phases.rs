@@ -116,6 +116,9 @@ impl Simulation {
         timed(profile, Phase::GridVelocity, || {
             update_grid_velocity(prescribed, active, v, a, dt, &mut nodes.updated)
         }); // (8)
+            // The next projection is w but for the particles' motion (FLIP: N m (v_p + Nᵀ(w − v)) =
+            // M w at fixed operators; PIC and APIC alike): its conjugate gradient starts there.
+        mass.set_velocity_warm_start(&nodes.updated);
         timed(profile, Phase::Extend, || {
             extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension)
         }); // (8b)
