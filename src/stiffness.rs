@@ -317,11 +317,7 @@ pub fn mpm_max_frequency_squared(
 /// equality for `M_s = M`). The largest eigenvalue of the pencil `(K_FF, M_s,FF)` on the free
 /// degrees of freedom is found by [`lobpcg_max`] with products by `K` and `M_s` only,
 /// preconditioned by `d⁻¹`, `d` a diagonal close to that of `M_s`; `mass_times(c, x)` is
-/// `M_s x` for component `c`. With `warm`, the mode of an earlier estimate (the `2n` values
-/// this function returned then), the start is that mode on the current free degrees of freedom
-/// plus [`FREQUENCY_WARM_MIX`] times the cold start (in `B`-norm), so the iteration follows the
-/// top mode as the particles move and can still reach a new one elsewhere. Returns the
-/// estimate and the mode it found. Measured on the benchmark's random block (linear shape functions,
+/// `M_s x` for component `c`. Measured on the benchmark's random block (linear shape functions,
 /// 65,536 particles): 6% above the exact value with the linear-extension penalty
 /// (`GridMass::bounding_mass` says where the time loop uses it).
 ///
@@ -334,8 +330,7 @@ pub fn mpm_mass_bound_frequency_squared(
     free: &[bool],
     mut mass_times: impl FnMut(usize, &[f64]) -> Vec<f64>,
     diagonal: &[f64],
-    warm: Option<&[f64]>,
-) -> (FrequencyEstimate, Vec<f64>) {
+) -> FrequencyEstimate {
     let n = ops.num_nodes();
     assert_eq!(free.len(), 2 * n, "one flag per degree of freedom");
     assert_eq!(diagonal.len(), n, "one diagonal entry per node");
@@ -375,33 +370,13 @@ pub fn mpm_mass_bound_frequency_squared(
         .enumerate()
         .filter(|(d, _)| parity[d % n])
         .for_each(|(_, v)| *v = -*v);
-    let mut b = b;
-    if let Some(mode) = warm.filter(|m| m.len() == 2 * n && m.iter().all(|v| v.is_finite())) {
-        let mode = on_free(mode.to_vec(), free);
-        let norm = |v: &[f64], bv: &[f64]| v.iter().zip(bv).map(|(a, b)| a * b).sum::<f64>().max(0.0).sqrt();
-        let (warm_norm, cold_norm) = (norm(&mode, &b(&mode)), norm(&start, &b(&start)));
-        if warm_norm > 0.0 && warm_norm.is_finite() && cold_norm > 0.0 {
-            for (s, m) in start.iter_mut().zip(&mode) {
-                *s = m / warm_norm + FREQUENCY_WARM_MIX * *s / cold_norm;
-            }
-        }
-    }
     let result = lobpcg_max(&start, FREQUENCY_MAX_STEPS, FREQUENCY_TOLERANCE, k, b, precondition);
-    let (omega_squared, lanczos_steps, mode) =
-        result.map_or((0.0, 0, Vec::new()), |(top, steps, x)| (top.max(0.0), steps, x));
-    let estimate = FrequencyEstimate {
+    let (omega_squared, lanczos_steps) = result.map_or((0.0, 0), |(top, steps)| (top.max(0.0), steps));
+    FrequencyEstimate {
         omega_squared,
         lanczos_steps,
-    };
-    (estimate, mode)
+    }
 }
-
-/// The weight of the cold start beside the earlier mode in a warm-started
-/// [`mpm_mass_bound_frequency_squared`] (both at unit `M_s`-norm). Measured on the benchmark's
-/// random block (linear, FLIP, 65,536 particles, an estimate at every step): 46–54 LOBPCG steps
-/// from the cold start, 5–6 from the earlier mode alone, 10–11 with this mix, all three within
-/// 0.1% of each other and the warm ones at or above the cold.
-pub const FREQUENCY_WARM_MIX: f64 = 0.1;
 
 /// The stable step of the explicit MPM update:
 ///

@@ -120,7 +120,6 @@ impl State {
             strain_energy: 0.0,
             speeds: Speeds::default(),
             stability: None,
-            frequency_mode: Vec::new(),
         }
     }
 }
@@ -155,14 +154,6 @@ fn check_saved(saved: &Resume, num_nodes: usize, num_bodies: usize) -> Result<()
         .iter()
         .map(|w| ("warm start", w.len()))
         .filter(|&(_, len)| len != 0);
-    let mode = saved.state.frequency_mode.len();
-    if mode != 0 && mode != 2 * num_nodes {
-        return Err(MpmError::InvalidParameter {
-            name: "frequency mode",
-            value: mode as f64,
-            reason: "values for a grid of another node count",
-        });
-    }
     for (name, len) in fields.into_iter().chain(warm) {
         if len != num_nodes {
             return Err(MpmError::InvalidParameter {

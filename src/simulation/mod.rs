@@ -110,9 +110,6 @@ struct State {
     speeds: Speeds,
     /// The last stable-step estimate.
     stability: Option<Stability>,
-    /// The top mode found by the last mass-bound estimate (`2n`: x then y; empty when none),
-    /// the start of the next ([`crate::stiffness::mpm_mass_bound_frequency_squared`]).
-    frequency_mode: Vec<f64>,
 }
 
 /// What the current particle configuration makes: rebuilt every step, kept for its buffers

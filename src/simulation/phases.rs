@@ -59,13 +59,10 @@ impl Simulation {
             mass.prepare(ops, &p.mass, &options.mass, constraints)
         })?;
         if stability::estimate_due(options, state, &cache.mass) {
-            let (estimate, mode) = timed(profile, Phase::StableStep, || {
+            let estimate = timed(profile, Phase::StableStep, || {
                 stability::estimate(setup, options, state, cache)
             })?;
             state.stability = Some(estimate);
-            if let Some(mode) = mode {
-                state.frequency_mode = mode;
-            }
         }
         Ok(())
     }

@@ -18,9 +18,8 @@
 //! follow), each body's reference density, time, steps completed, the failure of an earlier step
 //! if any, the cumulative transfer loss, the strain energy, the particle and wave speeds the
 //! time loop keeps (the stable step of the next step reads them), the last frequency estimate
-//! and the step it was made at, the top mode of the last mass-bound estimate (the next estimate
-//! starts from it), the conjugate gradient's warm-start vectors (the next solves start from
-//! them), and the lumped grid mass and updated grid velocity of the last step (what
+//! and the step it was made at, the conjugate gradient's warm-start vectors (the next solves
+//! start from them), and the lumped grid mass and updated grid velocity of the last step (what
 //! [`Simulation::lumped_mass`] and [`Simulation::grid_velocity`] show).
 //!
 //! What is left out is rebuilt on reading, by the same functions that built it, and so to the
@@ -56,7 +55,7 @@ use crate::particles::Particles;
 
 /// The version of the checkpoint file format this build writes and reads. Files of another
 /// version are refused.
-pub const CHECKPOINT_FORMAT_VERSION: u32 = 4;
+pub const CHECKPOINT_FORMAT_VERSION: u32 = 3;
 
 /// The first bytes of every checkpoint file: the format name.
 const MAGIC: &[u8] = b"sparse-mpm checkpoint\n";
@@ -264,8 +263,6 @@ struct Payload<'a> {
     /// `[max_p |v_p|, max_p √(C11 V / m)]` as the time loop kept them.
     speeds: [f64; 2],
     stability: Option<StabilityRecord>,
-    /// The top mode of the last mass-bound estimate (the start of the next; empty when none).
-    frequency_mode: Cow<'a, [f64]>,
     /// The conjugate gradient's warm-start vectors, per (role, component).
     cg_warm_start: [Vec<f64>; 4],
     /// `m_L` of the last step.
@@ -297,7 +294,6 @@ impl<'a> Payload<'a> {
             strain_energy,
             speeds,
             stability,
-            frequency_mode,
         } = state;
         Payload {
             grid: GridRecord::of(&setup.grid),
@@ -314,7 +310,6 @@ impl<'a> Payload<'a> {
             strain_energy: *strain_energy,
             speeds: [speeds.particle, speeds.wave],
             stability: stability.map(|s| StabilityRecord::of(&s)),
-            frequency_mode: Cow::Borrowed(frequency_mode),
             cg_warm_start: cache.mass.warm_start(),
             lumped_mass: Cow::Borrowed(cache.mass.lumped()),
             grid_velocity: [
@@ -340,7 +335,6 @@ impl<'a> Payload<'a> {
             strain_energy,
             speeds,
             stability,
-            frequency_mode,
             cg_warm_start,
             lumped_mass,
             grid_velocity: [updated_x, updated_y],
@@ -376,7 +370,6 @@ impl<'a> Payload<'a> {
                     wave: speeds[1],
                 },
                 stability,
-                frequency_mode: frequency_mode.into_owned(),
             },
             lumped: lumped_mass.into_owned(),
             updated: VectorField {
