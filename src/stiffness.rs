@@ -227,7 +227,8 @@ pub type MassInverse<'a> = dyn FnMut(&VectorField) -> Result<VectorField> + 'a;
 pub struct FrequencyEstimate {
     /// `ω²_max` (0 when there is no stiffness).
     pub omega_squared: f64,
-    /// Lanczos steps taken (summed over the two runs of a mixed pair).
+    /// Lanczos steps taken (summed over the two runs of a mixed pair), or LOBPCG steps for
+    /// [`mpm_mass_bound_frequency_squared`].
     pub lanczos_steps: usize,
 }
 

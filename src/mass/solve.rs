@@ -25,7 +25,7 @@ pub(crate) enum Start {
 }
 
 /// The relative residual of the mass solves inside a frequency estimate
-/// ([`GridMass::solve_for_estimate`]).
+/// (`GridMass::solve_for_estimate`).
 ///
 /// Lanczos with an operator applied to a relative error `ε` gives Ritz values within about
 /// `ε λ_max` of the exact operator's, far inside the estimate's own tolerance
