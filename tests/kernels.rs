@@ -277,3 +277,50 @@ fn the_velocity_gradient_kernel_equals_the_single_products() {
         }
     }
 }
+
+/// p2g's `Σ_I x_I × q_I` equals the sum over the node positions of `Grid::node_position`, for
+/// both node orders (the kernel forms the coordinates as it walks the nodes).
+#[test]
+fn p2g_angular_momentum_equals_the_sum_over_node_positions_in_both_node_orders() {
+    for order in [
+        sparse_mpm::grid::NodeOrder::XFastest,
+        sparse_mpm::grid::NodeOrder::YFastest,
+    ] {
+        for shape in SHAPES {
+            let (grid, _, p) = setup(shape, 29);
+            let grid = grid.with_node_order(order);
+            let ops = Operators::assemble(&grid, shape, &p).unwrap();
+            let mut state = GridState::new(&grid);
+            let mut lumped = vec![0.0; grid.num_nodes()];
+            let workers = Workers::default();
+            kernels::p2g(
+                &ops,
+                &p,
+                None,
+                [0.0, 0.0],
+                Stress::Include,
+                &mut lumped,
+                &mut state,
+                &workers,
+            );
+            let expected: f64 = (0..grid.num_nodes())
+                .map(|i| {
+                    let [x, y] = grid.node_position(i);
+                    x * state.momentum.y[i] - y * state.momentum.x[i]
+                })
+                .sum();
+            let scale: f64 = (0..grid.num_nodes())
+                .map(|i| {
+                    let [x, y] = grid.node_position(i);
+                    (x * state.momentum.y[i]).abs() + (y * state.momentum.x[i]).abs()
+                })
+                .sum();
+            assert!(
+                (state.angular_momentum - expected).abs() <= ROUND_OFF * scale,
+                "{order:?} {}: {} against {expected}",
+                shape.name(),
+                state.angular_momentum
+            );
+        }
+    }
+}

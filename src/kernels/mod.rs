@@ -60,10 +60,9 @@ pub struct GridState {
     pub updated: VectorField,
     /// XPIC's or FMPM's series velocity `v*`.
     pub series: VectorField,
-    /// Node coordinates.
-    pub node_x: Vec<f64>,
-    /// Node coordinates.
-    pub node_y: Vec<f64>,
+    /// The grid's origin and cell size: node coordinates are formed from them where needed,
+    /// not stored ([`Grid::node_position`]).
+    frame: ([f64; 2], [f64; 2]),
     /// `Σ_I x_I × q_I` of the last [`p2g`].
     pub angular_momentum: f64,
     /// Nodes outside this range hold zero mass, momentum and force ([`Operators::node_span`]
@@ -86,8 +85,7 @@ impl GridState {
             acceleration: zero.clone(),
             updated: zero.clone(),
             series: zero,
-            node_x: grid.node_x(),
-            node_y: grid.node_y(),
+            frame: (grid.origin(), grid.cell_size()),
             angular_momentum: 0.0,
             span: 0..n,
             // Reserved for the whole grid (address space only: pages are touched as the span

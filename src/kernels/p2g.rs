@@ -52,6 +52,10 @@ pub fn p2g(
     });
     let [gx, gy] = gravity;
     let mut angular = 0.0;
+    let (line_len, ([ox, oy], [hx, hy])) = (ops.line_length(), grid.frame);
+    let runs_along_x = ops.strides()[0] == 1;
+    // Node i's index along its line and its line, counted up with i.
+    let (mut along, mut across) = (span.start % line_len.max(1), span.start / line_len.max(1));
     for i in span.clone() {
         let r = acc[i - base];
         lumped[i] = r[0];
@@ -59,7 +63,14 @@ pub fn p2g(
         grid.momentum.y[i] = r[2];
         grid.force.x[i] = r[3] + r[0] * gx;
         grid.force.y[i] = r[4] + r[0] * gy;
-        angular += grid.node_x[i] * r[2] - grid.node_y[i] * r[1];
+        // Grid::node_position of node i, formed as it forms it.
+        let (ix, iy) = if runs_along_x { (along, across) } else { (across, along) };
+        let (xi, yi) = (ox + ix as f64 * hx, oy + iy as f64 * hy);
+        angular += xi * r[2] - yi * r[1];
+        along += 1;
+        if along == line_len {
+            (along, across) = (0, across + 1);
+        }
     }
     grid.angular_momentum = angular;
     grid.span = span;
