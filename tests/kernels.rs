@@ -324,3 +324,64 @@ fn p2g_angular_momentum_equals_the_sum_over_node_positions_in_both_node_orders()
         }
     }
 }
+
+/// (8b) with one work array reused over several configurations equals the mean of the
+/// touching particles' interpolated velocities, written here from the operators' columns.
+#[test]
+fn the_massless_node_extension_with_reused_work_arrays_equals_the_mean_of_its_particles() {
+    let mut scratch = kernels::ExtensionScratch::default();
+    for (s, shape) in SHAPES.into_iter().enumerate() {
+        for seed in [3u64, 8] {
+            let (grid, ops, p) = setup(shape, seed + s as u64);
+            let n = grid.num_nodes();
+            let m_l = lumped_mass(&ops, &p.mass);
+            let max = m_l.iter().cloned().fold(0.0, f64::max);
+            // Light nodes count as inactive, so that many supports hold some.
+            let is_active: Vec<bool> = m_l.iter().map(|&m| m > 0.2 * max).collect();
+            let v0 = random_grid(&grid, seed).projected;
+            let (mut sum, mut count) = (vec![[0.0; 2]; n], vec![0usize; n]);
+            for k in 0..p.len() {
+                let column: Vec<_> = ops.column(k).collect();
+                let vp = column.iter().fold([0.0, 0.0], |[x, y], &(i, nv, _, _)| {
+                    [x + nv * v0.x[i], y + nv * v0.y[i]]
+                });
+                for &(i, ..) in column.iter().filter(|&&(i, ..)| !is_active[i]) {
+                    sum[i] = [sum[i][0] + vp[0], sum[i][1] + vp[1]];
+                    count[i] += 1;
+                }
+            }
+            let mut v = v0.clone();
+            assert!(kernels::extend_to_inactive_nodes(
+                &ops,
+                &is_active,
+                &mut v,
+                &mut scratch
+            ));
+            let expected = VectorField {
+                x: (0..n)
+                    .map(|i| {
+                        if count[i] > 0 {
+                            sum[i][0] / count[i] as f64
+                        } else {
+                            v0.x[i]
+                        }
+                    })
+                    .collect(),
+                y: (0..n)
+                    .map(|i| {
+                        if count[i] > 0 {
+                            sum[i][1] / count[i] as f64
+                        } else {
+                            v0.y[i]
+                        }
+                    })
+                    .collect(),
+            };
+            close_field(
+                &v,
+                &expected,
+                &format!("{} seed {seed}: extended velocity", shape.name()),
+            );
+        }
+    }
+}
