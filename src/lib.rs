@@ -116,6 +116,7 @@ pub mod grid;
 pub mod homework;
 pub mod io;
 pub mod kernels;
+mod lanes;
 pub mod limits;
 pub mod mass;
 pub mod material;

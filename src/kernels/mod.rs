@@ -16,6 +16,7 @@
 //! | [`g2p`] | (9)–(11): new particle velocities, APIC moments, position increments, `L` |
 //! | [`extend_to_inactive_nodes`] | (8b): massless support nodes take their particles' mean velocity |
 
+mod columns;
 mod extend;
 mod g2p;
 mod p2g;

@@ -1,8 +1,12 @@
 //! (2)–(5) and MUSL's re-projection: the particle-to-grid passes, into interleaved per-node
 //! accumulators over bands of grid lines (one band per worker, see [`crate::parallel`]).
 
+use super::columns::Columns;
 use super::simd::dispatch;
-use super::{apic_affine, Affine, ApicInertia, GridState, Stress};
+use super::{apic_affine, ApicInertia, GridState, Stress};
+use crate::lanes::Real;
+#[cfg(target_arch = "x86_64")]
+use crate::lanes::F64x4;
 use crate::fields::VectorField;
 use crate::operators::{Operators, Stencil};
 use crate::parallel::Workers;
@@ -111,62 +115,12 @@ dispatch! {
     ) -> ()
 }
 
-/// One particle's terms of (2)–(5) that do not depend on the node.
-#[derive(Clone, Copy)]
-struct Sources {
-    m: f64,
-    mv: [f64; 2],
-    mb: [f64; 2],
-    /// `V σ` as `[xx, yy, xy]` (zero when the stress is omitted).
-    vs: [f64; 3],
-    /// APIC's `C_p` (zero without APIC).
-    c: [f64; 4],
-}
-
-#[inline(always)]
-fn sources(ops: &Operators, p: &Particles, apic: Option<ApicInertia>, internal: f64, k: usize) -> Sources {
-    let m = p.mass[k];
-    let v = internal * p.volume[k];
-    Sources {
-        m,
-        mv: [m * p.vx[k], m * p.vy[k]],
-        mb: [m * p.bx[k], m * p.by[k]],
-        vs: [v * p.sxx[k], v * p.syy[k], v * p.sxy[k]],
-        c: apic.map_or([0.0; 4], |kind| apic_affine(p, k, ops, kind).c),
-    }
-}
-
 /// The body of [`p2g_columns`]: every particle whose stencil reaches the band, in order, its
-/// terms added to the nodes of the band ([`scatter_one`], or its AVX2 form).
+/// terms added to the nodes of the band; in the AVX2 build four particles at a time where all
+/// four stencils lie in the band ([`F64x4`]), one at a time otherwise. Every node receives its
+/// terms in particle order either way.
 #[inline(always)]
 fn p2g_columns_body<const S: usize, const AVX2: bool>(
-    ops: &Operators,
-    p: &Particles,
-    apic: Option<ApicInertia>,
-    internal: f64,
-    acc: &mut [[f64; 5]],
-    base: usize,
-    lines: std::ops::Range<usize>,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
-        // SAFETY: the AVX2 instance runs only where the CPU has AVX2 (`dispatch!`).
-        unsafe { p2g_four_lanes::<S>(ops, p, apic, internal, acc, base, lines) };
-        return;
-    }
-    in_band::<S>(ops, p.len(), &lines, |k, rows| {
-        let q = sources(ops, p, apic, internal, k);
-        scatter_one::<S>(ops, p, &q, k, acc, base, rows)
-    });
-}
-
-/// [`p2g_columns_body`]'s particle walk in the AVX2 build: four particles at a time where all
-/// four stencils lie in the band ([`scatter_four`]), one at a time otherwise
-/// ([`scatter_one_avx2`]); every node still receives its terms in particle order.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn p2g_four_lanes<const S: usize>(
     ops: &Operators,
     p: &Particles,
     apic: Option<ApicInertia>,
@@ -182,210 +136,203 @@ fn p2g_four_lanes<const S: usize>(
     };
     let mut k = 0;
     while k < np {
-        if k + 4 <= np && inside(k) && inside(k + 1) && inside(k + 2) && inside(k + 3) {
-            scatter_four::<S>(ops, p, apic, internal, k, acc, base);
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 && k + 4 <= np && inside(k) && inside(k + 1) && inside(k + 2) && inside(k + 3) {
+            debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
+            let cols = Columns::<F64x4, S>::load(ops, &p.x, &p.y, k);
+            let terms = node_terms(&cols, p, apic, internal, k);
+            F64x4::scatter(&terms, &cols, acc, base, 0..S);
             k += 4;
             continue;
         }
         let l0 = ops.first_line(k);
         if l0 + S > lines.start && l0 < lines.end {
             let rows = lines.start.saturating_sub(l0)..(lines.end - l0).min(S);
-            let q = sources(ops, p, apic, internal, k);
-            scatter_one_avx2::<S>(ops, p, &q, k, acc, base, rows);
+            let cols = Columns::<f64, S>::load(ops, &p.x, &p.y, k);
+            let terms = node_terms(&cols, p, apic, internal, k);
+            f64::scatter(&terms, &cols, acc, base, rows);
         }
         k += 1;
     }
 }
 
-/// The terms of particles `k … k + 3`, one per lane, formed with [`scatter_one`]'s operations
-/// in its order, then added to each node lane after lane (particle order): the same bits as
-/// four calls of [`scatter_one`].
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-#[allow(clippy::too_many_arguments)]
-fn scatter_four<const S: usize>(
-    ops: &Operators,
+/// APIC's `C_p` of the particles of `cols` (as [`super::apic_affine`] forms it), or zero
+/// without APIC.
+#[inline(always)]
+pub(super) fn affine_velocity<R: Real, const S: usize>(
+    cols: &Columns<R, S>,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    k: usize,
+) -> [R; 4] {
+    let [dxx, dyy] = match apic {
+        None => return [R::splat(0.0); 4],
+        Some(ApicInertia::StoredC) => [R::splat(1.0); 2],
+        Some(ApicInertia::Constant([dxx, dyy])) => [R::splat(dxx), R::splat(dyy)],
+        Some(ApicInertia::Column) => column_inertia(cols),
+    };
+    let b = [
+        R::load(&p.affine_xx, k),
+        R::load(&p.affine_xy, k),
+        R::load(&p.affine_yx, k),
+        R::load(&p.affine_yy, k),
+    ];
+    if apic == Some(ApicInertia::StoredC) {
+        return b;
+    }
+    [b[0] / dxx, b[1] / dyy, b[2] / dxx, b[3] / dyy]
+}
+
+/// `D_p = diag(Σ_I N_I dx², Σ_I N_I dy²)` over the particles' columns (GIMP), as
+/// [`super::column_inertia`].
+#[inline(always)]
+fn column_inertia<R: Real, const S: usize>(cols: &Columns<R, S>) -> [R; 2] {
+    let (mut dxx, mut dyy) = (R::splat(0.0), R::splat(0.0));
+    for b in 0..S {
+        for a in 0..S {
+            let n = cols.n(b, a);
+            let (dx, dy) = cols.offset(b, a);
+            dxx = dxx + n * dx * dx;
+            dyy = dyy + n * dy * dy;
+        }
+    }
+    [dxx, dyy]
+}
+
+/// The terms of (2)–(5) of the particles of `cols` at each stencil position (`b S + a`),
+/// `[m, q_x, q_y, f_x, f_y]`:
+///
+/// ```text
+/// n m,   n m v + m n C (x_I − x_p),   n m b − [Gx V σxx + Gy V σxy; Gx V σxy + Gy V σyy]
+/// ```
+#[inline(always)]
+fn node_terms<R: Real, const S: usize>(
+    cols: &Columns<R, S>,
     p: &Particles,
     apic: Option<ApicInertia>,
     internal: f64,
     k: usize,
-    acc: &mut [[f64; 5]],
-    base: usize,
-) {
-    use super::simd::four::{four, lanes, load, transpose};
-    use std::arch::x86_64::*;
-    let f = four::<S>(ops, &p.x, &p.y, k);
-    let m = load(&p.mass, k);
-    let (mvx, mvy) = (_mm256_mul_pd(m, load(&p.vx, k)), _mm256_mul_pd(m, load(&p.vy, k)));
-    let (mbx, mby) = (_mm256_mul_pd(m, load(&p.bx, k)), _mm256_mul_pd(m, load(&p.by, k)));
-    let v = _mm256_mul_pd(_mm256_set1_pd(internal), load(&p.volume, k));
-    let (vsxx, vsyy, vsxy) = (
-        _mm256_mul_pd(v, load(&p.sxx, k)),
-        _mm256_mul_pd(v, load(&p.syy, k)),
-        _mm256_mul_pd(v, load(&p.sxy, k)),
-    );
-    // C_p as apic_affine forms it.
-    let c: [__m256d; 4] = match apic {
-        None => [_mm256_setzero_pd(); 4],
-        Some(ApicInertia::StoredC) => [
-            load(&p.affine_xx, k),
-            load(&p.affine_xy, k),
-            load(&p.affine_yx, k),
-            load(&p.affine_yy, k),
-        ],
-        Some(ApicInertia::Constant([dxx, dyy])) => {
-            let (dxx, dyy) = (_mm256_set1_pd(dxx), _mm256_set1_pd(dyy));
-            [
-                _mm256_div_pd(load(&p.affine_xx, k), dxx),
-                _mm256_div_pd(load(&p.affine_xy, k), dyy),
-                _mm256_div_pd(load(&p.affine_yx, k), dxx),
-                _mm256_div_pd(load(&p.affine_yy, k), dyy),
-            ]
-        }
-        Some(kind @ ApicInertia::Column) => {
-            let cs: [[f64; 4]; 4] = std::array::from_fn(|l| apic_affine(p, k + l, ops, kind).c);
-            std::array::from_fn(|i| _mm256_setr_pd(cs[0][i], cs[1][i], cs[2][i], cs[3][i]))
-        }
-    };
-    // Every lane's terms first, then lane after lane into the grid: lanes whose stencils
-    // overlap at different stencil positions still reach a shared node in particle order.
-    let mut terms = [[_mm256_setzero_pd(); 4]; 16];
-    let mut fy = [[0.0; 4]; 16];
+) -> [[R; 5]; 16] {
+    let m = R::load(&p.mass, k);
+    let mv = [m * R::load(&p.vx, k), m * R::load(&p.vy, k)];
+    let mb = [m * R::load(&p.bx, k), m * R::load(&p.by, k)];
+    let v = R::splat(internal) * R::load(&p.volume, k);
+    let vs = [v * R::load(&p.sxx, k), v * R::load(&p.syy, k), v * R::load(&p.sxy, k)];
+    let c = affine_velocity(cols, p, apic, k);
+    let mut terms = [[R::splat(0.0); 5]; 16];
     for b in 0..S {
         for a in 0..S {
-            let (xi, yi) = if f.runs_along_x { (a, b) } else { (b, a) };
-            let n = _mm256_mul_pd(f.wx[xi], f.wy[yi]);
-            let gx = _mm256_mul_pd(f.dwx[xi], f.wy[yi]);
-            let gy = _mm256_mul_pd(f.wx[xi], f.dwy[yi]);
-            let (ddx, ddy) = (f.dx[xi], f.dy[yi]);
+            let (n, gx, gy) = cols.values(b, a);
+            let (dx, dy) = cols.offset(b, a);
             // Affine::velocity: n (C (x_I − x_p)).
-            let ax = _mm256_mul_pd(n, _mm256_add_pd(_mm256_mul_pd(c[0], ddx), _mm256_mul_pd(c[1], ddy)));
-            let ay = _mm256_mul_pd(n, _mm256_add_pd(_mm256_mul_pd(c[2], ddx), _mm256_mul_pd(c[3], ddy)));
-            let t0 = _mm256_mul_pd(n, m);
-            let t1 = _mm256_add_pd(_mm256_mul_pd(n, mvx), _mm256_mul_pd(m, ax));
-            let t2 = _mm256_add_pd(_mm256_mul_pd(n, mvy), _mm256_mul_pd(m, ay));
-            let t3 = _mm256_sub_pd(
-                _mm256_mul_pd(n, mbx),
-                _mm256_add_pd(_mm256_mul_pd(gx, vsxx), _mm256_mul_pd(gy, vsxy)),
-            );
-            let t4 = _mm256_sub_pd(
-                _mm256_mul_pd(n, mby),
-                _mm256_add_pd(_mm256_mul_pd(gx, vsxy), _mm256_mul_pd(gy, vsyy)),
-            );
-            // Lane l's [m, q_x, q_y, f_x] terms, and its f_y term.
-            terms[b * S + a] = transpose([t0, t1, t2, t3]);
-            fy[b * S + a] = lanes(t4);
+            let ax = n * (c[0] * dx + c[1] * dy);
+            let ay = n * (c[2] * dx + c[3] * dy);
+            terms[b * S + a] = [
+                n * m,
+                n * mv[0] + m * ax,
+                n * mv[1] + m * ay,
+                n * mb[0] - (gx * vs[0] + gy * vs[2]),
+                n * mb[1] - (gx * vs[2] + gy * vs[1]),
+            ];
         }
     }
-    for l in 0..4 {
-        for b in 0..S {
-            let start = f.first[l] + b * f.run_stride - base;
+    terms
+}
+
+/// Adding a group's terms to the grid.
+trait Scatter: Real {
+    /// Adds each lane's terms (`terms[b S + a]`, from [`node_terms`]) to the nodes of its
+    /// stencil's runs `rows`, lane after lane (particle order).
+    fn scatter<const S: usize>(
+        terms: &[[Self; 5]; 16],
+        cols: &Columns<Self, S>,
+        acc: &mut [[f64; 5]],
+        base: usize,
+        rows: std::ops::Range<usize>,
+    );
+}
+
+impl Scatter for f64 {
+    #[inline(always)]
+    fn scatter<const S: usize>(
+        terms: &[[f64; 5]; 16],
+        cols: &Columns<f64, S>,
+        acc: &mut [[f64; 5]],
+        base: usize,
+        rows: std::ops::Range<usize>,
+    ) {
+        for b in rows {
+            let start = cols.run_start(0, b) - base;
             let r = &mut acc[start..start + S];
             for a in 0..S {
-                let r = &mut r[a];
-                // SAFETY: a node's accumulator holds 5 values; the load and store take the first 4.
-                unsafe {
-                    let sum = _mm256_add_pd(_mm256_loadu_pd(r.as_ptr()), terms[b * S + a][l]);
-                    _mm256_storeu_pd(r.as_mut_ptr(), sum);
+                let t = &terms[b * S + a];
+                for c in 0..5 {
+                    r[a][c] += t[c];
                 }
-                r[4] += fy[b * S + a][l];
             }
         }
     }
 }
 
-/// Particle `k`'s terms of (2)–(5), `q` its node-independent factors, added to the nodes of
-/// its stencil rows `rows`.
-#[inline(always)]
-fn scatter_one<const S: usize>(
-    ops: &Operators,
-    p: &Particles,
-    q: &Sources,
-    k: usize,
-    acc: &mut [[f64; 5]],
-    base: usize,
-    rows: std::ops::Range<usize>,
-) {
-    let affine = Affine { c: q.c };
-    let st = ops.stencil::<S>(k);
-    let offsets = st.offsets(p.x[k], p.y[k]);
-    for b in rows {
-        let (start, n, gx, gy) = st.row(b);
-        let (dx, dy) = st.run_offsets(&offsets, b);
-        let r = &mut acc[start - base..start - base + S];
-        for a in 0..S {
-            let [ax, ay] = affine.velocity(dx[a], dy[a], n[a]);
-            let r = &mut r[a];
-            r[0] += n[a] * q.m;
-            r[1] += n[a] * q.mv[0] + q.m * ax;
-            r[2] += n[a] * q.mv[1] + q.m * ay;
-            r[3] += n[a] * q.mb[0] - (gx[a] * q.vs[0] + gy[a] * q.vs[2]);
-            r[4] += n[a] * q.mb[1] - (gx[a] * q.vs[2] + gy[a] * q.vs[1]);
-        }
-    }
-}
-
-/// [`scatter_one`] with a node's `[m, q_x, q_y, f_x]` in one 4-wide vector (`f_y` beside it):
-/// the same products and sums, lane by lane, in the same order (so the same bits; see
-/// [`super::simd`]).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-fn scatter_one_avx2<const S: usize>(
-    ops: &Operators,
-    p: &Particles,
-    q: &Sources,
-    k: usize,
-    acc: &mut [[f64; 5]],
-    base: usize,
-    rows: std::ops::Range<usize>,
-) {
-    use std::arch::x86_64::*;
-    let st = ops.stencil::<S>(k);
-    let offsets = st.offsets(p.x[k], p.y[k]);
-    let sources = _mm256_setr_pd(q.m, q.mv[0], q.mv[1], q.mb[0]);
-    let mass = _mm256_set1_pd(q.m);
-    // Lanes 1 and 2: Affine::velocity's C rows; lane 3: the stress of f_x.
-    let (c_dx, c_dy) = (
-        _mm256_setr_pd(0.0, q.c[0], q.c[2], 0.0),
-        _mm256_setr_pd(0.0, q.c[1], q.c[3], 0.0),
-    );
-    let (s_gx, s_gy) = (
-        _mm256_setr_pd(0.0, 0.0, 0.0, q.vs[0]),
-        _mm256_setr_pd(0.0, 0.0, 0.0, q.vs[2]),
-    );
-    for b in rows {
-        let (start, n, gx, gy) = st.row(b);
-        let (dx, dy) = st.run_offsets(&offsets, b);
-        let r = &mut acc[start - base..start - base + S];
-        for a in 0..S {
-            let nn = _mm256_set1_pd(n[a]);
-            // [·, ax, ay, ·] = n (C (x_I − x_p)), as Affine::velocity.
-            let dxy = _mm256_add_pd(
-                _mm256_mul_pd(c_dx, _mm256_set1_pd(dx[a])),
-                _mm256_mul_pd(c_dy, _mm256_set1_pd(dy[a])),
-            );
-            let affine = _mm256_mul_pd(mass, _mm256_mul_pd(nn, dxy));
-            // gx V σxx + gy V σxy in lane 3.
-            let stress = _mm256_add_pd(
-                _mm256_mul_pd(_mm256_set1_pd(gx[a]), s_gx),
-                _mm256_mul_pd(_mm256_set1_pd(gy[a]), s_gy),
-            );
-            // Lane 0 n m, lanes 1–2 n m v + m a, lane 3 n m b − stress: the scalar operations
-            // exactly, non-finite values included.
-            let own = _mm256_mul_pd(nn, sources);
-            let plus = _mm256_add_pd(own, affine);
-            let minus = _mm256_sub_pd(own, stress);
-            let term = _mm256_blend_pd::<0b1000>(_mm256_blend_pd::<0b0110>(own, plus), minus);
-            let r = &mut r[a];
-            // SAFETY: a node's accumulator holds 5 values; the load and store take the first 4.
-            unsafe {
-                let sum = _mm256_add_pd(_mm256_loadu_pd(r.as_ptr()), term);
-                _mm256_storeu_pd(r.as_mut_ptr(), sum);
+impl Scatter for F64x4 {
+    /// Lane `l`'s `[m, q_x, q_y, f_x]` of every node in one vector (a 4 × 4 transpose), added
+    /// with one 4-wide load, add and store; `f_y` beside it.
+    #[inline(always)]
+    fn scatter<const S: usize>(
+        terms: &[[F64x4; 5]; 16],
+        cols: &Columns<F64x4, S>,
+        acc: &mut [[f64; 5]],
+        base: usize,
+        rows: std::ops::Range<usize>,
+    ) {
+        use std::arch::x86_64::*;
+        // SAFETY: F64x4 runs only where the CPU has AVX2.
+        let mut lane_terms = [[unsafe { _mm256_setzero_pd() }; 4]; 16];
+        let mut fy = [[0.0; 4]; 16];
+        for b in rows.clone() {
+            for a in 0..S {
+                let t = &terms[b * S + a];
+                lane_terms[b * S + a] = transpose([t[0].0, t[1].0, t[2].0, t[3].0]);
+                fy[b * S + a] = t[4].lanes();
             }
-            r[4] += n[a] * q.mb[1] - (gx[a] * q.vs[2] + gy[a] * q.vs[1]);
         }
+        for l in 0..4 {
+            for b in rows.clone() {
+                let start = cols.run_start(l, b) - base;
+                let r = &mut acc[start..start + S];
+                for a in 0..S {
+                    let r = &mut r[a];
+                    // SAFETY: a node's accumulator holds 5 values; the load and store take
+                    // the first 4. F64x4 runs only where the CPU has AVX2.
+                    unsafe {
+                        let sum = _mm256_add_pd(_mm256_loadu_pd(r.as_ptr()), lane_terms[b * S + a][l]);
+                        _mm256_storeu_pd(r.as_mut_ptr(), sum);
+                    }
+                    r[4] += fy[b * S + a][l];
+                }
+            }
+        }
+    }
+}
+
+/// `[r0, r1, r2, r3]` (rows) to its columns: lane `l` of column `c` is lane `c` of row `l`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn transpose(r: [std::arch::x86_64::__m256d; 4]) -> [std::arch::x86_64::__m256d; 4] {
+    use std::arch::x86_64::*;
+    // SAFETY: called only from the AVX2 build (F64x4).
+    unsafe {
+        let t0 = _mm256_unpacklo_pd(r[0], r[1]);
+        let t1 = _mm256_unpackhi_pd(r[0], r[1]);
+        let t2 = _mm256_unpacklo_pd(r[2], r[3]);
+        let t3 = _mm256_unpackhi_pd(r[2], r[3]);
+        [
+            _mm256_permute2f128_pd::<0x20>(t0, t2),
+            _mm256_permute2f128_pd::<0x20>(t1, t3),
+            _mm256_permute2f128_pd::<0x31>(t0, t2),
+            _mm256_permute2f128_pd::<0x31>(t1, t3),
+        ]
     }
 }
 

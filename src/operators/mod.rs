@@ -19,11 +19,16 @@
 //! N[:, p] = wy_p ⊗ wx_p,    Gx[:, p] = wy_p ⊗ w′x_p,    Gy[:, p] = w′y_p ⊗ wx_p
 //! ```
 //!
-//! on the `support × support` nodes from the stencil's first node. [`Operators::reassemble`]
-//! stores exactly that: per particle the first node and `4 · support` numbers (100 bytes per
-//! particle for quadratic B-splines, against 296 for the three CSC value arrays and their row
-//! indices). The products ([`Operators::scatter`], [`Operators::gather`] and the kernels of
-//! [`crate::kernels`]) form the entries `wx[a] · wy[b]` as they go, the same products in the
+//! on the `support × support` nodes from the stencil's first node. The 1D factors are the
+//! kernel's polynomials at one coordinate per axis (`wx_p = S(t_x,p)`, `w′x_p = S′(t_x,p)/h`,
+//! [`crate::shape`]), so [`Operators::reassemble`] stores per particle the first node and the
+//! two coordinates `t_x,p`, `t_y,p`: 24 bytes per particle with every kernel, against 296 for
+//! the three CSC value arrays of quadratic B-splines and their row indices. Where a boundary
+//! rule changes a particle's weights beyond what `t` gives (mirrored walls fold them; uGIMP
+//! shifts a stencil at the grid's edge), the operators store the factors themselves instead,
+//! `4 · support` numbers per particle ([`Operators::stores_factors`]). The products
+//! ([`Operators::scatter`], [`Operators::gather`] and the kernels of [`crate::kernels`]) form
+//! the factors and the entries `wx[a] · wy[b]` as they go, with the same operations in the
 //! same order as the CSC values, so results are identical to the last bit.
 //!
 //! The compressed sparse column (CSC) arrays ([`Operators::col_offsets`],
@@ -50,7 +55,7 @@ use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::parallel::{Strided, Workers};
 use crate::particles::Particles;
-use crate::shape::{bspline, gimp, linear, AxisFrame, ShapeFunction};
+use crate::shape::{bspline, gimp, linear, AxisFrame, Located, ShapeFunction};
 use crate::with_support;
 use products::{column_entries, fill_csc};
 
@@ -114,16 +119,23 @@ pub struct Operators {
     /// Grid origin and cell size, for node coordinates.
     origin: [f64; 2],
     cell_size: [f64; 2],
-    /// Per particle `[wx; S], [w′x; S], [wy; S], [w′y; S]`.
+    /// The kernel's constants along x and y, whose `weights_at(t)` are the factors.
+    frames: [AxisFrame; 2],
+    /// Per particle the kernel coordinates `t_x`, `t_y` ([`Located::t`]): the factors are
+    /// their weights, unless `factors` holds them.
+    local: [Vec<f64>; 2],
+    /// Whether `factors` holds the columns (a fold or a shifted stencil), not `local`.
+    stores_factors: bool,
+    /// Per particle `[wx; S], [w′x; S], [wy; S], [w′y; S]` (when `stores_factors`).
     factors: Vec<f64>,
     /// Node numbers from the lowest to one past the highest node any stencil touches.
     span: std::ops::Range<usize>,
     /// The CSC arrays, built from the factors on first use after an assembly.
     csc: OnceLock<Csc>,
-    /// Per block of particles, whether all were accepted and their lowest and highest first
-    /// nodes (work arrays of the assembly).
+    /// Per block of particles, whether all were accepted, and their lowest and highest first
+    /// nodes and whether a stencil was shifted (work arrays of the assembly).
     block_flags: Vec<bool>,
-    block_spans: Vec<(usize, usize)>,
+    block_spans: Vec<(usize, usize, bool)>,
 }
 
 /// The compressed sparse column arrays of N, Gx, Gy (shared pattern).
@@ -220,59 +232,103 @@ impl Operators {
         self.origin = grid.origin();
         self.cell_size = grid.cell_size();
         self.csc.take();
+        self.frames = [fx, fy];
         self.first.resize(num_particles, [0, 0]);
-        self.factors.resize(num_particles * 4 * support, 0.0);
-        // A fixed stencil size per call lets the compiler unroll the loops.
-        match shape {
-            ShapeFunction::Linear => self.fill_factors::<{ linear::SUPPORT }>((fx, fy), x, y, workers),
-            ShapeFunction::Gimp { .. } => self.fill_factors::<{ gimp::SUPPORT }>((fx, fy), x, y, workers),
-            ShapeFunction::QuadraticBSpline => {
-                self.fill_factors::<{ bspline::QUADRATIC_SUPPORT }>((fx, fy), x, y, workers)
+        for t in self.local.iter_mut() {
+            t.resize(num_particles, 0.0);
+        }
+        let shifted = self.fill_local(x, y, workers);
+        self.stores_factors = shifted;
+        if shifted {
+            // uGIMP stencils shifted at the grid's edge: their weights are not a function of
+            // `t` alone, so every column's factors are stored.
+            self.factors.resize(num_particles * 4 * support, 0.0);
+            // A fixed stencil size per call lets the compiler unroll the loops.
+            match shape {
+                ShapeFunction::Linear => self.fill_factors::<{ linear::SUPPORT }>(x, y, workers),
+                ShapeFunction::Gimp { .. } => self.fill_factors::<{ gimp::SUPPORT }>(x, y, workers),
+                ShapeFunction::QuadraticBSpline => self.fill_factors::<{ bspline::QUADRATIC_SUPPORT }>(x, y, workers),
+                ShapeFunction::CubicBSpline => self.fill_factors::<{ bspline::CUBIC_SUPPORT }>(x, y, workers),
             }
-            ShapeFunction::CubicBSpline => self.fill_factors::<{ bspline::CUBIC_SUPPORT }>((fx, fy), x, y, workers),
         }
         Ok(())
     }
 
-    /// Writes every particle's first node and factors; every particle must have been accepted.
-    fn fill_factors<const S: usize>(
-        &mut self,
-        (fx, fy): (AxisFrame, AxisFrame),
-        x: &[f64],
-        y: &[f64],
-        workers: &Workers,
-    ) {
+    /// Writes every particle's first node and kernel coordinates, and the node span; whether
+    /// some stencil is shifted ([`Located::shift`]). Every particle must have been accepted.
+    fn fill_local(&mut self, x: &[f64], y: &[f64], workers: &Workers) -> bool {
         let [sx, sy] = self.strides;
+        let [fx, fy] = self.frames;
+        let s = self.support;
         let accepted = "position checked against the allowed region above";
         let mut spans = std::mem::take(&mut self.block_spans);
-        let out = (&mut self.first[..], Strided(&mut self.factors[..], 4 * S));
-        workers.split_blocks(out, &mut spans, |start, (firsts, Strided(factors, _))| {
-            let (mut lo, mut hi) = (usize::MAX, 0);
-            for (j, (first, f)) in firsts.iter_mut().zip(factors.chunks_exact_mut(4 * S)).enumerate() {
+        let [tx, ty] = &mut self.local;
+        let out = (&mut self.first[..], [&mut tx[..], &mut ty[..]]);
+        workers.split_blocks(out, &mut spans, |start, (firsts, [tx, ty])| {
+            let (mut lo, mut hi, mut shifted) = (usize::MAX, 0, false);
+            for (j, first) in firsts.iter_mut().enumerate() {
                 let p = start + j;
-                let wx = fx.weights(fx.accept(x[p]).expect(accepted));
-                let wy = fy.weights(fy.accept(y[p]).expect(accepted));
-                let node = wx.first * sx + wy.first * sy;
+                let ax: Located = fx.locate(fx.accept(x[p]).expect(accepted));
+                let ay: Located = fy.locate(fy.accept(y[p]).expect(accepted));
+                let node = ax.first * sx + ay.first * sy;
                 lo = lo.min(node);
                 hi = hi.max(node);
-                *first = [wx.first as u32, wy.first as u32];
-                f[..S].copy_from_slice(&wx.value[..S]);
-                f[S..2 * S].copy_from_slice(&wx.derivative[..S]);
-                f[2 * S..3 * S].copy_from_slice(&wy.value[..S]);
-                f[3 * S..].copy_from_slice(&wy.derivative[..S]);
+                shifted |= (ax.shift | ay.shift) != 0;
+                *first = [ax.first as u32, ay.first as u32];
+                (tx[j], ty[j]) = (ax.t, ay.t);
             }
-            (lo, hi)
+            (lo, hi, shifted)
         });
-        let (lo, hi) = spans
+        let (lo, hi, shifted) = spans
             .iter()
-            .fold((usize::MAX, 0), |(lo, hi), &(l, h)| (lo.min(l), hi.max(h)));
+            .fold((usize::MAX, 0, false), |(lo, hi, sh), &(l, h, s)| (lo.min(l), hi.max(h), sh | s));
         self.block_spans = spans;
         // The last node of a stencil is (S − 1)(sx + sy) after its first.
         self.span = if x.is_empty() {
             0..0
         } else {
-            lo..hi + (S - 1) * (sx + sy) + 1
+            lo..hi + (s - 1) * (sx + sy) + 1
         };
+        shifted
+    }
+
+    /// Writes every particle's factors from its position (as [`AxisFrame::weights`]); every
+    /// particle must have been accepted.
+    fn fill_factors<const S: usize>(&mut self, x: &[f64], y: &[f64], workers: &Workers) {
+        let [fx, fy] = self.frames;
+        let accepted = "position checked against the allowed region above";
+        let mut none: Vec<()> = Vec::new();
+        let out = Strided(&mut self.factors[..], 4 * S);
+        workers.split_blocks(out, &mut none, |start, Strided(factors, _)| {
+            for (j, f) in factors.chunks_exact_mut(4 * S).enumerate() {
+                let p = start + j;
+                let wx = fx.weights(fx.accept(x[p]).expect(accepted));
+                let wy = fy.weights(fy.accept(y[p]).expect(accepted));
+                f[..S].copy_from_slice(&wx.value[..S]);
+                f[S..2 * S].copy_from_slice(&wx.derivative[..S]);
+                f[2 * S..3 * S].copy_from_slice(&wy.value[..S]);
+                f[3 * S..].copy_from_slice(&wy.derivative[..S]);
+            }
+        });
+    }
+
+    /// Whether the operators store every column's factors (after a fold of the weights by
+    /// mirrored walls, or with a uGIMP stencil shifted at the grid's edge) rather than the
+    /// kernel coordinates they are computed from.
+    pub fn stores_factors(&self) -> bool {
+        self.stores_factors
+    }
+
+    /// The kernel's constants along x and y (their `weights_at(t)` are the factors of a column
+    /// stored by its coordinates).
+    pub(crate) fn frames(&self) -> &[AxisFrame; 2] {
+        &self.frames
+    }
+
+    /// Each particle's kernel coordinates along x and y ([`Located::t`]); meaningful while
+    /// [`Operators::stores_factors`] is false.
+    pub(crate) fn local(&self) -> &[Vec<f64>; 2] {
+        &self.local
     }
 
     /// Nodes per grid line, a line being the nodes that share the index along the axis with
@@ -319,6 +375,16 @@ impl Operators {
         self.strides
     }
 
+    /// The grid's origin, for node coordinates.
+    pub(crate) fn origin(&self) -> [f64; 2] {
+        self.origin
+    }
+
+    /// The grid's cell size, for node coordinates.
+    pub(crate) fn cell_size(&self) -> [f64; 2] {
+        self.cell_size
+    }
+
     /// Nodes per axis in each particle's support (2 linear, 3 uGIMP and quadratic, 4 cubic; 0
     /// before the first assembly).
     pub fn support(&self) -> usize {
@@ -332,31 +398,51 @@ impl Operators {
     #[inline(always)]
     pub fn stencil<const S: usize>(&self, p: usize) -> Stencil<S> {
         assert_eq!(S, self.support, "stencil size must equal the support");
-        let f = &self.factors[4 * S * p..4 * S * (p + 1)];
         let [sx, sy] = self.strides;
         let runs_along_x = sx == 1;
         let [i0, j0] = self.first[p];
         let first_ij = [i0 as usize, j0 as usize];
+        let ((wx, dwx), (wy, dwy)) = self.factors_of::<S>(p);
         Stencil {
             first: first_ij[0] * sx + first_ij[1] * sy,
             run_stride: if runs_along_x { sy } else { sx },
             runs_along_x,
-            wx: std::array::from_fn(|a| f[a]),
-            dwx: std::array::from_fn(|a| f[S + a]),
-            wy: std::array::from_fn(|a| f[2 * S + a]),
-            dwy: std::array::from_fn(|a| f[3 * S + a]),
+            wx,
+            dwx,
+            wy,
+            dwy,
             first_ij,
             origin: self.origin,
             cell_size: self.cell_size,
         }
     }
 
+    /// Particle `p`'s 1D weights and derivatives along x and along y.
+    #[inline(always)]
+    fn factors_of<const S: usize>(&self, p: usize) -> (([f64; S], [f64; S]), ([f64; S], [f64; S])) {
+        if self.stores_factors {
+            let f = &self.factors[4 * S * p..4 * S * (p + 1)];
+            (
+                (std::array::from_fn(|a| f[a]), std::array::from_fn(|a| f[S + a])),
+                (std::array::from_fn(|a| f[2 * S + a]), std::array::from_fn(|a| f[3 * S + a])),
+            )
+        } else {
+            let [fx, fy] = &self.frames;
+            (
+                fx.weights_at::<f64, S>(self.local[0][p]),
+                fy.weights_at::<f64, S>(self.local[1][p]),
+            )
+        }
+    }
+
     /// The factors of particles `p … p + count − 1`, `4 S` values each (as in [`Stencil`]).
     ///
     /// # Panics
-    /// If `p + count > num_particles()`.
+    /// If `p + count > num_particles()`, or if the operators do not store factors
+    /// ([`Operators::stores_factors`]).
     #[inline(always)]
     pub(crate) fn factors_block(&self, p: usize, count: usize) -> &[f64] {
+        assert!(self.stores_factors, "the columns are stored by their kernel coordinates");
         let per = 4 * self.support;
         &self.factors[per * p..per * (p + count)]
     }
@@ -375,6 +461,11 @@ impl Operators {
         let s = self.support;
         if s == 0 || self.num_particles == 0 {
             return;
+        }
+        if !self.stores_factors {
+            self.factors.resize(self.num_particles * 4 * s, 0.0);
+            crate::with_support!(self, store_factors::<S>(self));
+            self.stores_factors = true;
         }
         for (p, (first, factors)) in self
             .first
@@ -458,5 +549,19 @@ impl Operators {
         (0..self.num_particles())
             .filter(|&p| self.column(p).any(|(i, ..)| i == node))
             .collect()
+    }
+}
+
+/// Writes every column's factors from its kernel coordinates into `ops.factors`.
+fn store_factors<const S: usize>(ops: &mut Operators) {
+    let [fx, fy] = ops.frames;
+    let [tx, ty] = &ops.local;
+    for (p, f) in ops.factors.chunks_exact_mut(4 * S).enumerate() {
+        let (wx, dwx) = fx.weights_at::<f64, S>(tx[p]);
+        let (wy, dwy) = fy.weights_at::<f64, S>(ty[p]);
+        f[..S].copy_from_slice(&wx);
+        f[S..2 * S].copy_from_slice(&dwx);
+        f[2 * S..3 * S].copy_from_slice(&wy);
+        f[3 * S..].copy_from_slice(&dwy);
     }
 }

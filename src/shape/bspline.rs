@@ -33,6 +33,8 @@
 //! the few supporting nodes and evaluates one polynomial per node ([`quadratic_weights`],
 //! [`cubic_weights`]), which is the same function written per interval.
 
+use crate::lanes::Real;
+
 /// Nodes per axis in the support of a point for the quadratic B-spline: 3.
 pub const QUADRATIC_SUPPORT: usize = 3;
 /// Nodes per axis in the support of a point for the cubic B-spline: 4.
@@ -97,8 +99,15 @@ pub fn cubic_derivative(xi: f64) -> f64 {
 /// ```
 #[inline]
 pub fn quadratic_weights(t: f64) -> ([f64; QUADRATIC_SUPPORT], [f64; QUADRATIC_SUPPORT]) {
-    let (a, b) = (0.5 - t, 0.5 + t);
-    ([0.5 * a * a, 0.75 - t * t, 0.5 * b * b], [-a, -2.0 * t, b])
+    quadratic_weights_of(t)
+}
+
+/// [`quadratic_weights`] for one particle or four side by side ([`Real`]).
+#[inline(always)]
+pub(crate) fn quadratic_weights_of<R: Real>(t: R) -> ([R; QUADRATIC_SUPPORT], [R; QUADRATIC_SUPPORT]) {
+    let c = R::splat;
+    let (a, b) = (c(0.5) - t, c(0.5) + t);
+    ([c(0.5) * a * a, c(0.75) - t * t, c(0.5) * b * b], [-a, c(-2.0) * t, b])
 }
 
 /// Cubic weights of the nodes `c − 1, c, c + 1, c + 2` for a point at `t = s − c ∈ [0, 1]`
@@ -110,15 +119,22 @@ pub fn quadratic_weights(t: f64) -> ([f64; QUADRATIC_SUPPORT], [f64; QUADRATIC_S
 /// ```
 #[inline]
 pub fn cubic_weights(t: f64) -> ([f64; CUBIC_SUPPORT], [f64; CUBIC_SUPPORT]) {
-    let u = 1.0 - t;
+    cubic_weights_of(t)
+}
+
+/// [`cubic_weights`] for one particle or four side by side ([`Real`]).
+#[inline(always)]
+pub(crate) fn cubic_weights_of<R: Real>(t: R) -> ([R; CUBIC_SUPPORT], [R; CUBIC_SUPPORT]) {
+    let c = R::splat;
+    let u = c(1.0) - t;
     let (t2, u2) = (t * t, u * u);
     (
         [
-            u2 * u / 6.0,
-            2.0 / 3.0 - t2 + 0.5 * t2 * t,
-            2.0 / 3.0 - u2 + 0.5 * u2 * u,
-            t2 * t / 6.0,
+            u2 * u / c(6.0),
+            c(2.0 / 3.0) - t2 + c(0.5) * t2 * t,
+            c(2.0 / 3.0) - u2 + c(0.5) * u2 * u,
+            t2 * t / c(6.0),
         ],
-        [-0.5 * u2, -2.0 * t + 1.5 * t2, 2.0 * u - 1.5 * u2, 0.5 * t2],
+        [c(-0.5) * u2, c(-2.0) * t + c(1.5) * t2, c(2.0) * u - c(1.5) * u2, c(0.5) * t2],
     )
 }

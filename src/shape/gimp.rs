@@ -26,6 +26,8 @@
 //! particle's deformation. Particles that fill their cells exactly, `k × k` per cell, have
 //! `l = 1/(2k)` (`l = 1/4` for 2 × 2 per cell).
 
+use crate::lanes::Real;
+
 /// Nodes per axis in the support of a point: 3.
 pub const SUPPORT: usize = 3;
 
@@ -83,13 +85,22 @@ pub fn nearest_weights(t: f64, l: f64) -> ([f64; SUPPORT], [f64; SUPPORT]) {
 /// [`nearest_weights`] with `half_inv_l = 1/(2l)` worked out once by the caller.
 #[inline]
 pub(super) fn nearest_weights_scaled(t: f64, l: f64, half_inv_l: f64) -> ([f64; SUPPORT], [f64; SUPPORT]) {
+    nearest_weights_of(t, l, half_inv_l)
+}
+
+/// [`nearest_weights`] with `half_inv_l = 1/(2l)`, for one particle or four side by side
+/// ([`Real`]; `max` and `clamp` as its comparisons).
+#[inline(always)]
+pub(crate) fn nearest_weights_of<R: Real>(t: R, l: f64, half_inv_l: f64) -> ([R; SUPPORT], [R; SUPPORT]) {
+    let c = R::splat;
+    let (l, h) = (c(l), c(half_inv_l));
     let a = t.abs();
-    let m = (l - a).max(0.0);
-    let shared = 0.5 * m * m * half_inv_l; // m²/(4l)
-    let d_left = -((l - t) * half_inv_l).clamp(0.0, 1.0);
-    let d_right = ((l + t) * half_inv_l).clamp(0.0, 1.0);
+    let m = (l - a).max(c(0.0));
+    let shared = c(0.5) * m * m * h; // m²/(4l)
+    let d_left = -((l - t) * h).clamp(0.0, 1.0);
+    let d_right = ((l + t) * h).clamp(0.0, 1.0);
     (
-        [(-t).max(0.0) + shared, 1.0 - a - 2.0 * shared, t.max(0.0) + shared],
+        [(-t).max(c(0.0)) + shared, c(1.0) - a - c(2.0) * shared, t.max(c(0.0)) + shared],
         [d_left, -(d_left + d_right), d_right],
     )
 }

@@ -21,6 +21,8 @@
 //! closed grid rectangle is accepted, and a wall holds one node layer
 //! ([`ShapeFunction::boundary_layers`](super::ShapeFunction::boundary_layers)).
 
+use crate::lanes::Real;
+
 /// Nodes per axis in the support of a point: 2.
 pub const SUPPORT: usize = 2;
 
@@ -44,5 +46,11 @@ pub fn tent_derivative(xi: f64) -> f64 {
 /// Weights of the two nodes of a cell at local coordinate `ξ ∈ [0, 1]` from its left node:
 /// values `[1 − ξ, ξ]` and derivatives per unit `ξ` `[−1, 1]`.
 pub fn cell_weights(xi: f64) -> ([f64; 2], [f64; 2]) {
-    ([1.0 - xi, xi], [-1.0, 1.0])
+    cell_weights_of(xi)
+}
+
+/// [`cell_weights`] for one particle or four side by side ([`Real`]).
+#[inline(always)]
+pub(crate) fn cell_weights_of<R: Real>(xi: R) -> ([R; 2], [R; 2]) {
+    ([R::splat(1.0) - xi, xi], [R::splat(-1.0), R::splat(1.0)])
 }

@@ -63,6 +63,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
+use crate::lanes::Real;
 use crate::names::{self, Spelled};
 
 /// Largest support (nodes per axis) of any kernel: 4, for cubic B-splines. Fixed-size buffers
@@ -216,24 +217,6 @@ pub struct AxisWeights {
     pub derivative: [f64; MAX_SUPPORT],
 }
 
-impl AxisWeights {
-    /// `L` weights from `first`, derivatives per unit `ξ` multiplied by `inv_h = 1/h`.
-    #[inline]
-    fn from_kernel<const L: usize>(first: usize, (value, derivative): ([f64; L], [f64; L]), inv_h: f64) -> AxisWeights {
-        let mut out = AxisWeights {
-            first,
-            len: L,
-            value: [0.0; MAX_SUPPORT],
-            derivative: [0.0; MAX_SUPPORT],
-        };
-        for k in 0..L {
-            out.value[k] = value[k];
-            out.derivative[k] = derivative[k] * inv_h;
-        }
-        out
-    }
-}
-
 impl ShapeFunction {
     /// The family's name: `"linear"`, `"gimp"`, `"quadratic_bspline"` or `"cubic_bspline"`.
     pub fn name(&self) -> &'static str {
@@ -384,7 +367,7 @@ impl ShapeFunction {
 
 /// Per-axis constants for accepting points and computing their weights; see
 /// [`ShapeFunction::axis_frame`].
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct AxisFrame {
     shape: ShapeFunction,
     origin: f64,
@@ -426,10 +409,12 @@ impl AxisFrame {
             .then(|| ((value - self.origin) / self.h).clamp(self.margin, self.top))
     }
 
-    /// The weights at an accepted, clamped cell coordinate `s` (from [`AxisFrame::accept`]).
+    /// Where the stencil of a point at an accepted, clamped cell coordinate `s` (from
+    /// [`AxisFrame::accept`]) starts, and the point's coordinate `t` that its kernel's weights
+    /// are a function of ([`AxisFrame::weights_at`]).
     #[inline(always)]
-    pub(crate) fn weights(&self, s: f64) -> AxisWeights {
-        let (cells, inv_h) = (self.cells, self.inv_h);
+    pub(crate) fn locate(&self, s: f64) -> Located {
+        let cells = self.cells;
         // `s ∈ [margin, cells − margin]`, and `cells ≥ min_cells()`, so every `first` below
         // leaves the whole stencil on nodes `0 ..= cells`. As `s ≥ 0`, `as usize` (truncation)
         // is the floor, without a call to libm's `floor`.
@@ -437,36 +422,109 @@ impl AxisFrame {
             ShapeFunction::Linear => {
                 // The cell the point belongs to: half-open, the last one closed.
                 let cell = (s as usize).min(cells - 1);
-                AxisWeights::from_kernel(cell, linear::cell_weights(s - cell as f64), inv_h)
+                Located::at(cell, s - cell as f64)
             }
-            ShapeFunction::Gimp { half_width } => {
+            ShapeFunction::Gimp { .. } => {
                 // The nearest node in the middle. Within half a cell of the edge (c = 0 or
                 // c = cells) the outer neighbour is off the grid but has weight 0 (the point is
                 // at least `half_width` cells inside), and so has the node on the other side
                 // two cells away: shift the stencil onto the grid.
                 let c = (s + 0.5) as usize;
-                let (w, d) = gimp::nearest_weights_scaled(s - c as f64, half_width, self.half_inv_l);
+                let t = s - c as f64;
                 if c == 0 {
-                    AxisWeights::from_kernel(0, ([w[1], w[2], 0.0], [d[1], d[2], 0.0]), inv_h)
+                    Located { first: 0, t, shift: 1 }
                 } else if c >= cells {
-                    AxisWeights::from_kernel(cells - 2, ([0.0, w[0], w[1]], [0.0, d[0], d[1]]), inv_h)
+                    Located {
+                        first: cells - 2,
+                        t,
+                        shift: -1,
+                    }
                 } else {
-                    AxisWeights::from_kernel(c - 1, (w, d), inv_h)
+                    Located::at(c - 1, t)
                 }
             }
             ShapeFunction::QuadraticBSpline => {
                 // The nearest node in the middle; at `s = cells − 1/2` (exactly) the upper
                 // neighbour would be off the grid, so the stencil takes the lower one (t = 1/2).
                 let c = ((s + 0.5) as usize).clamp(1, cells - 1);
-                AxisWeights::from_kernel(c - 1, bspline::quadratic_weights(s - c as f64), inv_h)
+                Located::at(c - 1, s - c as f64)
             }
             ShapeFunction::CubicBSpline => {
                 // Nodes c − 1 ..= c + 2 around the cell [c, c + 1] holding the point; at
                 // `s = cells − 1` (exactly) the stencil ends at the last node (t = 1).
                 let c = (s as usize).clamp(1, cells - 2);
-                AxisWeights::from_kernel(c - 1, bspline::cubic_weights(s - c as f64), inv_h)
+                Located::at(c - 1, s - c as f64)
             }
         }
+    }
+
+    /// The `S` weights and derivatives (per unit length) of the kernel at `t` (one point, or
+    /// four side by side): linear `cell_weights(t)`, uGIMP `nearest_weights(t, l)`, the
+    /// B-splines `quadratic_weights(t)` and `cubic_weights(t)`, derivatives times `1/h`. `S`
+    /// must be the family's support; the stencil is unshifted ([`Located::shift`] 0).
+    #[inline(always)]
+    pub(crate) fn weights_at<R: Real, const S: usize>(&self, t: R) -> ([R; S], [R; S]) {
+        let inv_h = R::splat(self.inv_h);
+        #[inline(always)]
+        fn fit<R: Real, const L: usize, const S: usize>((w, d): ([R; L], [R; L]), inv_h: R) -> ([R; S], [R; S]) {
+            debug_assert!(L <= S, "the stencil holds the family's support");
+            let zero = R::splat(0.0);
+            let (mut value, mut derivative) = ([zero; S], [zero; S]);
+            for k in 0..L {
+                value[k] = w[k];
+                derivative[k] = d[k] * inv_h;
+            }
+            (value, derivative)
+        }
+        match self.shape {
+            ShapeFunction::Linear => fit(linear::cell_weights_of(t), inv_h),
+            ShapeFunction::Gimp { half_width } => fit(gimp::nearest_weights_of(t, half_width, self.half_inv_l), inv_h),
+            ShapeFunction::QuadraticBSpline => fit(bspline::quadratic_weights_of(t), inv_h),
+            ShapeFunction::CubicBSpline => fit(bspline::cubic_weights_of(t), inv_h),
+        }
+    }
+
+    /// The weights at an accepted, clamped cell coordinate `s` (from [`AxisFrame::accept`]).
+    #[inline(always)]
+    pub(crate) fn weights(&self, s: f64) -> AxisWeights {
+        let at = self.locate(s);
+        let len = self.shape.support();
+        let (w, d) = self.weights_at::<f64, MAX_SUPPORT>(at.t);
+        let mut out = AxisWeights {
+            first: at.first,
+            len,
+            value: [0.0; MAX_SUPPORT],
+            derivative: [0.0; MAX_SUPPORT],
+        };
+        // A shifted stencil (uGIMP at an edge) holds the kernel's nodes one place along.
+        for k in 0..len {
+            let from = k as isize + at.shift as isize;
+            if (0..len as isize).contains(&from) {
+                out.value[k] = w[from as usize];
+                out.derivative[k] = d[from as usize];
+            }
+        }
+        out
+    }
+}
+
+/// Where a point's stencil lies along one axis ([`AxisFrame::locate`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Located {
+    /// Index along the axis of the stencil's first node.
+    pub(crate) first: usize,
+    /// The coordinate the kernel's weights are a function of: from the stencil's cell (linear,
+    /// `[0, 1]`), from the second node (quadratic B-spline and uGIMP, `[−1/2, 1/2]`; cubic
+    /// B-spline, `[0, 1]`), in cells.
+    pub(crate) t: f64,
+    /// uGIMP within half a cell of the grid's edge: the stencil moved by one node onto the grid
+    /// (+1 at the low edge, −1 at the high edge), its weights with it; 0 otherwise.
+    pub(crate) shift: i8,
+}
+
+impl Located {
+    fn at(first: usize, t: f64) -> Located {
+        Located { first, t, shift: 0 }
     }
 }
 

@@ -1,0 +1,265 @@
+//! Arithmetic written once for one particle and for four particles side by side.
+//!
+//! The per-particle formulas of the transfers (the 1D weights, the terms of a node, a particle's
+//! sums, the stress update) are generic over [`Real`]: `f64` runs them for one particle, and
+//! [`F64x4`] (x86-64 with AVX2) for four, one per lane of a 4-wide vector. Every operation of
+//! the trait is one IEEE operation per lane with the scalar operation's rounding (`+ − × ÷`,
+//! `√`, `|·|`, and `max`/`min` written as the comparisons `a > b`, `a < b`), and `ln` is the
+//! scalar `f64::ln` of each lane, so a formula gives the same bits in either form: the
+//! vectorised kernels equal the scalar ones to the last bit by construction (`tests/simd.rs`).
+//! No fused multiply-add is formed (Rust does not contract `a·b + c`).
+
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// One value per lane: `f64` (one lane) or [`F64x4`] (four).
+pub(crate) trait Real:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
+{
+    /// Lanes per value.
+    const LANES: usize;
+    /// `v` in every lane.
+    fn splat(v: f64) -> Self;
+    /// `values[k ..]`, one per lane.
+    ///
+    /// # Panics
+    /// If `values` holds fewer than `k + LANES` values.
+    fn load(values: &[f64], k: usize) -> Self;
+    /// Writes the lanes to `values[k ..]`.
+    ///
+    /// # Panics
+    /// If `values` holds fewer than `k + LANES` values.
+    fn store(self, values: &mut [f64], k: usize);
+    /// Lane `l` from `f(l)`.
+    fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
+    /// The lanes (lanes past [`Real::LANES`] are 0).
+    fn lanes(self) -> [f64; 4];
+    /// `|x|`.
+    fn abs(self) -> Self;
+    /// `if self > other { self } else { other }`, lane by lane.
+    fn max(self, other: Self) -> Self;
+    /// `if self < other { self } else { other }`, lane by lane.
+    fn min(self, other: Self) -> Self;
+    /// `max(lo).min(hi)`.
+    #[inline(always)]
+    fn clamp(self, lo: f64, hi: f64) -> Self {
+        self.max(Self::splat(lo)).min(Self::splat(hi))
+    }
+    /// `ln x`, lane by lane (the scalar `f64::ln`).
+    fn ln(self) -> Self;
+    /// `√x`.
+    fn sqrt(self) -> Self;
+}
+
+impl Real for f64 {
+    const LANES: usize = 1;
+    #[inline(always)]
+    fn splat(v: f64) -> f64 {
+        v
+    }
+    #[inline(always)]
+    fn load(values: &[f64], k: usize) -> f64 {
+        values[k]
+    }
+    #[inline(always)]
+    fn store(self, values: &mut [f64], k: usize) {
+        values[k] = self;
+    }
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f64) -> f64 {
+        f(0)
+    }
+    #[inline(always)]
+    fn lanes(self) -> [f64; 4] {
+        [self, 0.0, 0.0, 0.0]
+    }
+    #[inline(always)]
+    fn abs(self) -> f64 {
+        f64::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, other: f64) -> f64 {
+        if self > other {
+            self
+        } else {
+            other
+        }
+    }
+    #[inline(always)]
+    fn min(self, other: f64) -> f64 {
+        if self < other {
+            self
+        } else {
+            other
+        }
+    }
+    #[inline(always)]
+    fn ln(self) -> f64 {
+        f64::ln(self)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> f64 {
+        f64::sqrt(self)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx2::F64x4;
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::Real;
+    use std::arch::x86_64::*;
+    use std::ops::{Add, Div, Mul, Neg, Sub};
+
+    /// Four `f64` lanes in an AVX register.
+    ///
+    /// Its operations are AVX instructions: a value of this type exists only inside functions
+    /// compiled with `#[target_feature(enable = "avx2")]` that run after a run-time check of the
+    /// CPU (`kernels::simd`), and every method is `#[inline(always)]` so that it is compiled
+    /// into them.
+    #[derive(Clone, Copy, Debug)]
+    pub(crate) struct F64x4(pub(crate) __m256d);
+
+    macro_rules! binary {
+        ($tr:ident, $f:ident, $intrinsic:ident) => {
+            impl $tr for F64x4 {
+                type Output = F64x4;
+                #[inline(always)]
+                fn $f(self, o: F64x4) -> F64x4 {
+                    // SAFETY: F64x4 values are only made where the CPU has AVX2 (type docs).
+                    F64x4(unsafe { $intrinsic(self.0, o.0) })
+                }
+            }
+        };
+    }
+    binary!(Add, add, _mm256_add_pd);
+    binary!(Sub, sub, _mm256_sub_pd);
+    binary!(Mul, mul, _mm256_mul_pd);
+    binary!(Div, div, _mm256_div_pd);
+
+    impl Neg for F64x4 {
+        type Output = F64x4;
+        #[inline(always)]
+        fn neg(self) -> F64x4 {
+            // SAFETY: as above. −x flips the sign bit, as the scalar negation does.
+            F64x4(unsafe { _mm256_xor_pd(self.0, _mm256_set1_pd(-0.0)) })
+        }
+    }
+
+    impl Real for F64x4 {
+        const LANES: usize = 4;
+        #[inline(always)]
+        fn splat(v: f64) -> F64x4 {
+            // SAFETY: as above.
+            F64x4(unsafe { _mm256_set1_pd(v) })
+        }
+        #[inline(always)]
+        fn load(values: &[f64], k: usize) -> F64x4 {
+            let v = &values[k..k + 4];
+            // SAFETY: `v` holds 4 values; AVX as above.
+            F64x4(unsafe { _mm256_loadu_pd(v.as_ptr()) })
+        }
+        #[inline(always)]
+        fn store(self, values: &mut [f64], k: usize) {
+            let v = &mut values[k..k + 4];
+            // SAFETY: `v` holds 4 values; AVX as above.
+            unsafe { _mm256_storeu_pd(v.as_mut_ptr(), self.0) }
+        }
+        #[inline(always)]
+        fn from_fn(mut f: impl FnMut(usize) -> f64) -> F64x4 {
+            let (a, b, c, d) = (f(0), f(1), f(2), f(3));
+            // SAFETY: as above.
+            F64x4(unsafe { _mm256_setr_pd(a, b, c, d) })
+        }
+        #[inline(always)]
+        fn lanes(self) -> [f64; 4] {
+            let mut out = [0.0; 4];
+            // SAFETY: `out` holds 4 values; AVX as above.
+            unsafe { _mm256_storeu_pd(out.as_mut_ptr(), self.0) };
+            out
+        }
+        #[inline(always)]
+        fn abs(self) -> F64x4 {
+            // SAFETY: as above. Clears the sign bit, as f64::abs.
+            F64x4(unsafe { _mm256_andnot_pd(_mm256_set1_pd(-0.0), self.0) })
+        }
+        #[inline(always)]
+        fn max(self, other: F64x4) -> F64x4 {
+            // SAFETY: as above. maxpd(a, b) is `a > b ? a : b` lane by lane.
+            F64x4(unsafe { _mm256_max_pd(self.0, other.0) })
+        }
+        #[inline(always)]
+        fn min(self, other: F64x4) -> F64x4 {
+            // SAFETY: as above. minpd(a, b) is `a < b ? a : b` lane by lane.
+            F64x4(unsafe { _mm256_min_pd(self.0, other.0) })
+        }
+        #[inline(always)]
+        fn ln(self) -> F64x4 {
+            let l = self.lanes();
+            F64x4::from_fn(|i| l[i].ln())
+        }
+        #[inline(always)]
+        fn sqrt(self) -> F64x4 {
+            // SAFETY: as above. sqrtpd rounds as f64::sqrt.
+            F64x4(unsafe { _mm256_sqrt_pd(self.0) })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Real;
+
+    /// The scalar max and min are the comparisons the vector instructions make, NaN and signed
+    /// zeros included (the second operand when the comparison is false).
+    #[test]
+    fn scalar_max_and_min_return_the_second_operand_when_the_comparison_fails() {
+        assert!(Real::max(f64::NAN, 1.0) == 1.0);
+        assert!(Real::max(1.0, f64::NAN).is_nan());
+        assert!(Real::max(-0.0, 0.0).is_sign_positive());
+        assert!(Real::max(0.0, -0.0).is_sign_negative());
+        assert!(Real::min(f64::NAN, 1.0) == 1.0);
+        assert!(Real::min(0.0, -0.0).is_sign_negative());
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn four_lanes_give_the_scalar_bits() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let a = [1.5, -0.0, f64::NAN, 3.0e-310];
+        let b = [-2.25, 0.0, 1.0, f64::INFINITY];
+        // SAFETY: the CPU has AVX2 (checked above).
+        let (s, m, n, d, x, y, q, r) = unsafe { check(a, b) };
+        for l in 0..4 {
+            let same = |v: f64, w: f64| v.to_bits() == w.to_bits() || (v.is_nan() && w.is_nan());
+            assert!(same(s[l], a[l] + b[l]));
+            assert!(same(m[l], a[l] * b[l]));
+            assert!(same(n[l], -a[l]));
+            assert!(same(d[l], a[l] / b[l]));
+            assert!(same(x[l], Real::max(a[l], b[l])));
+            assert!(same(y[l], Real::min(a[l], b[l])));
+            assert!(same(q[l], a[l].abs().sqrt()));
+            assert!(same(r[l], a[l].abs().ln()));
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::type_complexity)]
+    fn check(a: [f64; 4], b: [f64; 4]) -> ([f64; 4], [f64; 4], [f64; 4], [f64; 4], [f64; 4], [f64; 4], [f64; 4], [f64; 4]) {
+        use super::F64x4;
+        let (va, vb) = (F64x4::load(&a, 0), F64x4::load(&b, 0));
+        (
+            (va + vb).lanes(),
+            (va * vb).lanes(),
+            (-va).lanes(),
+            (va / vb).lanes(),
+            va.max(vb).lanes(),
+            va.min(vb).lanes(),
+            va.abs().sqrt().lanes(),
+            va.abs().ln().lanes(),
+        )
+    }
+}
