@@ -2,6 +2,8 @@
 //! ([`VectorField`]), and the velocity gradient and strain rate at every particle. They are
 //! re-exported by [`crate::transfer`], where the products that make them live.
 
+use crate::lanes::Real;
+
 /// A 2D vector quantity at every node or every particle, as two component vectors.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct VectorField {
@@ -78,6 +80,13 @@ pub struct StrainRate {
 ///
 /// `l` and the returned `G` are row-major `[xx, xy, yx, yy]`.
 pub fn deformation_increment(l: [f64; 4], dt: f64) -> ([f64; 4], f64) {
-    let g = [1.0 + dt * l[0], dt * l[1], dt * l[2], 1.0 + dt * l[3]];
+    deformation_increment_of(l, dt)
+}
+
+/// [`deformation_increment`] for one particle or four side by side ([`Real`]).
+#[inline(always)]
+pub(crate) fn deformation_increment_of<R: Real>(l: [R; 4], dt: f64) -> ([R; 4], R) {
+    let (one, dt) = (R::splat(1.0), R::splat(dt));
+    let g = [one + dt * l[0], dt * l[1], dt * l[2], one + dt * l[3]];
     (g, g[0] * g[3] - g[1] * g[2])
 }

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{MpmError, Result};
 use crate::fields::StrainRate;
+use crate::lanes::Real;
 
 /// Which 2D idealisation a material uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -175,26 +176,27 @@ pub(crate) struct Hooke {
 impl Hooke {
     /// `Δσ = C : Δε` for `Δε = (Δεxx, Δεyy, Δεxy)` (tensor shear).
     #[inline(always)]
-    fn increment(&self, [dexx, deyy, dexy]: [f64; 3]) -> [f64; 3] {
-        let Hooke { c11, c12, shear } = *self;
-        [c11 * dexx + c12 * deyy, c12 * dexx + c11 * deyy, 2.0 * shear * dexy]
+    fn increment<R: Real>(&self, [dexx, deyy, dexy]: [R; 3]) -> [R; 3] {
+        let (c11, c12, shear) = (R::splat(self.c11), R::splat(self.c12), R::splat(self.shear));
+        [c11 * dexx + c12 * deyy, c12 * dexx + c11 * deyy, R::splat(2.0) * shear * dexy]
     }
 
     /// `σ + C : Δε`.
     #[inline(always)]
-    fn updated(&self, sigma: [f64; 3], strain: [f64; 3]) -> [f64; 3] {
+    fn updated<R: Real>(&self, sigma: [R; 3], strain: [R; 3]) -> [R; 3] {
         let d = self.increment(strain);
         [sigma[0] + d[0], sigma[1] + d[1], sigma[2] + d[2]]
     }
 
     /// `W = ½ σ : C⁻¹ σ`.
     #[inline(always)]
-    fn energy_density(&self, s: [f64; 3]) -> f64 {
+    fn energy_density<R: Real>(&self, s: [R; 3]) -> R {
         let Hooke { c11, c12, shear } = *self;
-        let det = c11 * c11 - c12 * c12;
+        let det = R::splat(c11 * c11 - c12 * c12);
+        let (c11, c12) = (R::splat(c11), R::splat(c12));
         let exx = (c11 * s[0] - c12 * s[1]) / det;
         let eyy = (c11 * s[1] - c12 * s[0]) / det;
-        0.5 * (s[0] * exx + s[1] * eyy) + s[2] * s[2] / (2.0 * shear)
+        R::splat(0.5) * (s[0] * exx + s[1] * eyy) + s[2] * s[2] / R::splat(2.0 * shear)
     }
 
     /// The tangent `[C11, C12, G]`.
@@ -269,42 +271,43 @@ pub(crate) struct Lame {
     lambda: f64,
 }
 
-/// What the neo-Hookean model gives at one deformation gradient.
+/// What the neo-Hookean model gives at one deformation gradient (or four, [`Real`]).
 #[derive(Debug, Clone, Copy)]
-struct NeoHookeanState {
+struct NeoHookeanState<R> {
     /// `J = det F`.
-    j: f64,
+    j: R,
     /// The Cauchy stress `(σxx, σyy, σxy)`.
-    stress: [f64; 3],
+    stress: [R; 3],
     /// `W(F)` per unit reference volume.
-    energy_density: f64,
+    energy_density: R,
     /// The spatial tangent `[C11, C12, G]` (see [`Material::tangent`]).
-    tangent: [f64; 3],
+    tangent: [R; 3],
 }
 
 impl Lame {
     /// The one place where the neo-Hookean `σ(F)`, `W(F)` and tangent are written, sharing
     /// `J`, `ln J` and `F Fᵀ` (equations in [`NeoHookean`] and [`Material::tangent`]).
     #[inline(always)]
-    fn at(&self, f: [f64; 4]) -> NeoHookeanState {
-        let Lame { mu, lambda } = *self;
+    fn at<R: Real>(&self, f: [R; 4]) -> NeoHookeanState<R> {
+        let c = R::splat;
+        let (mu, lambda) = (c(self.mu), c(self.lambda));
         let [fxx, fxy, fyx, fyy] = f;
         let j = fxx * fyy - fxy * fyx;
         let ln_j = j.ln();
         let (a, b) = (mu / j, lambda * ln_j / j);
         let stress = [
-            a * (fxx * fxx + fxy * fxy - 1.0) + b,
-            a * (fyx * fyx + fyy * fyy - 1.0) + b,
+            a * (fxx * fxx + fxy * fxy - c(1.0)) + b,
+            a * (fyx * fyx + fyy * fyy - c(1.0)) + b,
             a * (fxx * fyx + fxy * fyy),
         ];
-        let energy_density =
-            0.5 * mu * (fxx * fxx + fxy * fxy + fyx * fyx + fyy * fyy - 2.0) - mu * ln_j + 0.5 * lambda * ln_j * ln_j;
+        let energy_density = c(0.5) * mu * (fxx * fxx + fxy * fxy + fyx * fyx + fyy * fyy - c(2.0)) - mu * ln_j
+            + c(0.5) * lambda * ln_j * ln_j;
         let mu_j = mu - lambda * ln_j;
         NeoHookeanState {
             j,
             stress,
             energy_density,
-            tangent: [(lambda + 2.0 * mu_j) / j, lambda / j, mu_j / j],
+            tangent: [(lambda + c(2.0) * mu_j) / j, lambda / j, mu_j / j],
         }
     }
 }
@@ -331,18 +334,19 @@ impl Prepared {
     ///
     /// (`C11` as in [`Material::tangent`]).
     #[inline(always)]
-    pub(crate) fn update_with_modulus(
+    pub(crate) fn update_with_modulus<R: Real>(
         &self,
-        sigma: [f64; 3],
-        l: [f64; 4],
-        f: [f64; 4],
+        sigma: [R; 3],
+        l: [R; 4],
+        f: [R; 4],
         dt: f64,
-        volume: f64,
-    ) -> ([f64; 3], f64, f64) {
+        volume: R,
+    ) -> ([R; 3], R, R) {
         match *self {
             Prepared::Linear(hooke) => {
-                let s = hooke.updated(sigma, [l[0] * dt, l[3] * dt, 0.5 * (l[1] + l[2]) * dt]);
-                (s, volume * hooke.energy_density(s), hooke.c11)
+                let dt = R::splat(dt);
+                let s = hooke.updated(sigma, [l[0] * dt, l[3] * dt, R::splat(0.5) * (l[1] + l[2]) * dt]);
+                (s, volume * hooke.energy_density(s), R::splat(hooke.c11))
             }
             Prepared::NeoHookean(lame) => {
                 let at = lame.at(f);

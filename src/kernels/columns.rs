@@ -23,12 +23,12 @@ pub(crate) struct Columns<R, const S: usize> {
 }
 
 impl<R: Real, const S: usize> Columns<R, S> {
-    /// The columns of particles `k …` of `ops`, at positions `x`, `y`.
+    /// The columns of particles `k …` of `ops`, at positions `(xp, yp)`.
     ///
     /// # Panics
     /// If `S` is not the operators' support or `k + R::LANES` exceeds the particle count.
     #[inline(always)]
-    pub(crate) fn load(ops: &Operators, x: &[f64], y: &[f64], k: usize) -> Columns<R, S> {
+    pub(crate) fn load(ops: &Operators, k: usize, xp: R, yp: R) -> Columns<R, S> {
         assert_eq!(S, ops.support(), "stencil size must equal the support");
         let firsts = &ops.first_nodes()[k..k + R::LANES];
         let zero = R::splat(0.0);
@@ -57,7 +57,6 @@ impl<R: Real, const S: usize> Columns<R, S> {
         }
         // x_{i0+a} = x₀ + (i0 + a) h, with (i0 + a) an exact integer in either form.
         let (i0, j0) = (R::from_fn(|l| lane(l)[0] as f64), R::from_fn(|l| lane(l)[1] as f64));
-        let (xp, yp) = (R::load(x, k), R::load(y, k));
         let (mut dx, mut dy) = ([zero; S], [zero; S]);
         for a in 0..S {
             let a_f = R::splat(a as f64);

@@ -1,8 +1,17 @@
 //! (9)–(11): the grid-to-particle pass, and the velocity gradient `L = [Gxᵀ u, Gyᵀ u]` alone.
+//!
+//! Both are written once for one particle and for four side by side ([`Real`]): the AVX2 build
+//! runs four particles per 4-wide vector (their grid velocities gathered node by node and
+//! transposed into lanes), with the same bits as the scalar build.
 
+use super::columns::Columns;
+use super::particle::{update_stress, ParticleSums, StressInput, StressOutput, StressSums};
 use super::simd::dispatch;
 use super::{ApicInertia, GridField, GridState, KineticEnergies, ParticleScratch};
 use crate::fields::VectorField;
+use crate::lanes::Real;
+#[cfg(target_arch = "x86_64")]
+use crate::lanes::F64x4;
 use crate::operators::Operators;
 use crate::parallel::{Splittable, Workers};
 use crate::particles::Particles;
@@ -31,11 +40,11 @@ pub fn velocity_gradient_into(ops: &Operators, u: &VectorField, l: &mut [Vec<f64
 /// `L += [∂N/∂x u_x, ∂N/∂y u_x; ∂N/∂x u_y, ∂N/∂y u_y]` for one node: the one definition of
 /// a node's term of `L = [Gxᵀ u, Gyᵀ u]` (row-major `[xx, xy, yx, yy]`).
 #[inline(always)]
-fn add_gradient(l: &mut [f64; 4], gx: f64, gy: f64, ux: f64, uy: f64) {
-    l[0] += gx * ux;
-    l[1] += gy * ux;
-    l[2] += gx * uy;
-    l[3] += gy * uy;
+fn add_gradient<R: Real>(l: &mut [R; 4], gx: R, gy: R, ux: R, uy: R) {
+    l[0] = l[0] + gx * ux;
+    l[1] = l[1] + gy * ux;
+    l[2] = l[2] + gx * uy;
+    l[3] = l[3] + gy * uy;
 }
 
 fn gradient_block<const S: usize>(ops: &Operators, u: &VectorField, first: usize, l: [&mut [f64]; 4]) {
@@ -69,6 +78,38 @@ pub struct G2pRule {
     pub gradient: Option<GridField>,
 }
 
+impl G2pRule {
+    /// Values per node of the packed grid velocities the pass reads: 4 (`[w, v]`) when the
+    /// transfer's target and the gradient field are `w`, 8 (`[w, v, v*, u]`) otherwise.
+    fn packed_width(&self) -> usize {
+        let plain_target = self.transfer.series_terms().is_none();
+        let plain_gradient = matches!(self.gradient, None | Some(GridField::Updated));
+        if plain_target && plain_gradient {
+            4
+        } else {
+            8
+        }
+    }
+}
+
+/// What the pass also does for each particle after its velocity update, in the same sweep.
+#[derive(Clone, Copy)]
+pub(crate) struct Fused<'a> {
+    /// (12)–(13) with `L` of the rule's gradient field (USL): each body's material.
+    pub stress: Option<&'a [crate::material::Prepared]>,
+    /// (9) `x_p ← x_p + Δx_p` and the report's particle sums under this gravity (instead of
+    /// the position increments into the scratch).
+    pub moves: Option<[f64; 2]>,
+}
+
+/// What a fused pass returns per block of particles.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct G2pBlock {
+    pub kinetic: KineticEnergies,
+    pub stress: StressSums,
+    pub sums: ParticleSums,
+}
+
 /// (9)–(11) in one pass over N, Gx, Gy. With `v_pic = Nᵀ w` and the increment
 /// `Δv = Nᵀ (w − v)` (the one FLIP rule, docs/formulation.md):
 ///
@@ -92,45 +133,82 @@ pub fn g2p(
     scratch: &mut ParticleScratch,
     workers: &Workers,
 ) {
-    scratch.resize(p.len());
+    let mut packed = std::mem::take(&mut scratch.packed);
+    pack_velocities(ops, grid, rule, &mut packed);
+    let fused = Fused {
+        stress: None,
+        moves: None,
+    };
+    let mut blocks = std::mem::take(&mut scratch.blocks);
+    g2p_packed(ops, &packed, rule, dt, &fused, p, scratch, workers, &mut blocks);
+    scratch.kinetic = KineticEnergies::total(&blocks);
+    scratch.packed = packed;
+    scratch.blocks = blocks;
+}
+
+/// The grid velocities [`g2p`] reads, packed node by node over the operators' node span:
+/// `[w, v]`, or `[w, v, v*, u]` ([`G2pRule::packed_width`]), two components each.
+pub(crate) fn pack_velocities(ops: &Operators, grid: &GridState, rule: &G2pRule, packed: &mut Vec<f64>) {
     let span = ops.node_span();
-    let transfer = rule.transfer;
+    let width = rule.packed_width();
     let (w, v) = (&grid.updated, &grid.projected);
-    let target = if transfer.series_terms().is_some() {
+    let target = if rule.transfer.series_terms().is_some() {
         &grid.series
     } else {
         w
     };
     let gradient = grid.field(rule.gradient.unwrap_or(GridField::Updated));
-    let mut packed = std::mem::take(&mut scratch.packed);
-    if packed.capacity() < grid.momentum.len() {
-        // Address space for the whole grid, so that a growing span never reallocates.
-        packed.reserve_exact(grid.momentum.len() - packed.len());
-    }
     packed.clear();
-    packed.extend(span.clone().map(|i| {
-        [
-            w.x[i],
-            w.y[i],
-            v.x[i],
-            v.y[i],
-            target.x[i],
-            target.y[i],
-            gradient.x[i],
-            gradient.y[i],
-        ]
-    }));
+    packed.reserve(span.len() * width);
+    for i in span {
+        packed.extend_from_slice(&[w.x[i], w.y[i], v.x[i], v.y[i]]);
+        if width == 8 {
+            packed.extend_from_slice(&[target.x[i], target.y[i], gradient.x[i], gradient.y[i]]);
+        }
+    }
+}
+
+/// [`g2p`] from packed grid velocities (of [`pack_velocities`], or the lumped grid pass), with
+/// what `fused` adds; the results of each block of particles into `blocks`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn g2p_packed(
+    ops: &Operators,
+    packed: &[f64],
+    rule: &G2pRule,
+    dt: f64,
+    fused: &Fused,
+    p: &mut Particles,
+    scratch: &mut ParticleScratch,
+    workers: &Workers,
+    blocks: &mut Vec<G2pBlock>,
+) {
+    let np = p.len();
+    let with_gradient = rule.gradient.is_some() && fused.stress.is_none();
+    if with_gradient {
+        for l in scratch.velocity_gradient.iter_mut() {
+            l.resize(np, 0.0);
+        }
+    }
+    if fused.moves.is_none() {
+        scratch.displacement.x.resize(np, 0.0);
+        scratch.displacement.y.resize(np, 0.0);
+    }
     let input = G2pInput {
         ops,
-        packed: &packed,
-        lo: span.start,
+        packed,
+        lo: ops.node_span().start,
         rule,
         dt,
-        x: &p.x,
-        y: &p.y,
         mass: &p.mass,
+        body: &p.body,
+        force: [&p.bx, &p.by],
+        stress: fused.stress,
+        gravity: fused.moves,
     };
+    let moves = fused.moves.is_some();
     let out = G2pOutput {
+        position: [&mut p.x[..], &mut p.y[..]],
+        moves,
         velocity: [&mut p.vx[..], &mut p.vy[..]],
         affine: [
             &mut p.affine_xx[..],
@@ -138,48 +216,62 @@ pub fn g2p(
             &mut p.affine_yx[..],
             &mut p.affine_yy[..],
         ],
-        gradient: scratch.velocity_gradient.each_mut().map(|v| &mut v[..]),
-        displacement: [&mut scratch.displacement.x[..], &mut scratch.displacement.y[..]],
+        gradient: with_gradient.then(|| scratch.velocity_gradient.each_mut().map(|v| &mut v[..])),
+        displacement: (!moves).then(|| [&mut scratch.displacement.x[..], &mut scratch.displacement.y[..]]),
+        stress: fused.stress.is_some().then(|| StressOutput {
+            f: [&mut p.fxx[..], &mut p.fxy[..], &mut p.fyx[..], &mut p.fyy[..]],
+            sigma: [&mut p.sxx[..], &mut p.syy[..], &mut p.sxy[..]],
+            volume: &mut p.volume[..],
+        }),
     };
-    let mut blocks = std::mem::take(&mut scratch.kinetic_blocks);
-    workers.split_blocks(out, &mut blocks, |first, out| {
-        crate::with_support!(ops, g2p_block::<S>(&input, first, out))
+    let width = rule.packed_width();
+    workers.split_blocks(out, blocks, |first, out| match width {
+        4 => crate::with_support!(ops, g2p_block::<S, 4>(&input, first, out)),
+        _ => crate::with_support!(ops, g2p_block::<S, 8>(&input, first, out)),
     });
-    let mut kinetic = KineticEnergies::default();
-    for b in &blocks {
-        kinetic.before += b.before;
-        kinetic.projected += b.projected;
-        kinetic.updated += b.updated;
-    }
-    scratch.kinetic = kinetic;
-    scratch.kinetic_blocks = blocks;
-    scratch.packed = packed;
 }
 
 /// What every block of [`g2p`] reads.
 struct G2pInput<'a> {
     ops: &'a Operators,
     /// Grid velocities packed per node from node `lo`.
-    packed: &'a [[f64; 8]],
+    packed: &'a [f64],
     lo: usize,
     rule: &'a G2pRule,
     dt: f64,
-    x: &'a [f64],
-    y: &'a [f64],
     mass: &'a [f64],
+    body: &'a [usize],
+    force: [&'a [f64]; 2],
+    stress: Option<&'a [crate::material::Prepared]>,
+    gravity: Option<[f64; 2]>,
 }
 
 /// What a block of [`g2p`] writes, for its particles: velocities, APIC moments, velocity
-/// gradients, position increments.
+/// gradients or the stress update, position increments or the positions.
 struct G2pOutput<'a> {
+    /// `x_p` (read for the node offsets; written when the pass moves the particles).
+    position: [&'a mut [f64]; 2],
+    moves: bool,
     /// `v_p` (x, y).
     velocity: [&'a mut [f64]; 2],
     /// APIC's `B_p` (or `C_p` for linear kernels), row-major.
     affine: [&'a mut [f64]; 4],
-    /// `L_p`, row-major.
-    gradient: [&'a mut [f64]; 4],
-    /// `Δx_p` (x, y).
-    displacement: [&'a mut [f64]; 2],
+    /// `L_p`, row-major, when written.
+    gradient: Option<[&'a mut [f64]; 4]>,
+    /// `Δx_p` (x, y), unless the pass moves the particles.
+    displacement: Option<[&'a mut [f64]; 2]>,
+    /// `F`, `σ`, `V`, when the pass updates the stress.
+    stress: Option<StressOutput<'a>>,
+}
+
+fn split_option<T: Splittable>(t: Option<T>, mid: usize) -> (Option<T>, Option<T>) {
+    match t {
+        Some(t) => {
+            let (a, b) = t.split_at(mid);
+            (Some(a), Some(b))
+        }
+        None => (None, None),
+    }
 }
 
 impl Splittable for G2pOutput<'_> {
@@ -187,243 +279,288 @@ impl Splittable for G2pOutput<'_> {
         self.velocity[0].len()
     }
     fn split_at(self, mid: usize) -> (Self, Self) {
+        let (x0, x1) = Splittable::split_at(self.position, mid);
         let (v0, v1) = Splittable::split_at(self.velocity, mid);
         let (a0, a1) = Splittable::split_at(self.affine, mid);
-        let (g0, g1) = Splittable::split_at(self.gradient, mid);
-        let (d0, d1) = Splittable::split_at(self.displacement, mid);
+        let (g0, g1) = split_option(self.gradient, mid);
+        let (d0, d1) = split_option(self.displacement, mid);
+        let (s0, s1) = split_option(self.stress, mid);
         (
             G2pOutput {
+                position: x0,
+                moves: self.moves,
                 velocity: v0,
                 affine: a0,
                 gradient: g0,
                 displacement: d0,
+                stress: s0,
             },
             G2pOutput {
+                position: x1,
+                moves: self.moves,
                 velocity: v1,
                 affine: a1,
                 gradient: g1,
                 displacement: d1,
+                stress: s1,
             },
         )
     }
 }
 
-/// What one particle gathers over its stencil: `Nᵀ w`, `Nᵀ v*`, `Nᵀ v`, `L` of the gradient
-/// field, `L` of `w` and APIC's `B_p` (the last three when asked for).
-#[derive(Clone, Copy, Default)]
-struct Gathered {
-    w: [f64; 2],
-    t: [f64; 2],
-    r: [f64; 2],
-    l: [f64; 4],
-    lw: [f64; 4],
-    b: [f64; 4],
+/// What the particles of a group gather over their stencils: `Nᵀ w`, `Nᵀ v*`, `Nᵀ v`, `L` of the
+/// gradient field, `L` of `w` and APIC's `B_p` (the last three when asked for).
+#[derive(Clone, Copy)]
+struct Gathered<R> {
+    w: [R; 2],
+    t: [R; 2],
+    r: [R; 2],
+    l: [R; 4],
+    lw: [R; 4],
+    b: [R; 4],
 }
 
 /// Which of the optional sums of [`Gathered`] a pass forms.
 #[derive(Clone, Copy)]
 struct Wanted {
-    /// `L` of the gradient field (USL).
+    /// `L` of the gradient field.
     l: bool,
     /// `L` of `w` and `B_p`.
     apic: bool,
 }
 
-/// Particle `k`'s sums, node by node in stencil order.
-#[inline(always)]
-fn gather_one<const S: usize>(input: &G2pInput, k: usize, wanted: Wanted) -> Gathered {
-    let mut g = Gathered::default();
-    let st = input.ops.stencil::<S>(k);
-    let offsets = st.offsets(input.x[k], input.y[k]);
-    for row in 0..S {
-        let (start, n, gxv, gyv) = st.row(row);
-        let nodes = &input.packed[start - input.lo..start - input.lo + S];
-        let (dxs, dys) = st.run_offsets(&offsets, row);
-        for a in 0..S {
-            let [wx, wy, v_x, v_y, t_x, t_y, gx, gy] = nodes[a];
-            g.w[0] += n[a] * wx;
-            g.w[1] += n[a] * wy;
-            g.t[0] += n[a] * t_x;
-            g.t[1] += n[a] * t_y;
-            g.r[0] += n[a] * v_x;
-            g.r[1] += n[a] * v_y;
-            if wanted.l {
-                add_gradient(&mut g.l, gxv[a], gyv[a], gx, gy);
-            }
-            if wanted.apic {
-                add_gradient(&mut g.lw, gxv[a], gyv[a], wx, wy);
-                let (dx, dy) = (dxs[a], dys[a]);
-                g.b[0] += n[a] * wx * dx;
-                g.b[1] += n[a] * wx * dy;
-                g.b[2] += n[a] * wy * dx;
-                g.b[3] += n[a] * wy * dy;
+/// Reading a node's packed velocities for every lane.
+trait Gather: Real {
+    /// `packed[at_l + c]` for `c < W` in lane `l`.
+    ///
+    /// # Safety
+    /// `at_l + W ≤ packed.len()` for every lane `l < LANES`.
+    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 4]) -> [Self; W];
+}
+
+impl Gather for f64 {
+    #[inline(always)]
+    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 4]) -> [f64; W] {
+        let mut out = [0.0; W];
+        for (c, o) in out.iter_mut().enumerate() {
+            // SAFETY: in bounds by the caller's contract.
+            *o = unsafe { *packed.get_unchecked(at[0] + c) };
+        }
+        out
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Gather for F64x4 {
+    /// Each lane's node as 4-wide rows (one or two per node), transposed into lanes.
+    #[inline(always)]
+    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 4]) -> [F64x4; W] {
+        use std::arch::x86_64::*;
+        let mut out = [F64x4::splat(0.0); W];
+        let base = packed.as_ptr();
+        for half in 0..W / 4 {
+            // SAFETY: each row is in bounds by the caller's contract; F64x4 runs only where the
+            // CPU has AVX2.
+            let row = |l: usize| unsafe { _mm256_loadu_pd(base.add(at[l] + 4 * half)) };
+            let t = super::p2g::transpose([row(0), row(1), row(2), row(3)]);
+            for c in 0..4 {
+                out[4 * half + c] = F64x4(t[c]);
             }
         }
+        out
+    }
+}
+
+/// The sums of the particles of `cols` over their stencils, node by node in stencil order.
+#[inline(always)]
+fn gather_sums<R: Gather, const S: usize, const W: usize>(
+    cols: &Columns<R, S>,
+    packed: &[f64],
+    lo: usize,
+    wanted: Wanted,
+) -> Gathered<R> {
+    let z = R::splat(0.0);
+    let mut g = Gathered {
+        w: [z; 2],
+        t: [z; 2],
+        r: [z; 2],
+        l: [z; 4],
+        lw: [z; 4],
+        b: [z; 4],
+    };
+    // Each lane's first packed value, and the stencil's reach from there, checked once.
+    let mut at = [0; 4];
+    for (l, at) in at.iter_mut().enumerate() {
+        *at = W * (cols.first[l.min(R::LANES - 1)] - lo);
+    }
+    let reach = W * ((S - 1) * cols.run_stride + S);
+    assert!(
+        at.iter().all(|&a| a + reach <= packed.len()),
+        "a stencil reaches past the packed grid velocities"
+    );
+    for b in 0..S {
+        for a in 0..S {
+            let (n, gxv, gyv) = cols.values(b, a);
+            let offset = W * (b * cols.run_stride + a);
+            // SAFETY: every lane's node of the stencil is in bounds (checked above).
+            let u = unsafe { R::gather::<W>(packed, at.map(|x| x + offset)) };
+            let (wx, wy, v_x, v_y) = (u[0], u[1], u[2], u[3]);
+            g.w = [g.w[0] + n * wx, g.w[1] + n * wy];
+            g.r = [g.r[0] + n * v_x, g.r[1] + n * v_y];
+            if W == 8 {
+                g.t = [g.t[0] + n * u[4], g.t[1] + n * u[5]];
+                if wanted.l {
+                    add_gradient(&mut g.l, gxv, gyv, u[6], u[7]);
+                }
+            }
+            if wanted.apic || (W == 4 && wanted.l) {
+                add_gradient(&mut g.lw, gxv, gyv, wx, wy);
+            }
+            if wanted.apic {
+                let (dx, dy) = cols.offset(b, a);
+                g.b = [
+                    g.b[0] + n * wx * dx,
+                    g.b[1] + n * wx * dy,
+                    g.b[2] + n * wy * dx,
+                    g.b[3] + n * wy * dy,
+                ];
+            }
+        }
+    }
+    if W == 4 {
+        // The target and the gradient field are w itself.
+        g.t = g.w;
+        g.l = g.lw;
     }
     g
 }
 
-/// [`gather_one`] with the node's fields in 4-wide vectors: the same products and sums, lane by
-/// lane, in the same order (so the same bits; see [`super::simd`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-fn gather_one_avx2<const S: usize>(input: &G2pInput, k: usize, wanted: Wanted) -> Gathered {
-    use std::arch::x86_64::*;
-    let st = input.ops.stencil::<S>(k);
-    let offsets = st.offsets(input.x[k], input.y[k]);
-    let z = _mm256_setzero_pd();
-    // [w_x, w_y, v_x, v_y], [v*_x, v*_y, ·, ·], L, L of w, B.
-    let (mut wv, mut tu, mut l, mut lw, mut b) = (z, z, z, z, z);
-    for row in 0..S {
-        let (start, n, gxv, gyv) = st.row(row);
-        let nodes = &input.packed[start - input.lo..start - input.lo + S];
-        let (dxs, dys) = st.run_offsets(&offsets, row);
-        for a in 0..S {
-            let node = &nodes[a];
-            // SAFETY: a node holds 8 values; both loads are in bounds.
-            let (lo, hi) = unsafe { (_mm256_loadu_pd(node.as_ptr()), _mm256_loadu_pd(node.as_ptr().add(4))) };
-            let nn = _mm256_set1_pd(n[a]);
-            wv = _mm256_add_pd(wv, _mm256_mul_pd(nn, lo));
-            tu = _mm256_add_pd(tu, _mm256_mul_pd(nn, hi));
-            if wanted.l || wanted.apic {
-                let gv = _mm256_setr_pd(gxv[a], gyv[a], gxv[a], gyv[a]);
-                if wanted.l {
-                    // [u_x, u_x, u_y, u_y] of the gradient field.
-                    let uu = _mm256_permute4x64_pd::<0b11_11_10_10>(hi);
-                    l = _mm256_add_pd(l, _mm256_mul_pd(gv, uu));
-                }
-                if wanted.apic {
-                    let ww = _mm256_permute4x64_pd::<0b01_01_00_00>(lo); // [w_x, w_x, w_y, w_y]
-                    lw = _mm256_add_pd(lw, _mm256_mul_pd(gv, ww));
-                    let d = _mm256_setr_pd(dxs[a], dys[a], dxs[a], dys[a]);
-                    b = _mm256_add_pd(b, _mm256_mul_pd(_mm256_mul_pd(nn, ww), d));
-                }
-            }
-        }
-    }
-    let mut out = [[0.0; 4]; 5];
-    for (slot, v) in out.iter_mut().zip([wv, tu, l, lw, b]) {
-        // SAFETY: each slot holds 4 values.
-        unsafe { _mm256_storeu_pd(slot.as_mut_ptr(), v) };
-    }
-    let [wv, tu, l, lw, b] = out;
-    Gathered {
-        w: [wv[0], wv[1]],
-        r: [wv[2], wv[3]],
-        t: [tu[0], tu[1]],
-        l,
-        lw,
-        b,
-    }
-}
-
 dispatch! {
     /// The particle loop of [`g2p`] for the particles from `first` (a block), for a support of
-    /// `S` nodes per axis; the block's kinetic energies.
-    fn g2p_block / g2p_block_avx2 = g2p_block_body(input: &G2pInput, first: usize, out: G2pOutput) -> KineticEnergies
+    /// `S` nodes per axis and `W` packed values per node.
+    fn g2p_block<const W: usize> / g2p_block_avx2 = g2p_block_body(input: &G2pInput, first: usize, out: G2pOutput) -> G2pBlock
 }
 
-/// What a block of [`g2p`] writes, with the rule's flags: the per-particle update from a
-/// particle's sums.
-struct Finish<'a> {
-    out: G2pOutput<'a>,
-    mass: &'a [f64],
-    first: usize,
-    transfer: Transfer,
-    apic: bool,
-    linear_apic: bool,
-    with_gradient: bool,
-    trapezoidal: bool,
-    dt: f64,
-    kinetic: KineticEnergies,
-}
-
-impl Finish<'_> {
-    /// Particle `first + j`'s new velocity, APIC moment, velocity gradient, position increment
-    /// and kinetic energies from its sums `g`.
-    #[inline(always)]
-    fn apply(&mut self, j: usize, g: &Gathered) {
-        let ([vx, vy], [tx, ty], [rx, ry]) = (g.w, g.t, g.r);
-        let out = &mut self.out;
-        if self.with_gradient {
-            for c in 0..4 {
-                out.gradient[c][j] = g.l[c];
-            }
-        }
-        let (old_x, old_y) = (out.velocity[0][j], out.velocity[1][j]);
-        let half_m = 0.5 * self.mass[self.first + j];
-        self.kinetic.before += half_m * (old_x * old_x + old_y * old_y);
-        self.kinetic.projected += half_m * (rx * rx + ry * ry);
-        self.kinetic.updated += half_m * (vx * vx + vy * vy);
-        let (dvx, dvy) = (vx - rx, vy - ry);
-        let (new_x, new_y) = match self.transfer {
-            Transfer::Pic | Transfer::Apic => (vx, vy),
-            Transfer::Xpic { .. } | Transfer::Fmpm { .. } => (tx, ty),
-            Transfer::Flip => (old_x + dvx, old_y + dvy),
-            Transfer::Blend { flip } => (
-                flip * (old_x + dvx) + (1.0 - flip) * vx,
-                flip * (old_y + dvy) + (1.0 - flip) * vy,
-            ),
-        };
-        out.velocity[0][j] = new_x;
-        out.velocity[1][j] = new_y;
-        if self.apic {
-            let b = if self.linear_apic { g.lw } else { g.b };
-            for c in 0..4 {
-                out.affine[c][j] = b[c];
-            }
-        }
-        let (ux, uy) = match self.transfer {
-            Transfer::Xpic { .. } => (rx + 0.5 * (new_x - old_x), ry + 0.5 * (new_y - old_y)),
-            Transfer::Fmpm { .. } => (0.5 * (old_x + new_x), 0.5 * (old_y + new_y)),
-            Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic if self.trapezoidal => {
-                (0.5 * (old_x + vx), 0.5 * (old_y + vy))
-            }
-            Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic => (vx, vy),
-        };
-        out.displacement[0][j] = self.dt * ux;
-        out.displacement[1][j] = self.dt * uy;
-    }
-}
-
-/// The body of [`g2p_block`]: each particle's sums ([`gather_one`], or its AVX2 form), then its
-/// update from them.
+/// The body of [`g2p_block`]: the particles' sums four at a time in the AVX2 build (one at a
+/// time for the last few of a block), then their updates.
 #[inline(always)]
-fn g2p_block_body<const S: usize, const AVX2: bool>(input: &G2pInput, first: usize, out: G2pOutput) -> KineticEnergies {
-    let G2pInput { rule, dt, .. } = *input;
+fn g2p_block_body<const S: usize, const W: usize, const AVX2: bool>(
+    input: &G2pInput,
+    first: usize,
+    mut out: G2pOutput,
+) -> G2pBlock {
+    let np = out.len();
+    let mut block = G2pBlock::default();
+    let mut j = 0;
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
+        while j + 4 <= np {
+            update_group::<F64x4, S, W>(input, first, j, &mut out, &mut block);
+            j += 4;
+        }
+    }
+    while j < np {
+        update_group::<f64, S, W>(input, first, j, &mut out, &mut block);
+        j += 1;
+    }
+    block
+}
+
+/// Particles `first + j …` (`R::LANES` of them): their sums, then their new velocities, APIC
+/// moments, velocity gradients or stress update, position increments or positions, and their
+/// kinetic energies (and report sums), added to `block` in particle order.
+#[inline(always)]
+fn update_group<R: Gather, const S: usize, const W: usize>(
+    input: &G2pInput,
+    first: usize,
+    j: usize,
+    out: &mut G2pOutput,
+    block: &mut G2pBlock,
+) {
+    let k = first + j;
+    let rule = input.rule;
     let transfer = rule.transfer;
     let apic = transfer == Transfer::Apic;
-    let with_gradient = rule.gradient.is_some();
-    let wanted = Wanted { l: with_gradient, apic };
-    let np = out.len();
-    let mut finish = Finish {
-        out,
-        mass: input.mass,
-        first,
-        transfer,
+    let wanted = Wanted {
+        l: rule.gradient.is_some(),
         apic,
-        linear_apic: apic && rule.inertia == ApicInertia::StoredC,
-        with_gradient,
-        trapezoidal: rule.position == PositionUpdate::Trapezoidal,
-        dt,
-        kinetic: KineticEnergies::default(),
     };
-    #[cfg(target_arch = "x86_64")]
-    debug_assert!(!AVX2 || std::arch::is_x86_feature_detected!("avx2"));
-    for j in 0..np {
-        let g = if AVX2 {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: the AVX2 instance runs only where the CPU has AVX2 (`dispatch!`).
-            unsafe {
-                gather_one_avx2::<S>(input, first + j, wanted)
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            gather_one::<S>(input, first + j, wanted)
-        } else {
-            gather_one::<S>(input, first + j, wanted)
-        };
-        finish.apply(j, &g);
+    let (xp, yp) = (R::load(out.position[0], j), R::load(out.position[1], j));
+    let cols = Columns::<R, S>::load(input.ops, k, xp, yp);
+    let g = gather_sums::<R, S, W>(&cols, input.packed, input.lo, wanted);
+    let ([vx, vy], [tx, ty], [rx, ry]) = (g.w, g.t, g.r);
+    if let Some(l) = out.gradient.as_mut() {
+        for c in 0..4 {
+            g.l[c].store(l[c], j);
+        }
     }
-    finish.kinetic
+    let (old_x, old_y) = (R::load(out.velocity[0], j), R::load(out.velocity[1], j));
+    let c = R::splat;
+    let half_m = c(0.5) * R::load(input.mass, k);
+    let (before, projected, updated) = (
+        (half_m * (old_x * old_x + old_y * old_y)).lanes(),
+        (half_m * (rx * rx + ry * ry)).lanes(),
+        (half_m * (vx * vx + vy * vy)).lanes(),
+    );
+    for i in 0..R::LANES {
+        block.kinetic.before += before[i];
+        block.kinetic.projected += projected[i];
+        block.kinetic.updated += updated[i];
+    }
+    let (dvx, dvy) = (vx - rx, vy - ry);
+    let (new_x, new_y) = match transfer {
+        Transfer::Pic | Transfer::Apic => (vx, vy),
+        Transfer::Xpic { .. } | Transfer::Fmpm { .. } => (tx, ty),
+        Transfer::Flip => (old_x + dvx, old_y + dvy),
+        Transfer::Blend { flip } => (
+            c(flip) * (old_x + dvx) + c(1.0 - flip) * vx,
+            c(flip) * (old_y + dvy) + c(1.0 - flip) * vy,
+        ),
+    };
+    new_x.store(out.velocity[0], j);
+    new_y.store(out.velocity[1], j);
+    if apic {
+        let b = if rule.inertia == ApicInertia::StoredC { g.lw } else { g.b };
+        for c in 0..4 {
+            b[c].store(out.affine[c], j);
+        }
+    }
+    let trapezoidal = rule.position == PositionUpdate::Trapezoidal;
+    let (ux, uy) = match transfer {
+        Transfer::Xpic { .. } => (rx + c(0.5) * (new_x - old_x), ry + c(0.5) * (new_y - old_y)),
+        Transfer::Fmpm { .. } => (c(0.5) * (old_x + new_x), c(0.5) * (old_y + new_y)),
+        Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic if trapezoidal => {
+            (c(0.5) * (old_x + vx), c(0.5) * (old_y + vy))
+        }
+        Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic => (vx, vy),
+    };
+    let (dx, dy) = (c(input.dt) * ux, c(input.dt) * uy);
+    if let (Some(materials), Some(stress)) = (input.stress, out.stress.as_mut()) {
+        let stress_input = StressInput {
+            materials,
+            body: input.body,
+            mass: input.mass,
+            dt: input.dt,
+        };
+        update_stress(&stress_input, g.l, k, j, stress, &mut block.stress);
+    }
+    match (out.displacement.as_mut(), input.gravity) {
+        (Some(d), _) => {
+            dx.store(d[0], j);
+            dy.store(d[1], j);
+        }
+        (None, gravity) => {
+            let (x, y) = (xp + dx, yp + dy);
+            x.store(out.position[0], j);
+            y.store(out.position[1], j);
+            if let Some(gravity) = gravity {
+                let (x, y, vx, vy) = (x.lanes(), y.lanes(), new_x.lanes(), new_y.lanes());
+                for i in 0..R::LANES {
+                    let (m, b) = (input.mass[k + i], [input.force[0][k + i], input.force[1][k + i]]);
+                    block.sums.add(k + i, [x[i], y[i]], [vx[i], vy[i]], m, b, gravity);
+                }
+            }
+        }
+    }
 }

@@ -20,10 +20,14 @@ mod columns;
 mod extend;
 mod g2p;
 mod p2g;
+mod particle;
 mod simd;
 
 pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
 pub use g2p::{g2p, velocity_gradient_into, G2pRule};
+pub(crate) use g2p::{g2p_packed, pack_velocities, Fused, G2pBlock};
+pub use particle::{ParticleSums, StressSums};
+pub(crate) use particle::{update_stress, StressInput, StressOutput};
 pub(crate) use p2g::subtract_particle_force;
 pub use p2g::{add_internal_force, p2g, reproject_momentum};
 pub use simd::set_scalar_kernels;
@@ -138,6 +142,19 @@ pub struct KineticEnergies {
     pub updated: f64,
 }
 
+impl KineticEnergies {
+    /// The energies of the blocks of a pass, added in order.
+    pub(crate) fn total(blocks: &[G2pBlock]) -> KineticEnergies {
+        let mut t = KineticEnergies::default();
+        for b in blocks {
+            t.before += b.kinetic.before;
+            t.projected += b.kinetic.projected;
+            t.updated += b.kinetic.updated;
+        }
+        t
+    }
+}
+
 /// Per-particle fields of one step.
 #[derive(Debug, Clone, Default)]
 pub struct ParticleScratch {
@@ -147,21 +164,11 @@ pub struct ParticleScratch {
     pub displacement: VectorField,
     /// Kinetic energies of the last [`g2p`].
     pub kinetic: KineticEnergies,
-    /// The grid velocities [`g2p`] reads, packed node by node over the operators' node span:
-    /// `[w, v, target, gradient field]`, two components each.
-    packed: Vec<[f64; 8]>,
-    /// Kinetic energies of each block of particles of the last [`g2p`].
-    kinetic_blocks: Vec<KineticEnergies>,
-}
-
-impl ParticleScratch {
-    fn resize(&mut self, np: usize) {
-        for l in self.velocity_gradient.iter_mut() {
-            l.resize(np, 0.0);
-        }
-        self.displacement.x.resize(np, 0.0);
-        self.displacement.y.resize(np, 0.0);
-    }
+    /// The grid velocities [`g2p`] reads, packed node by node over the operators' node span
+    /// ([`pack_velocities`]).
+    packed: Vec<f64>,
+    /// What each block of particles of the last [`g2p`] returned.
+    blocks: Vec<G2pBlock>,
 }
 
 /// How a kernel's APIC inertia `D_p` is obtained.

@@ -139,18 +139,31 @@ fn p2g_columns_body<const S: usize, const AVX2: bool>(
         #[cfg(target_arch = "x86_64")]
         if AVX2 && k + 4 <= np && inside(k) && inside(k + 1) && inside(k + 2) && inside(k + 3) {
             debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
-            let cols = Columns::<F64x4, S>::load(ops, &p.x, &p.y, k);
-            let terms = node_terms(&cols, p, apic, internal, k);
-            F64x4::scatter(&terms, &cols, acc, base, 0..S);
+            let cols = Columns::<F64x4, S>::load(ops, k, F64x4::load(&p.x, k), F64x4::load(&p.y, k));
+            let rows = RowTerms::new(&cols, p, apic, internal, k);
+            let l0 = ops.first_line(k);
+            if (1..4).all(|l| ops.first_line(k + l) == l0) {
+                // Every lane's run b lies on the same grid line, and different runs on different
+                // lines: run by run, each run's nodes lane after lane, keeps particle order.
+                for b in 0..S {
+                    F64x4::scatter_run(&rows.run(b), &cols, b, acc, base);
+                }
+            } else {
+                // Stencils on different lines may meet at different runs: every lane's terms
+                // first, then lane after lane.
+                let all: [[[F64x4; 5]; S]; S] = std::array::from_fn(|b| rows.run(b));
+                F64x4::scatter_lanes(&all, &cols, acc, base);
+            }
             k += 4;
             continue;
         }
         let l0 = ops.first_line(k);
         if l0 + S > lines.start && l0 < lines.end {
-            let rows = lines.start.saturating_sub(l0)..(lines.end - l0).min(S);
-            let cols = Columns::<f64, S>::load(ops, &p.x, &p.y, k);
-            let terms = node_terms(&cols, p, apic, internal, k);
-            f64::scatter(&terms, &cols, acc, base, rows);
+            let cols = Columns::<f64, S>::load(ops, k, p.x[k], p.y[k]);
+            let rows = RowTerms::new(&cols, p, apic, internal, k);
+            for b in lines.start.saturating_sub(l0)..(lines.end - l0).min(S) {
+                f64::scatter_run(&rows.run(b), &cols, b, acc, base);
+            }
         }
         k += 1;
     }
@@ -199,118 +212,181 @@ fn column_inertia<R: Real, const S: usize>(cols: &Columns<R, S>) -> [R; 2] {
     [dxx, dyy]
 }
 
-/// The terms of (2)–(5) of the particles of `cols` at each stencil position (`b S + a`),
-/// `[m, q_x, q_y, f_x, f_y]`:
+/// The terms of (2)–(5) of a group of particles, factored along the runs of their stencils:
+/// with `α` the axis along a run and `β` the axis across, node `(a, b)` (position `a` on run
+/// `b`) has `N = wα_a wβ_b`, `∂N/∂α = w′α_a wβ_b`, `∂N/∂β = wα_a w′β_b`, and
 ///
 /// ```text
-/// n m,   n m v + m n C (x_I − x_p),   n m b − [Gx V σxx + Gy V σxy; Gx V σxy + Gy V σyy]
+/// m_L:  wα_a (m wβ_b)
+/// q:    N (m v + mC (x_I − x_p)) = N (P_b + Q_a),   Q_a = (mC)_·α dα_a,  P_b = m v + (mC)_·β dβ_b
+/// f:    N m b − (∂N/∂x V σ_x· + ∂N/∂y V σ_y·) = wα_a F_b − w′α_a G_b,
+///       F_b = wβ_b m b − w′β_b (Vσ)_β·,   G_b = wβ_b (Vσ)_α·
 /// ```
-#[inline(always)]
-fn node_terms<R: Real, const S: usize>(
-    cols: &Columns<R, S>,
-    p: &Particles,
-    apic: Option<ApicInertia>,
-    internal: f64,
-    k: usize,
-) -> [[R; 5]; 16] {
-    let m = R::load(&p.mass, k);
-    let mv = [m * R::load(&p.vx, k), m * R::load(&p.vy, k)];
-    let mb = [m * R::load(&p.bx, k), m * R::load(&p.by, k)];
-    let v = R::splat(internal) * R::load(&p.volume, k);
-    let vs = [v * R::load(&p.sxx, k), v * R::load(&p.syy, k), v * R::load(&p.sxy, k)];
-    let c = affine_velocity(cols, p, apic, k);
-    let mut terms = [[R::splat(0.0); 5]; 16];
-    for b in 0..S {
+///
+/// (`mC = m C_p` the APIC affine momentum, `dα_a`, `dβ_b` the offsets `x_I − x_p` along each
+/// axis): per node one product for `N`, one for `m_L`, two for each momentum and three for
+/// each force component.
+struct RowTerms<R, const S: usize> {
+    wa: [R; S],
+    dwa: [R; S],
+    /// `m wβ_b`.
+    mwb: [R; S],
+    wb: [R; S],
+    /// `Q_a` and `P_b` of `q_x`, `q_y`.
+    q: [[R; S]; 2],
+    p: [[R; S]; 2],
+    /// `F_b`, `G_b` of `f_x`, `f_y`.
+    f: [[R; S]; 2],
+    g: [[R; S]; 2],
+}
+
+impl<R: Real, const S: usize> RowTerms<R, S> {
+    #[inline(always)]
+    fn new(cols: &Columns<R, S>, p: &Particles, apic: Option<ApicInertia>, internal: f64, k: usize) -> Self {
+        let m = R::load(&p.mass, k);
+        let mv = [m * R::load(&p.vx, k), m * R::load(&p.vy, k)];
+        let mb = [m * R::load(&p.bx, k), m * R::load(&p.by, k)];
+        let v = R::splat(internal) * R::load(&p.volume, k);
+        let [sxx, syy, sxy] = [v * R::load(&p.sxx, k), v * R::load(&p.syy, k), v * R::load(&p.sxy, k)];
+        let c = affine_velocity(cols, p, apic, k);
+        let mc = [m * c[0], m * c[1], m * c[2], m * c[3]];
+        // Along a run and across: (w, w′, d) of each axis, and each row of mC and Vσ as
+        // (along, across).
+        let rax = cols.runs_along_x;
+        let ((wa, dwa, da), (wb, dwb, db)) = if rax {
+            ((cols.wx, cols.dwx, cols.dx), (cols.wy, cols.dwy, cols.dy))
+        } else {
+            ((cols.wy, cols.dwy, cols.dy), (cols.wx, cols.dwx, cols.dx))
+        };
+        let pair = |x: R, y: R| if rax { (x, y) } else { (y, x) };
+        let c_rows = [pair(mc[0], mc[1]), pair(mc[2], mc[3])];
+        let s_rows = [pair(sxx, sxy), pair(sxy, syy)];
+        let zero = [R::splat(0.0); S];
+        let mut t = RowTerms {
+            wa,
+            dwa,
+            mwb: zero,
+            wb,
+            q: [zero; 2],
+            p: [zero; 2],
+            f: [zero; 2],
+            g: [zero; 2],
+        };
+        for i in 0..S {
+            t.mwb[i] = m * wb[i];
+            for c in 0..2 {
+                t.q[c][i] = c_rows[c].0 * da[i];
+                t.p[c][i] = mv[c] + c_rows[c].1 * db[i];
+                t.f[c][i] = wb[i] * mb[c] - dwb[i] * s_rows[c].1;
+                t.g[c][i] = wb[i] * s_rows[c].0;
+            }
+        }
+        t
+    }
+
+    /// The terms `[m, q_x, q_y, f_x, f_y]` of the nodes of run `b`.
+    #[inline(always)]
+    fn run(&self, b: usize) -> [[R; 5]; S] {
+        let mut out = [[R::splat(0.0); 5]; S];
         for a in 0..S {
-            let (n, gx, gy) = cols.values(b, a);
-            let (dx, dy) = cols.offset(b, a);
-            // Affine::velocity: n (C (x_I − x_p)).
-            let ax = n * (c[0] * dx + c[1] * dy);
-            let ay = n * (c[2] * dx + c[3] * dy);
-            terms[b * S + a] = [
-                n * m,
-                n * mv[0] + m * ax,
-                n * mv[1] + m * ay,
-                n * mb[0] - (gx * vs[0] + gy * vs[2]),
-                n * mb[1] - (gx * vs[2] + gy * vs[1]),
+            let wa = self.wa[a];
+            let n = wa * self.wb[b];
+            out[a] = [
+                wa * self.mwb[b],
+                n * (self.p[0][b] + self.q[0][a]),
+                n * (self.p[1][b] + self.q[1][a]),
+                wa * self.f[0][b] - self.dwa[a] * self.g[0][b],
+                wa * self.f[1][b] - self.dwa[a] * self.g[1][b],
             ];
         }
+        out
     }
-    terms
 }
 
 /// Adding a group's terms to the grid.
 trait Scatter: Real {
-    /// Adds each lane's terms (`terms[b S + a]`, from [`node_terms`]) to the nodes of its
-    /// stencil's runs `rows`, lane after lane (particle order).
-    fn scatter<const S: usize>(
-        terms: &[[Self; 5]; 16],
-        cols: &Columns<Self, S>,
-        acc: &mut [[f64; 5]],
-        base: usize,
-        rows: std::ops::Range<usize>,
-    );
+    /// Adds each lane's terms of run `b` (from [`RowTerms::run`]) to its nodes, lane after lane.
+    fn scatter_run<const S: usize>(terms: &[[Self; 5]; S], cols: &Columns<Self, S>, b: usize, acc: &mut [[f64; 5]], base: usize);
+    /// Adds each lane's terms of every run to its nodes, lane after lane (particle order).
+    fn scatter_lanes<const S: usize>(terms: &[[[Self; 5]; S]; S], cols: &Columns<Self, S>, acc: &mut [[f64; 5]], base: usize);
 }
 
 impl Scatter for f64 {
     #[inline(always)]
-    fn scatter<const S: usize>(
-        terms: &[[f64; 5]; 16],
-        cols: &Columns<f64, S>,
-        acc: &mut [[f64; 5]],
-        base: usize,
-        rows: std::ops::Range<usize>,
-    ) {
-        for b in rows {
-            let start = cols.run_start(0, b) - base;
-            let r = &mut acc[start..start + S];
-            for a in 0..S {
-                let t = &terms[b * S + a];
-                for c in 0..5 {
-                    r[a][c] += t[c];
-                }
+    fn scatter_run<const S: usize>(terms: &[[f64; 5]; S], cols: &Columns<f64, S>, b: usize, acc: &mut [[f64; 5]], base: usize) {
+        let start = cols.run_start(0, b) - base;
+        let r = &mut acc[start..start + S];
+        for a in 0..S {
+            for c in 0..5 {
+                r[a][c] += terms[a][c];
             }
+        }
+    }
+
+    #[inline(always)]
+    fn scatter_lanes<const S: usize>(terms: &[[[f64; 5]; S]; S], cols: &Columns<f64, S>, acc: &mut [[f64; 5]], base: usize) {
+        for b in 0..S {
+            f64::scatter_run(&terms[b], cols, b, acc, base);
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl F64x4 {
+    /// Lane `l`'s `[m, q_x, q_y, f_x]` at each node of a run, one vector per node (a 4 × 4
+    /// transpose), and its `f_y`.
+    #[inline(always)]
+    fn lane_terms<const S: usize>(terms: &[[F64x4; 5]; S]) -> ([[std::arch::x86_64::__m256d; 4]; S], [[f64; 4]; S]) {
+        let mut quads = [[F64x4::splat(0.0).0; 4]; S];
+        let mut fy = [[0.0; 4]; S];
+        for a in 0..S {
+            let t = &terms[a];
+            quads[a] = transpose([t[0].0, t[1].0, t[2].0, t[3].0]);
+            fy[a] = t[4].lanes();
+        }
+        (quads, fy)
+    }
+
+    /// Adds lane `l`'s terms to the nodes of run `b` from node `start` (relative to `base`).
+    #[inline(always)]
+    fn add_run<const S: usize>(
+        quads: &[[std::arch::x86_64::__m256d; 4]; S],
+        fy: &[[f64; 4]; S],
+        l: usize,
+        start: usize,
+        acc: &mut [[f64; 5]],
+    ) {
+        use std::arch::x86_64::*;
+        let r = &mut acc[start..start + S];
+        for a in 0..S {
+            let node = &mut r[a];
+            // SAFETY: a node's accumulator holds 5 values; the load and store take the first
+            // 4. F64x4 runs only where the CPU has AVX2.
+            unsafe {
+                let sum = _mm256_add_pd(_mm256_loadu_pd(node.as_ptr()), quads[a][l]);
+                _mm256_storeu_pd(node.as_mut_ptr(), sum);
+            }
+            node[4] += fy[a][l];
         }
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 impl Scatter for F64x4 {
-    /// Lane `l`'s `[m, q_x, q_y, f_x]` of every node in one vector (a 4 × 4 transpose), added
-    /// with one 4-wide load, add and store; `f_y` beside it.
     #[inline(always)]
-    fn scatter<const S: usize>(
-        terms: &[[F64x4; 5]; 16],
-        cols: &Columns<F64x4, S>,
-        acc: &mut [[f64; 5]],
-        base: usize,
-        rows: std::ops::Range<usize>,
-    ) {
-        use std::arch::x86_64::*;
-        // SAFETY: F64x4 runs only where the CPU has AVX2.
-        let mut lane_terms = [[unsafe { _mm256_setzero_pd() }; 4]; 16];
-        let mut fy = [[0.0; 4]; 16];
-        for b in rows.clone() {
-            for a in 0..S {
-                let t = &terms[b * S + a];
-                lane_terms[b * S + a] = transpose([t[0].0, t[1].0, t[2].0, t[3].0]);
-                fy[b * S + a] = t[4].lanes();
-            }
-        }
+    fn scatter_run<const S: usize>(terms: &[[F64x4; 5]; S], cols: &Columns<F64x4, S>, b: usize, acc: &mut [[f64; 5]], base: usize) {
+        let (quads, fy) = F64x4::lane_terms(terms);
         for l in 0..4 {
-            for b in rows.clone() {
-                let start = cols.run_start(l, b) - base;
-                let r = &mut acc[start..start + S];
-                for a in 0..S {
-                    let r = &mut r[a];
-                    // SAFETY: a node's accumulator holds 5 values; the load and store take
-                    // the first 4. F64x4 runs only where the CPU has AVX2.
-                    unsafe {
-                        let sum = _mm256_add_pd(_mm256_loadu_pd(r.as_ptr()), lane_terms[b * S + a][l]);
-                        _mm256_storeu_pd(r.as_mut_ptr(), sum);
-                    }
-                    r[4] += fy[b * S + a][l];
-                }
+            F64x4::add_run(&quads, &fy, l, cols.run_start(l, b) - base, acc);
+        }
+    }
+
+    #[inline(always)]
+    fn scatter_lanes<const S: usize>(terms: &[[[F64x4; 5]; S]; S], cols: &Columns<F64x4, S>, acc: &mut [[f64; 5]], base: usize) {
+        let runs: [_; S] = std::array::from_fn(|b| F64x4::lane_terms(&terms[b]));
+        for l in 0..4 {
+            for (b, (quads, fy)) in runs.iter().enumerate() {
+                F64x4::add_run(quads, fy, l, cols.run_start(l, b) - base, acc);
             }
         }
     }
@@ -319,7 +395,7 @@ impl Scatter for F64x4 {
 /// `[r0, r1, r2, r3]` (rows) to its columns: lane `l` of column `c` is lane `c` of row `l`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn transpose(r: [std::arch::x86_64::__m256d; 4]) -> [std::arch::x86_64::__m256d; 4] {
+pub(super) fn transpose(r: [std::arch::x86_64::__m256d; 4]) -> [std::arch::x86_64::__m256d; 4] {
     use std::arch::x86_64::*;
     // SAFETY: called only from the AVX2 build (F64x4).
     unsafe {

@@ -49,21 +49,21 @@ pub(crate) fn avx2() -> bool {
 /// Declares `$name`, which runs `$body::<S, true>` from a copy compiled for AVX2 when [`avx2`]
 /// says so and `$body::<S, false>` from the baseline build otherwise (see the note on bits).
 macro_rules! dispatch {
-    ($(#[$doc:meta])* fn $name:ident / $avx:ident = $body:ident ( $($arg:ident : $ty:ty),* ) -> $ret:ty) => {
+    ($(#[$doc:meta])* fn $name:ident $(<const $c:ident : usize>)? / $avx:ident = $body:ident ( $($arg:ident : $ty:ty),* ) -> $ret:ty) => {
         $(#[$doc])*
-        fn $name<const S: usize>($($arg: $ty),*) -> $ret {
+        fn $name<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             if $crate::kernels::simd::avx2() {
                 // SAFETY: the CPU has AVX2, checked at run time just above.
-                return unsafe { $avx::<S>($($arg),*) };
+                return unsafe { $avx::<S $(, $c)?>($($arg),*) };
             }
-            $body::<S, false>($($arg),*)
+            $body::<S $(, $c)?, false>($($arg),*)
         }
 
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx2")]
-        unsafe fn $avx<const S: usize>($($arg: $ty),*) -> $ret {
-            $body::<S, true>($($arg),*)
+        unsafe fn $avx<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
+            $body::<S $(, $c)?, true>($($arg),*)
         }
     };
 }

@@ -68,7 +68,7 @@ use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::grid::Grid;
-use crate::kernels::{ExtensionScratch, GridState, ParticleScratch};
+use crate::kernels::{self, ExtensionScratch, GridState, ParticleScratch};
 use crate::mass::{GridMass, SeriesScratch};
 use crate::material::Prepared;
 use crate::operators::Operators;
@@ -132,8 +132,15 @@ struct Scratch {
     extension: ExtensionScratch,
     series: SeriesScratch,
     sorting: phases::Sorting,
-    stress_blocks: Vec<phases::StressBlock>,
-    report_blocks: Vec<report::Sums>,
+    stress_blocks: Vec<kernels::StressSums>,
+    report_blocks: Vec<kernels::ParticleSums>,
+    /// The packed grid velocities the grid-to-particle pass reads.
+    packed: Vec<f64>,
+    /// What each block of particles of the last grid-to-particle pass returned.
+    g2p_blocks: Vec<kernels::G2pBlock>,
+    /// The report's particle sums when the grid-to-particle pass moved the particles and took
+    /// them (USL, USF); `None` when the report sums them itself.
+    sums: Option<kernels::ParticleSums>,
 }
 
 impl Scratch {

@@ -6,13 +6,13 @@ use super::series::{series_of, SeriesTransfer};
 use super::{stability, Body, Cache, Options, Scratch, Setup, Simulation, State, StepReport, Transfer};
 use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};
-use crate::fields::{deformation_increment, VectorField};
+use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::kernels::{
-    self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, G2pRule, GridField, GridState, Stress,
+    self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState,
+    ParticleSums, Stress, StressInput, StressOutput, StressSums,
 };
 use crate::mass::{GridMass, Role, SolveReport};
-use crate::material::Prepared;
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::schemes::StressFrom;
@@ -128,6 +128,8 @@ impl Simulation {
     }
 
     /// (9)–(13): the grid-to-particle pass, the stress update of USL and MUSL, the positions.
+    /// USL updates the stress in the pass itself, and USL and USF move the particles there (and
+    /// sum them for the report), from the same per-particle code as the passes of their own.
     fn particle_phases(&mut self, dt: f64) -> Result<()> {
         let Simulation {
             setup,
@@ -148,28 +150,40 @@ impl Simulation {
             gradient: (stress_last == Some(StressFrom::Updated))
                 .then(|| SeriesTransfer::stress_field(series, GridField::Updated)),
         };
+        let fused = Fused {
+            stress: (stress_last == Some(StressFrom::Updated)).then_some(&setup.materials[..]),
+            moves: (stress_last != Some(StressFrom::Reprojected)).then_some(options.gravity),
+        };
         let (p, workers) = (&mut state.particles, &setup.workers);
+        let mut blocks = std::mem::take(&mut scratch.g2p_blocks);
+        let mut packed = std::mem::take(&mut scratch.packed);
         timed(profile, Phase::G2p, || {
-            kernels::g2p(ops, nodes, &rule, dt, p, &mut scratch.particle, workers)
-        }); // (9)–(11)
-        match stress_last {
-            Some(StressFrom::Updated) => {
-                timed(profile, Phase::Stress, || update_stress(setup, state, scratch, dt))?
-                // (12)–(13)
-            }
-            Some(StressFrom::Reprojected) => timed(profile, Phase::Stress, || {
+            kernels::pack_velocities(ops, nodes, &rule, &mut packed);
+            kernels::g2p_packed(ops, &packed, &rule, dt, &fused, p, &mut scratch.particle, workers, &mut blocks)
+        }); // (9)–(11), USL: (12)–(13), USL and USF: (9)
+        scratch.packed = packed;
+        scratch.particle.kinetic = kernels::KineticEnergies::total(&blocks);
+        scratch.sums = fused.moves.map(|_| ParticleSums::total(blocks.iter().map(|b| b.sums)));
+        if fused.stress.is_some() {
+            let stress = StressSums::total(blocks.iter().map(|b| b.stress));
+            scratch.g2p_blocks = blocks;
+            keep_stress(&setup.bodies, state, stress)?;
+        } else {
+            scratch.g2p_blocks = blocks;
+        }
+        if stress_last == Some(StressFrom::Reprojected) {
+            timed(profile, Phase::Stress, || {
                 let apic = apic_inertia(options, &setup.grid);
                 kernels::reproject_momentum(ops, &state.particles, apic, nodes, workers); // (11)
                 project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?;
                 let m = &state.particles.mass;
                 stress_gradient(setup, ops, mass, m, series, GridField::Projected, nodes, scratch);
                 update_stress(setup, state, scratch, dt)
-            })?, // (11)–(13)
-            None => {}
+            })?; // (11)–(13)
+            timed(profile, Phase::Move, || {
+                move_particles(&scratch.particle.displacement, &mut state.particles)
+            }); // (9)
         }
-        timed(profile, Phase::Move, || {
-            move_particles(&scratch.particle.displacement, &mut state.particles)
-        }); // (9)
         Ok(())
     }
 
@@ -345,44 +359,45 @@ fn move_particles(d: &VectorField, p: &mut Particles) {
     }
 }
 
-/// What one block of particles of the stress update returns: its strain energy, the largest
-/// `C11 V / m`, and the first inverted particle (index, `det(I + Δt L)`, `det F`).
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct StressBlock {
-    energy: f64,
-    wave_squared: f64,
-    inverted: Option<(usize, f64, f64)>,
-}
-
 /// (12) `F ← (I + Δt L) F`, `σ ← material(σ, L, F)`; (13) `V ← V det(I + Δt L)`, with the
 /// velocity gradient `L` of the particle scratch; the strain energy and the wave speed into
 /// `state`.
 fn update_stress(setup: &Setup, state: &mut State, scratch: &mut Scratch, dt: f64) -> Result<()> {
     let (l, blocks) = (&scratch.particle.velocity_gradient, &mut scratch.stress_blocks);
     let p = &mut state.particles;
-    let (materials, body, mass) = (&setup.materials[..], &p.body[..], &p.mass[..]);
+    let input = StressInput {
+        materials: &setup.materials[..],
+        body: &p.body[..],
+        mass: &p.mass[..],
+        dt,
+    };
     let out = StressOutput {
         f: [&mut p.fxx[..], &mut p.fxy[..], &mut p.fyx[..], &mut p.fyy[..]],
         sigma: [&mut p.sxx[..], &mut p.syy[..], &mut p.sxy[..]],
         volume: &mut p.volume[..],
     };
-    setup.workers.split_blocks(out, blocks, |first, out| {
-        stress_block(materials, body, mass, l, dt, first, out)
+    setup.workers.split_blocks(out, blocks, |first, mut out| {
+        let mut sums = StressSums::default();
+        for j in 0..out.volume.len() {
+            let k = first + j;
+            let l = [l[0][k], l[1][k], l[2][k], l[3][k]];
+            kernels::update_stress::<f64>(&input, l, k, j, &mut out, &mut sums);
+        }
+        sums
     });
-    let mut energy = 0.0;
+    let stress = StressSums::total(blocks.iter().copied());
+    keep_stress(&setup.bodies, state, stress)
+}
+
+/// What the state keeps of a stress update: its strain energy and wave speed; the error of
+/// the first particle it inverted.
+fn keep_stress(bodies: &[Body], state: &mut State, stress: StressSums) -> Result<()> {
+    if let Some((k, det_increment, det_f)) = stress.inverted {
+        return Err(inversion(bodies, state, k, det_increment, det_f));
+    }
+    state.strain_energy = stress.energy;
     // max √x = √(max x): one square root instead of one per particle.
-    let mut wave_squared = 0.0f64;
-    let mut inverted = None;
-    for b in blocks.iter() {
-        energy += b.energy;
-        wave_squared = wave_squared.max(b.wave_squared);
-        inverted = inverted.or(b.inverted);
-    }
-    if let Some((k, det_increment, det_f)) = inverted {
-        return Err(inversion(&setup.bodies, state, k, det_increment, det_f));
-    }
-    state.strain_energy = energy;
-    state.speeds.wave = stability::wave_speed(wave_squared, 1.0, 1.0);
+    state.speeds.wave = stability::wave_speed(stress.wave_squared, 1.0, 1.0);
     Ok(())
 }
 
@@ -397,79 +412,6 @@ fn inversion(bodies: &[Body], state: &State, k: usize, det_increment: f64, det_f
         det_increment,
         det_f,
     }
-}
-
-/// What the stress update writes, per particle: `F`, `σ`, `V`.
-struct StressOutput<'a> {
-    f: [&'a mut [f64]; 4],
-    sigma: [&'a mut [f64]; 3],
-    volume: &'a mut [f64],
-}
-
-impl crate::parallel::Splittable for StressOutput<'_> {
-    fn len(&self) -> usize {
-        self.volume.len()
-    }
-    fn split_at(self, mid: usize) -> (Self, Self) {
-        use crate::parallel::Splittable as S;
-        let (f0, f1) = S::split_at(self.f, mid);
-        let (s0, s1) = S::split_at(self.sigma, mid);
-        let (v0, v1) = S::split_at(self.volume, mid);
-        (
-            StressOutput {
-                f: f0,
-                sigma: s0,
-                volume: v0,
-            },
-            StressOutput {
-                f: f1,
-                sigma: s1,
-                volume: v1,
-            },
-        )
-    }
-}
-
-/// The stress update of the particles from `first` (a block).
-fn stress_block(
-    materials: &[Prepared],
-    body: &[usize],
-    mass: &[f64],
-    l: &[Vec<f64>; 4],
-    dt: f64,
-    first: usize,
-    out: StressOutput,
-) -> StressBlock {
-    let StressOutput {
-        f: [fxx, fxy, fyx, fyy],
-        sigma: [sxx, syy, sxy],
-        volume: volumes,
-    } = out;
-    let mut block = StressBlock::default();
-    for j in 0..fxx.len() {
-        let k = first + j;
-        let l = [l[0][k], l[1][k], l[2][k], l[3][k]];
-        let (g, j_inc) = deformation_increment(l, dt);
-        let f = [
-            g[0] * fxx[j] + g[1] * fyx[j],
-            g[0] * fxy[j] + g[1] * fyy[j],
-            g[2] * fxx[j] + g[3] * fyx[j],
-            g[2] * fxy[j] + g[3] * fyy[j],
-        ];
-        let det_f = f[0] * f[3] - f[1] * f[2];
-        if !(j_inc > 0.0 && det_f > 0.0 && det_f.is_finite()) {
-            block.inverted = Some((k, j_inc, det_f));
-            return block;
-        }
-        let volume = volumes[j] * j_inc;
-        let (s, e, c11) = materials[body[k]].update_with_modulus([sxx[j], syy[j], sxy[j]], l, f, dt, volume);
-        block.energy += e;
-        block.wave_squared = block.wave_squared.max(c11 * volume / mass[k]);
-        [fxx[j], fxy[j], fyx[j], fyy[j]] = f;
-        volumes[j] = volume;
-        [sxx[j], syy[j], sxy[j]] = s;
-    }
-    block
 }
 
 /// The counting sort's arrays.

@@ -2,7 +2,7 @@
 
 use super::{Options, Scratch, Setup, State};
 use crate::error::{MpmError, Result};
-use crate::kernels::GridState;
+use crate::kernels::{GridState, ParticleSums};
 use crate::mass::{GridMass, SolveOutcome, SolveReport};
 use crate::parallel::Workers;
 use crate::particles::Particles;
@@ -130,19 +130,6 @@ impl StepReport {
     }
 }
 
-/// Sums over one block of particles for the report.
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct Sums {
-    kinetic: f64,
-    potential: f64,
-    angular: f64,
-    mass: f64,
-    max_speed: f64,
-    momentum: [f64; 2],
-    /// The first particle with a non-finite velocity.
-    non_finite: Option<usize>,
-}
-
 /// The report of the step just taken: energies, momenta and mass summed over the particles and
 /// the grid, after checking every particle velocity is finite. `solves` are the velocity and
 /// acceleration solves' reports.
@@ -159,7 +146,10 @@ pub(super) fn report(
     solves: [SolveReport; 2],
 ) -> Result<StepReport> {
     let p = &state.particles;
-    let t = particle_sums(&setup.workers, p, options.gravity, &mut scratch.report_blocks);
+    let t = match scratch.sums.take() {
+        Some(sums) => sums,
+        None => particle_sums(&setup.workers, p, options.gravity, &mut scratch.report_blocks),
+    };
     if let Some(k) = t.non_finite {
         return Err(MpmError::NonFinite {
             step: state.steps,
@@ -169,7 +159,7 @@ pub(super) fn report(
             value: [p.vx[k], p.vy[k]],
         });
     }
-    let Sums {
+    let ParticleSums {
         kinetic: ke,
         potential,
         angular: ang,
@@ -209,42 +199,13 @@ pub(super) fn report(
 
 /// The particles' sums for the report, in fixed blocks of particles so that they do not depend
 /// on the threads (`blocks` is work space).
-fn particle_sums(workers: &Workers, p: &Particles, gravity: [f64; 2], blocks: &mut Vec<Sums>) -> Sums {
-    let [gx, gy] = gravity;
+fn particle_sums(workers: &Workers, p: &Particles, gravity: [f64; 2], blocks: &mut Vec<ParticleSums>) -> ParticleSums {
     workers.blocks(p.len(), blocks, |range| {
-        let mut s = Sums::default();
+        let mut s = ParticleSums::default();
         for k in range {
-            let m = p.mass[k];
-            let (vx, vy) = (p.vx[k], p.vy[k]);
-            let mut speed = (vx * vx + vy * vy).sqrt();
-            if speed == f64::INFINITY && vx.is_finite() && vy.is_finite() {
-                // Finite but beyond 1e154: the squares overflowed, the speed did not.
-                speed = vx.hypot(vy);
-            }
-            if !speed.is_finite() {
-                s.non_finite.get_or_insert(k);
-                continue;
-            }
-            s.max_speed = s.max_speed.max(speed);
-            s.mass += m;
-            s.kinetic += 0.5 * m * (vx * vx + vy * vy);
-            s.momentum[0] += m * vx;
-            s.momentum[1] += m * vy;
-            s.angular += m * (p.x[k] * vy - p.y[k] * vx);
-            s.potential -= m * ((p.bx[k] + gx) * p.x[k] + (p.by[k] + gy) * p.y[k]);
+            s.add(k, [p.x[k], p.y[k]], [p.vx[k], p.vy[k]], p.mass[k], [p.bx[k], p.by[k]], gravity);
         }
         s
     });
-    let mut t = Sums::default();
-    for b in blocks.iter() {
-        t.non_finite = t.non_finite.or(b.non_finite);
-        t.max_speed = t.max_speed.max(b.max_speed);
-        t.mass += b.mass;
-        t.kinetic += b.kinetic;
-        t.momentum[0] += b.momentum[0];
-        t.momentum[1] += b.momentum[1];
-        t.angular += b.angular;
-        t.potential += b.potential;
-    }
-    t
+    ParticleSums::total(blocks.iter().copied())
 }

@@ -1,0 +1,223 @@
+//! The per-particle updates that follow a particle's sums: (12)–(13), the stress update from the
+//! velocity gradient, and the particle sums of the step report. Each is written once, for one
+//! particle or four side by side ([`Real`]), and run both inside the grid-to-particle pass
+//! (USL, [`super::g2p`]) and as a pass of its own (USF, MUSL).
+
+use crate::fields::deformation_increment_of;
+use crate::lanes::Real;
+use crate::material::Prepared;
+use crate::parallel::Splittable;
+
+/// What the stress update of a block of particles returns: its strain energy, the largest
+/// `C11 V / m`, and the first inverted particle (index, `det(I + Δt L)`, `det F`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StressSums {
+    /// `Σ_p` strain energy.
+    pub energy: f64,
+    /// `max_p C11_p V_p / m_p` (the squared tangent P-wave speed).
+    pub wave_squared: f64,
+    /// The first particle with `det(I + Δt L) ≤ 0` or `det F ≤ 0` (or not finite).
+    pub inverted: Option<(usize, f64, f64)>,
+}
+
+impl StressSums {
+    /// The sums of consecutive blocks, in order.
+    pub fn total(blocks: impl IntoIterator<Item = StressSums>) -> StressSums {
+        let mut t = StressSums::default();
+        for b in blocks {
+            t.energy += b.energy;
+            t.wave_squared = t.wave_squared.max(b.wave_squared);
+            t.inverted = t.inverted.or(b.inverted);
+        }
+        t
+    }
+}
+
+/// What the stress update writes, per particle of a block: `F`, `σ`, `V`.
+pub(crate) struct StressOutput<'a> {
+    /// `F` row-major.
+    pub f: [&'a mut [f64]; 4],
+    /// `σxx, σyy, σxy`.
+    pub sigma: [&'a mut [f64]; 3],
+    /// `V`.
+    pub volume: &'a mut [f64],
+}
+
+impl Splittable for StressOutput<'_> {
+    fn len(&self) -> usize {
+        self.volume.len()
+    }
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        let (f0, f1) = Splittable::split_at(self.f, mid);
+        let (s0, s1) = Splittable::split_at(self.sigma, mid);
+        let (v0, v1) = Splittable::split_at(self.volume, mid);
+        (
+            StressOutput {
+                f: f0,
+                sigma: s0,
+                volume: v0,
+            },
+            StressOutput {
+                f: f1,
+                sigma: s1,
+                volume: v1,
+            },
+        )
+    }
+}
+
+/// What the stress update reads besides its outputs: each body's material, each particle's
+/// body and mass.
+#[derive(Clone, Copy)]
+pub(crate) struct StressInput<'a> {
+    pub materials: &'a [Prepared],
+    pub body: &'a [usize],
+    pub mass: &'a [f64],
+    pub dt: f64,
+}
+
+/// (12) `F ← (I + Δt L) F`, `σ ← material(σ, L, F)`; (13) `V ← V det(I + Δt L)` for the particles
+/// `k …` (global index; `j` in the block's `out`), with velocity gradient `l`; their strain
+/// energy, wave speed and any inversion into `sums` in particle order.
+#[inline(always)]
+pub(crate) fn update_stress<R: Real>(
+    input: &StressInput,
+    l: [R; 4],
+    k: usize,
+    j: usize,
+    out: &mut StressOutput,
+    sums: &mut StressSums,
+) {
+    let (g, j_inc) = deformation_increment_of(l, input.dt);
+    let old = [
+        R::load(out.f[0], j),
+        R::load(out.f[1], j),
+        R::load(out.f[2], j),
+        R::load(out.f[3], j),
+    ];
+    let f = [
+        g[0] * old[0] + g[1] * old[2],
+        g[0] * old[1] + g[1] * old[3],
+        g[2] * old[0] + g[3] * old[2],
+        g[2] * old[1] + g[3] * old[3],
+    ];
+    let det_f = f[0] * f[3] - f[1] * f[2];
+    let volume = R::load(out.volume, j) * j_inc;
+    let sigma = [
+        R::load(out.sigma[0], j),
+        R::load(out.sigma[1], j),
+        R::load(out.sigma[2], j),
+    ];
+    let body = &input.body[k..k + R::LANES];
+    let (s, e, c11) = if body.iter().all(|&b| b == body[0]) {
+        input.materials[body[0]].update_with_modulus(sigma, l, f, input.dt, volume)
+    } else {
+        // Bodies of different materials side by side: lane by lane, with the same operations.
+        let each = mixed_bodies(input, body, sigma.map(R::lanes), l.map(R::lanes), f.map(R::lanes), volume.lanes());
+        (
+            [0, 1, 2].map(|c| R::from_fn(|i| each[i].0[c])),
+            R::from_fn(|i| each[i].1),
+            R::from_fn(|i| each[i].2),
+        )
+    };
+    let (j_inc, det_f, e, c11, volume_l) = (j_inc.lanes(), det_f.lanes(), e.lanes(), c11.lanes(), volume.lanes());
+    for i in 0..R::LANES {
+        if !(j_inc[i] > 0.0 && det_f[i] > 0.0 && det_f[i].is_finite()) {
+            sums.inverted.get_or_insert((k + i, j_inc[i], det_f[i]));
+        }
+        sums.energy += e[i];
+        sums.wave_squared = sums.wave_squared.max(c11[i] * volume_l[i] / input.mass[k + i]);
+    }
+    for c in 0..4 {
+        f[c].store(out.f[c], j);
+    }
+    volume.store(out.volume, j);
+    for c in 0..3 {
+        s[c].store(out.sigma[c], j);
+    }
+}
+
+/// [`update_stress`]'s material update, lane by lane, where the lanes' particles belong to
+/// different bodies (each lane's `σ`, `L`, `F`, `V`; `(σ, energy, C11)` per lane).
+#[inline(never)]
+#[allow(clippy::type_complexity)]
+fn mixed_bodies(
+    input: &StressInput,
+    body: &[usize],
+    sigma: [[f64; 4]; 3],
+    l: [[f64; 4]; 4],
+    f: [[f64; 4]; 4],
+    volume: [f64; 4],
+) -> [([f64; 3], f64, f64); 4] {
+    let mut each = [([0.0; 3], 0.0, 0.0); 4];
+    for (i, e) in each.iter_mut().enumerate().take(body.len()) {
+        *e = input.materials[body[i]].update_with_modulus(
+            sigma.map(|v| v[i]),
+            l.map(|v| v[i]),
+            f.map(|v| v[i]),
+            input.dt,
+            volume[i],
+        );
+    }
+    each
+}
+
+/// The particles' sums of the step report, over a block of particles in order.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ParticleSums {
+    /// `½ Σ m |v|²`.
+    pub kinetic: f64,
+    /// `−Σ m (b + g) · x`.
+    pub potential: f64,
+    /// `Σ m (x × v)`.
+    pub angular: f64,
+    /// `Σ m`.
+    pub mass: f64,
+    /// `max |v|`.
+    pub max_speed: f64,
+    /// `Σ m v`.
+    pub momentum: [f64; 2],
+    /// The first particle with a non-finite velocity.
+    pub non_finite: Option<usize>,
+}
+
+impl ParticleSums {
+    /// Adds particle `k` at `(x, y)` with velocity `(vx, vy)`, mass `m`, body force `b` under
+    /// gravity `g` (a particle with a non-finite speed is only recorded).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn add(&mut self, k: usize, [x, y]: [f64; 2], [vx, vy]: [f64; 2], m: f64, [bx, by]: [f64; 2], [gx, gy]: [f64; 2]) {
+        let mut speed = (vx * vx + vy * vy).sqrt();
+        if speed == f64::INFINITY && vx.is_finite() && vy.is_finite() {
+            // Finite but beyond 1e154: the squares overflowed, the speed did not.
+            speed = vx.hypot(vy);
+        }
+        if !speed.is_finite() {
+            self.non_finite.get_or_insert(k);
+            return;
+        }
+        self.max_speed = self.max_speed.max(speed);
+        self.mass += m;
+        self.kinetic += 0.5 * m * (vx * vx + vy * vy);
+        self.momentum[0] += m * vx;
+        self.momentum[1] += m * vy;
+        self.angular += m * (x * vy - y * vx);
+        self.potential -= m * ((bx + gx) * x + (by + gy) * y);
+    }
+
+    /// The sums of consecutive blocks, in order.
+    pub fn total(blocks: impl IntoIterator<Item = ParticleSums>) -> ParticleSums {
+        let mut t = ParticleSums::default();
+        for b in blocks {
+            t.non_finite = t.non_finite.or(b.non_finite);
+            t.max_speed = t.max_speed.max(b.max_speed);
+            t.mass += b.mass;
+            t.kinetic += b.kinetic;
+            t.momentum[0] += b.momentum[0];
+            t.momentum[1] += b.momentum[1];
+            t.angular += b.angular;
+            t.potential += b.potential;
+        }
+        t
+    }
+}
