@@ -1,23 +1,28 @@
 //! The factored columns of one particle, or of four side by side ([`Real`]): what the
 //! transfers read of the operators.
+//!
+//! A stencil's nodes come in runs of consecutive node numbers ([`crate::operators::Stencil`]):
+//! the axis along a run is `α` (x for x-fastest node numbering), the axis across the runs `β`.
+//! Node `a` of run `b` has `N = wα_a wβ_b`, `∂N/∂α = w′α_a wβ_b`, `∂N/∂β = wα_a w′β_b`, and the
+//! offsets `x_I − x_p` are `dα_a` along `α` and `dβ_b` along `β`.
 
 use crate::lanes::Real;
 use crate::operators::Operators;
 
-/// Particles `k … k + R::LANES − 1`, one per lane: their 1D weights and derivatives per axis,
-/// the offsets to the stencil's node lines, and each one's first node.
+/// Particles `k … k + R::LANES − 1`, one per lane: their 1D weights, derivatives and node
+/// offsets along and across the runs of their stencils, and each one's first node.
 pub(crate) struct Columns<R, const S: usize> {
-    /// `wx[a]`, `w′x[a]`, `wy[a]`, `w′y[a]` (as [`crate::operators::Stencil`]).
-    pub wx: [R; S],
-    pub dwx: [R; S],
-    pub wy: [R; S],
-    pub dwy: [R; S],
-    /// `x_{i0+a} − x_p` and `y_{j0+a} − y_p` (as [`crate::operators::Stencil::offsets`]).
-    pub dx: [R; S],
-    pub dy: [R; S],
+    /// `wα_a`, `w′α_a`, `dα_a` (along a run).
+    pub wa: [R; S],
+    pub dwa: [R; S],
+    pub da: [R; S],
+    /// `wβ_b`, `w′β_b`, `dβ_b` (across the runs).
+    pub wb: [R; S],
+    pub dwb: [R; S],
+    pub db: [R; S],
     /// Each lane's first node.
     pub first: [usize; 4],
-    /// Node-number distance between runs, and whether runs go along x.
+    /// Node-number distance between runs, and whether runs go along x (`α = x`).
     pub run_stride: usize,
     pub runs_along_x: bool,
 }
@@ -29,7 +34,7 @@ impl<R: Real, const S: usize> Columns<R, S> {
     /// If `S` is not the operators' support or `k + R::LANES` exceeds the particle count.
     #[inline(always)]
     pub(crate) fn load(ops: &Operators, k: usize, xp: R, yp: R) -> Columns<R, S> {
-        assert_eq!(S, ops.support(), "stencil size must equal the support");
+        assert!(S == ops.support(), "stencil size must equal the support");
         let firsts = &ops.first_nodes()[k..k + R::LANES];
         let zero = R::splat(0.0);
         let (mut wx, mut dwx, mut wy, mut dwy) = ([zero; S], [zero; S], [zero; S], [zero; S]);
@@ -64,49 +69,53 @@ impl<R: Real, const S: usize> Columns<R, S> {
             dy[a] = (R::splat(oy) + (j0 + a_f) * R::splat(hy)) - yp;
         }
         let runs_along_x = sx == 1;
-        Columns {
-            wx,
-            dwx,
-            wy,
-            dwy,
-            dx,
-            dy,
-            first,
-            run_stride: if runs_along_x { sy } else { sx },
-            runs_along_x,
-        }
-    }
-
-    /// The axis indices `(x, y)` of stencil position `a` along run `b`.
-    #[inline(always)]
-    pub(crate) fn axes(&self, b: usize, a: usize) -> (usize, usize) {
-        if self.runs_along_x {
-            (a, b)
+        if runs_along_x {
+            Columns {
+                wa: wx,
+                dwa: dwx,
+                da: dx,
+                wb: wy,
+                dwb: dwy,
+                db: dy,
+                first,
+                run_stride: sy,
+                runs_along_x,
+            }
         } else {
-            (b, a)
+            Columns {
+                wa: wy,
+                dwa: dwy,
+                da: dy,
+                wb: wx,
+                dwb: dwx,
+                db: dx,
+                first,
+                run_stride: sx,
+                runs_along_x,
+            }
         }
     }
 
-    /// `N`, `Gx`, `Gy` at stencil position `a` of run `b`:
-    /// `wx wy`, `w′x wy`, `wx w′y` (as [`crate::operators::Stencil::row`]).
+    /// `(along, across)` as `(x, y)`.
     #[inline(always)]
-    pub(crate) fn values(&self, b: usize, a: usize) -> (R, R, R) {
-        let (i, j) = self.axes(b, a);
-        (self.wx[i] * self.wy[j], self.dwx[i] * self.wy[j], self.wx[i] * self.dwy[j])
+    pub(crate) fn xy<T>(&self, along: T, across: T) -> (T, T) {
+        if self.runs_along_x {
+            (along, across)
+        } else {
+            (across, along)
+        }
     }
 
-    /// `N` alone at stencil position `a` of run `b`.
+    /// `N` at node `a` of run `b`: `wα_a wβ_b` (as [`crate::operators::Stencil::row`]).
     #[inline(always)]
     pub(crate) fn n(&self, b: usize, a: usize) -> R {
-        let (i, j) = self.axes(b, a);
-        self.wx[i] * self.wy[j]
+        self.wa[a] * self.wb[b]
     }
 
-    /// `(x_I − x_p, y_I − y_p)` at stencil position `a` of run `b`.
+    /// `(x_I − x_p, y_I − y_p)` at node `a` of run `b`.
     #[inline(always)]
     pub(crate) fn offset(&self, b: usize, a: usize) -> (R, R) {
-        let (i, j) = self.axes(b, a);
-        (self.dx[i], self.dy[j])
+        self.xy(self.da[a], self.db[b])
     }
 
     /// The first node of run `b` of lane `l`.

@@ -371,7 +371,17 @@ impl Gather for F64x4 {
     }
 }
 
-/// The sums of the particles of `cols` over their stencils, node by node in stencil order.
+/// The sums of the particles of `cols` over their stencils, factored along the runs: with `α`
+/// the axis along a run and `β` across, node `(a, b)` has `N = wα_a wβ_b`, and each sum over the
+/// stencil is a sum over the runs of a sum along each run,
+///
+/// ```text
+/// Nᵀu = Σ_b wβ_b (Σ_a wα_a u_ab),    (∂N/∂α)ᵀu = Σ_b wβ_b (Σ_a w′α_a u_ab),
+/// (∂N/∂β)ᵀu = Σ_b w′β_b (Σ_a wα_a u_ab),
+/// Σ N u dα = Σ_b wβ_b (Σ_a wα_a dα_a u_ab),    Σ N u dβ = Σ_b wβ_b dβ_b (Σ_a wα_a u_ab)
+/// ```
+///
+/// (`dα`, `dβ` the offsets `x_I − x_p`), in stencil order.
 #[inline(always)]
 fn gather_sums<R: Gather, const S: usize, const W: usize>(
     cols: &Columns<R, S>,
@@ -380,14 +390,14 @@ fn gather_sums<R: Gather, const S: usize, const W: usize>(
     wanted: Wanted,
 ) -> Gathered<R> {
     let z = R::splat(0.0);
-    let mut g = Gathered {
-        w: [z; 2],
-        t: [z; 2],
-        r: [z; 2],
-        l: [z; 4],
-        lw: [z; 4],
-        b: [z; 4],
-    };
+    let (wa, dwa, da, wb, dwb, db) = (&cols.wa, &cols.dwa, &cols.da, &cols.wb, &cols.dwb, &cols.db);
+    let gradient_of_w = wanted.apic || (W == 4 && wanted.l);
+    let mut wda = [z; S];
+    if wanted.apic {
+        for a in 0..S {
+            wda[a] = wa[a] * da[a];
+        }
+    }
     // Each lane's first packed value, and the stencil's reach from there, checked once.
     let mut at = [0; 4];
     for (l, at) in at.iter_mut().enumerate() {
@@ -398,41 +408,74 @@ fn gather_sums<R: Gather, const S: usize, const W: usize>(
         at.iter().all(|&a| a + reach <= packed.len()),
         "a stencil reaches past the packed grid velocities"
     );
+    // Nᵀw, Nᵀv, Nᵀv*; ∂/∂α and ∂/∂β of w and of the gradient field; Σ N w dα, Σ N w dβ.
+    let (mut w, mut r, mut t) = ([z; 2], [z; 2], [z; 2]);
+    let (mut lw_a, mut lw_b, mut lg_a, mut lg_b, mut b_a, mut b_b) = ([z; 2], [z; 2], [z; 2], [z; 2], [z; 2], [z; 2]);
     for b in 0..S {
+        // Sums along run b: wα u for w, v, v*, u; w′α u for w and u; wα dα w.
+        let (mut aw, mut av, mut at_, mut ag) = ([z; 2], [z; 2], [z; 2], [z; 2]);
+        let (mut dw, mut dg, mut xw) = ([z; 2], [z; 2], [z; 2]);
         for a in 0..S {
-            let (n, gxv, gyv) = cols.values(b, a);
             let offset = W * (b * cols.run_stride + a);
             // SAFETY: every lane's node of the stencil is in bounds (checked above).
-            let u = unsafe { R::gather::<W>(packed, at.map(|x| x + offset)) };
-            let (wx, wy, v_x, v_y) = (u[0], u[1], u[2], u[3]);
-            g.w = [g.w[0] + n * wx, g.w[1] + n * wy];
-            g.r = [g.r[0] + n * v_x, g.r[1] + n * v_y];
-            if W == 8 {
-                g.t = [g.t[0] + n * u[4], g.t[1] + n * u[5]];
-                if wanted.l {
-                    add_gradient(&mut g.l, gxv, gyv, u[6], u[7]);
+            let u = unsafe { R::gather::<W>(packed, [at[0] + offset, at[1] + offset, at[2] + offset, at[3] + offset]) };
+            for c in 0..2 {
+                aw[c] = aw[c] + wa[a] * u[c];
+                av[c] = av[c] + wa[a] * u[2 + c];
+                if W == 8 {
+                    at_[c] = at_[c] + wa[a] * u[4 + c];
+                    if wanted.l {
+                        ag[c] = ag[c] + wa[a] * u[6 + c];
+                        dg[c] = dg[c] + dwa[a] * u[6 + c];
+                    }
+                }
+                if gradient_of_w {
+                    dw[c] = dw[c] + dwa[a] * u[c];
+                }
+                if wanted.apic {
+                    xw[c] = xw[c] + wda[a] * u[c];
                 }
             }
-            if wanted.apic || (W == 4 && wanted.l) {
-                add_gradient(&mut g.lw, gxv, gyv, wx, wy);
+        }
+        let wdb = wb[b] * db[b];
+        for c in 0..2 {
+            w[c] = w[c] + wb[b] * aw[c];
+            r[c] = r[c] + wb[b] * av[c];
+            if W == 8 {
+                t[c] = t[c] + wb[b] * at_[c];
+                if wanted.l {
+                    lg_a[c] = lg_a[c] + wb[b] * dg[c];
+                    lg_b[c] = lg_b[c] + dwb[b] * ag[c];
+                }
+            }
+            if gradient_of_w {
+                lw_a[c] = lw_a[c] + wb[b] * dw[c];
+                lw_b[c] = lw_b[c] + dwb[b] * aw[c];
             }
             if wanted.apic {
-                let (dx, dy) = cols.offset(b, a);
-                g.b = [
-                    g.b[0] + n * wx * dx,
-                    g.b[1] + n * wx * dy,
-                    g.b[2] + n * wy * dx,
-                    g.b[3] + n * wy * dy,
-                ];
+                b_a[c] = b_a[c] + wb[b] * xw[c];
+                b_b[c] = b_b[c] + wdb * aw[c];
             }
         }
     }
+    // Rows of L (`[∂/∂x, ∂/∂y]` of each component) and of B (`[dx, dy]`) from (α, β).
+    let xy = |along: [R; 2], across: [R; 2]| {
+        let (x, y) = cols.xy(along, across);
+        [x[0], y[0], x[1], y[1]]
+    };
+    let lw = xy(lw_a, lw_b);
     if W == 4 {
         // The target and the gradient field are w itself.
-        g.t = g.w;
-        g.l = g.lw;
+        t = w;
     }
-    g
+    Gathered {
+        w,
+        t,
+        r,
+        l: if W == 4 { lw } else { xy(lg_a, lg_b) },
+        lw,
+        b: xy(b_a, b_b),
+    }
 }
 
 dispatch! {

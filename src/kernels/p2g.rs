@@ -139,30 +139,31 @@ fn p2g_columns_body<const S: usize, const AVX2: bool>(
         #[cfg(target_arch = "x86_64")]
         if AVX2 && k + 4 <= np && inside(k) && inside(k + 1) && inside(k + 2) && inside(k + 3) {
             debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
-            let cols = Columns::<F64x4, S>::load(ops, k, F64x4::load(&p.x, k), F64x4::load(&p.y, k));
-            let rows = RowTerms::new(&cols, p, apic, internal, k);
+            let group = Group::<F64x4, S>::new(ops, p, apic, internal, k);
             let l0 = ops.first_line(k);
             if (1..4).all(|l| ops.first_line(k + l) == l0) {
                 // Every lane's run b lies on the same grid line, and different runs on different
                 // lines: run by run, each run's nodes lane after lane, keeps particle order.
                 for b in 0..S {
-                    F64x4::scatter_run(&rows.run(b), &cols, b, acc, base);
+                    F64x4::scatter_run(&group.run(b), &group.cols, b, acc, base);
                 }
             } else {
                 // Stencils on different lines may meet at different runs: every lane's terms
                 // first, then lane after lane.
-                let all: [[[F64x4; 5]; S]; S] = std::array::from_fn(|b| rows.run(b));
-                F64x4::scatter_lanes(&all, &cols, acc, base);
+                let mut all = [[[F64x4::splat(0.0); 5]; S]; S];
+                for (b, run) in all.iter_mut().enumerate() {
+                    *run = group.run(b);
+                }
+                F64x4::scatter_lanes(&all, &group.cols, acc, base);
             }
             k += 4;
             continue;
         }
         let l0 = ops.first_line(k);
         if l0 + S > lines.start && l0 < lines.end {
-            let cols = Columns::<f64, S>::load(ops, k, p.x[k], p.y[k]);
-            let rows = RowTerms::new(&cols, p, apic, internal, k);
+            let group = Group::<f64, S>::new(ops, p, apic, internal, k);
             for b in lines.start.saturating_sub(l0)..(lines.end - l0).min(S) {
-                f64::scatter_run(&rows.run(b), &cols, b, acc, base);
+                f64::scatter_run(&group.run(b), &group.cols, b, acc, base);
             }
         }
         k += 1;
@@ -212,100 +213,99 @@ fn column_inertia<R: Real, const S: usize>(cols: &Columns<R, S>) -> [R; 2] {
     [dxx, dyy]
 }
 
-/// The terms of (2)–(5) of a group of particles, factored along the runs of their stencils:
-/// with `α` the axis along a run and `β` the axis across, node `(a, b)` (position `a` on run
-/// `b`) has `N = wα_a wβ_b`, `∂N/∂α = w′α_a wβ_b`, `∂N/∂β = wα_a w′β_b`, and
+/// The sources of (2)–(5) of particles `k …` (one per lane) and their columns, whose terms
+/// [`Group::run`] forms run by run, factored along the runs ([`Columns`]: node `a` of run `b`
+/// has `N = wα_a wβ_b`):
 ///
 /// ```text
 /// m_L:  wα_a (m wβ_b)
 /// q:    N (m v + mC (x_I − x_p)) = N (P_b + Q_a),   Q_a = (mC)_·α dα_a,  P_b = m v + (mC)_·β dβ_b
 /// f:    N m b − (∂N/∂x V σ_x· + ∂N/∂y V σ_y·) = wα_a F_b − w′α_a G_b,
-///       F_b = wβ_b m b − w′β_b (Vσ)_β·,   G_b = wβ_b (Vσ)_α·
+///       F_b = wβ_b m b − w′β_b (Vσ)_·β,   G_b = wβ_b (Vσ)_·α
 /// ```
 ///
-/// (`mC = m C_p` the APIC affine momentum, `dα_a`, `dβ_b` the offsets `x_I − x_p` along each
-/// axis): per node one product for `N`, one for `m_L`, two for each momentum and three for
-/// each force component.
-struct RowTerms<R, const S: usize> {
-    wa: [R; S],
-    dwa: [R; S],
-    /// `m wβ_b`.
-    mwb: [R; S],
-    wb: [R; S],
-    /// `Q_a` and `P_b` of `q_x`, `q_y`.
+/// (`mC = m C_p` the APIC affine momentum): per node one product for `N`, one for `m_L`, two
+/// for each momentum and three for each force component.
+struct Group<R, const S: usize> {
+    cols: Columns<R, S>,
+    m: R,
+    mv: [R; 2],
+    mb: [R; 2],
+    /// Each row of `mC` and of `Vσ` as (along, across).
+    c_rows: [(R, R); 2],
+    s_rows: [(R, R); 2],
+    /// `Q_a` of `q_x`, `q_y`.
     q: [[R; S]; 2],
-    p: [[R; S]; 2],
-    /// `F_b`, `G_b` of `f_x`, `f_y`.
-    f: [[R; S]; 2],
-    g: [[R; S]; 2],
 }
 
-impl<R: Real, const S: usize> RowTerms<R, S> {
+impl<R: Real, const S: usize> Group<R, S> {
     #[inline(always)]
-    fn new(cols: &Columns<R, S>, p: &Particles, apic: Option<ApicInertia>, internal: f64, k: usize) -> Self {
+    fn new(ops: &Operators, p: &Particles, apic: Option<ApicInertia>, internal: f64, k: usize) -> Self {
+        let cols = Columns::<R, S>::load(ops, k, R::load(&p.x, k), R::load(&p.y, k));
         let m = R::load(&p.mass, k);
         let mv = [m * R::load(&p.vx, k), m * R::load(&p.vy, k)];
         let mb = [m * R::load(&p.bx, k), m * R::load(&p.by, k)];
         let v = R::splat(internal) * R::load(&p.volume, k);
         let [sxx, syy, sxy] = [v * R::load(&p.sxx, k), v * R::load(&p.syy, k), v * R::load(&p.sxy, k)];
-        let c = affine_velocity(cols, p, apic, k);
+        let c = affine_velocity(&cols, p, apic, k);
         let mc = [m * c[0], m * c[1], m * c[2], m * c[3]];
-        // Along a run and across: (w, w′, d) of each axis, and each row of mC and Vσ as
-        // (along, across).
-        let rax = cols.runs_along_x;
-        let ((wa, dwa, da), (wb, dwb, db)) = if rax {
-            ((cols.wx, cols.dwx, cols.dx), (cols.wy, cols.dwy, cols.dy))
-        } else {
-            ((cols.wy, cols.dwy, cols.dy), (cols.wx, cols.dwx, cols.dx))
-        };
-        let pair = |x: R, y: R| if rax { (x, y) } else { (y, x) };
-        let c_rows = [pair(mc[0], mc[1]), pair(mc[2], mc[3])];
-        let s_rows = [pair(sxx, sxy), pair(sxy, syy)];
-        let zero = [R::splat(0.0); S];
-        let mut t = RowTerms {
-            wa,
-            dwa,
-            mwb: zero,
-            wb,
-            q: [zero; 2],
-            p: [zero; 2],
-            f: [zero; 2],
-            g: [zero; 2],
-        };
-        for i in 0..S {
-            t.mwb[i] = m * wb[i];
-            for c in 0..2 {
-                t.q[c][i] = c_rows[c].0 * da[i];
-                t.p[c][i] = mv[c] + c_rows[c].1 * db[i];
-                t.f[c][i] = wb[i] * mb[c] - dwb[i] * s_rows[c].1;
-                t.g[c][i] = wb[i] * s_rows[c].0;
-            }
+        let c_rows = [cols.xy(mc[0], mc[1]), cols.xy(mc[2], mc[3])];
+        let s_rows = [cols.xy(sxx, sxy), cols.xy(sxy, syy)];
+        let mut q = [[R::splat(0.0); S]; 2];
+        for a in 0..S {
+            q[0][a] = c_rows[0].0 * cols.da[a];
+            q[1][a] = c_rows[1].0 * cols.da[a];
         }
-        t
+        Group {
+            cols,
+            m,
+            mv,
+            mb,
+            c_rows,
+            s_rows,
+            q,
+        }
     }
 
     /// The terms `[m, q_x, q_y, f_x, f_y]` of the nodes of run `b`.
     #[inline(always)]
     fn run(&self, b: usize) -> [[R; 5]; S] {
-        let mut out = [[R::splat(0.0); 5]; S];
+        let Group {
+            cols,
+            m,
+            mv,
+            mb,
+            c_rows,
+            s_rows,
+            q,
+        } = self;
+        let wb = cols.wb[b];
+        let mwb = *m * wb;
+        let pb = [mv[0] + c_rows[0].1 * cols.db[b], mv[1] + c_rows[1].1 * cols.db[b]];
+        let fb = [
+            wb * mb[0] - cols.dwb[b] * s_rows[0].1,
+            wb * mb[1] - cols.dwb[b] * s_rows[1].1,
+        ];
+        let gb = [wb * s_rows[0].0, wb * s_rows[1].0];
+        let mut terms = [[R::splat(0.0); 5]; S];
         for a in 0..S {
-            let wa = self.wa[a];
-            let n = wa * self.wb[b];
-            out[a] = [
-                wa * self.mwb[b],
-                n * (self.p[0][b] + self.q[0][a]),
-                n * (self.p[1][b] + self.q[1][a]),
-                wa * self.f[0][b] - self.dwa[a] * self.g[0][b],
-                wa * self.f[1][b] - self.dwa[a] * self.g[1][b],
+            let wa = cols.wa[a];
+            let n = wa * wb;
+            terms[a] = [
+                wa * mwb,
+                n * (pb[0] + q[0][a]),
+                n * (pb[1] + q[1][a]),
+                wa * fb[0] - cols.dwa[a] * gb[0],
+                wa * fb[1] - cols.dwa[a] * gb[1],
             ];
         }
-        out
+        terms
     }
 }
 
 /// Adding a group's terms to the grid.
 trait Scatter: Real {
-    /// Adds each lane's terms of run `b` (from [`RowTerms::run`]) to its nodes, lane after lane.
+    /// Adds each lane's terms of run `b` (from [`Group::run`]) to its nodes, lane after lane.
     fn scatter_run<const S: usize>(terms: &[[Self; 5]; S], cols: &Columns<Self, S>, b: usize, acc: &mut [[f64; 5]], base: usize);
     /// Adds each lane's terms of every run to its nodes, lane after lane (particle order).
     fn scatter_lanes<const S: usize>(terms: &[[[Self; 5]; S]; S], cols: &Columns<Self, S>, acc: &mut [[f64; 5]], base: usize);

@@ -78,7 +78,8 @@ pub(crate) struct StressInput<'a> {
 
 /// (12) `F ← (I + Δt L) F`, `σ ← material(σ, L, F)`; (13) `V ← V det(I + Δt L)` for the particles
 /// `k …` (global index; `j` in the block's `out`), with velocity gradient `l`; their strain
-/// energy, wave speed and any inversion into `sums` in particle order.
+/// energy, wave speed and any inversion into `sums` in particle order. After an inversion in
+/// its block (recorded in `sums`) a particle is left as it is.
 #[inline(always)]
 pub(crate) fn update_stress<R: Real>(
     input: &StressInput,
@@ -88,6 +89,9 @@ pub(crate) fn update_stress<R: Real>(
     out: &mut StressOutput,
     sums: &mut StressSums,
 ) {
+    if sums.inverted.is_some() {
+        return;
+    }
     let (g, j_inc) = deformation_increment_of(l, input.dt);
     let old = [
         R::load(out.f[0], j),
@@ -123,7 +127,11 @@ pub(crate) fn update_stress<R: Real>(
     let (j_inc, det_f, e, c11, volume_l) = (j_inc.lanes(), det_f.lanes(), e.lanes(), c11.lanes(), volume.lanes());
     for i in 0..R::LANES {
         if !(j_inc[i] > 0.0 && det_f[i] > 0.0 && det_f[i].is_finite()) {
-            sums.inverted.get_or_insert((k + i, j_inc[i], det_f[i]));
+            // The block stops at its first inverted particle, which keeps its state, as do
+            // the block's particles after it: the state holds together for a checkpoint.
+            sums.inverted = Some((k + i, j_inc[i], det_f[i]));
+            store_lanes(&f, &s, &volume, j, i, out);
+            return;
         }
         sums.energy += e[i];
         sums.wave_squared = sums.wave_squared.max(c11[i] * volume_l[i] / input.mass[k + i]);
@@ -134,6 +142,20 @@ pub(crate) fn update_stress<R: Real>(
     volume.store(out.volume, j);
     for c in 0..3 {
         s[c].store(out.sigma[c], j);
+    }
+}
+
+/// Stores the first `count` lanes of `F`, `σ`, `V` at `j …` of the block.
+#[inline(never)]
+fn store_lanes<R: Real>(f: &[R; 4], s: &[R; 3], volume: &R, j: usize, count: usize, out: &mut StressOutput) {
+    for i in 0..count {
+        for c in 0..4 {
+            out.f[c][j + i] = f[c].lanes()[i];
+        }
+        for c in 0..3 {
+            out.sigma[c][j + i] = s[c].lanes()[i];
+        }
+        out.volume[j + i] = volume.lanes()[i];
     }
 }
 

@@ -16,6 +16,7 @@ use crate::mass::{GridMass, Role, SolveReport};
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::schemes::StressFrom;
+use crate::shape::ShapeFunction;
 
 impl Simulation {
     /// (1)–(5) and the grid mass for the current particle configuration (re-sorting the
@@ -33,7 +34,7 @@ impl Simulation {
         let interval = options.sort_interval;
         if interval > 0 && state.steps.is_multiple_of(interval) {
             timed(profile, Phase::Sort, || {
-                sort_particles(grid, &mut state.particles, &mut scratch.sorting)
+                sort_particles(grid, options.shape, &mut state.particles, &mut scratch.sorting)
             });
         }
         let p = &state.particles;
@@ -435,15 +436,23 @@ impl Sorting {
     }
 }
 
-/// Counting sort of the particles by cell index (row-major), allocation-free.
-fn sort_particles(grid: &Grid, p: &mut Particles, s: &mut Sorting) {
+/// Counting sort of the particles by the first node of their stencils under `shape` (row-major
+/// over the cells; particles the operators would refuse last), allocation-free: particles that
+/// share a stencil come together, and so do the stencils that start on one grid line, which
+/// the transfers take four at a time.
+fn sort_particles(grid: &Grid, shape: ShapeFunction, p: &mut Particles, s: &mut Sorting) {
     let np = p.len();
     let [cx, cy] = grid.cells();
+    let frames = [shape.axis_frame(grid, 0), shape.axis_frame(grid, 1)];
     s.keys.resize(np, 0);
     s.order.resize(np, 0);
     s.counts.iter_mut().for_each(|c| *c = 0);
     for k in 0..np {
-        let key = grid.cell_of(p.x[k], p.y[k]).map_or(cx * cy, |(i, j)| j * cx + i);
+        let first = |a: usize, v: f64| frames[a].accept(v).map(|t| frames[a].locate(t).first);
+        let key = match (first(0, p.x[k]), first(1, p.y[k])) {
+            (Some(i), Some(j)) => j * cx + i,
+            _ => cx * cy,
+        };
         s.keys[k] = key.min(cx * cy);
         s.counts[s.keys[k]] += 1;
     }
