@@ -8,8 +8,69 @@
 //! scalar `f64::ln` of each lane, so a formula gives the same bits in either form: the
 //! vectorised kernels equal the scalar ones to the last bit by construction (`tests/simd.rs`).
 //! No fused multiply-add is formed (Rust does not contract `a·b + c`).
+//!
+//! The AVX2 build of a kernel is chosen at run time ([`avx2`], the [`dispatch!`] macro): the
+//! baseline build runs the scalar form, and either gives the same results on any machine and
+//! for any thread count (`tests/simd.rs`), for runs without NaN (a NaN's payload bits are not
+//! specified by the compiler in either build).
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+static SCALAR: AtomicBool = AtomicBool::new(false);
+
+/// Chooses the scalar build of the transfers (`true`) or the AVX2 build where the CPU has it
+/// (`false`, the default) for the whole process. The results are the same bits either way: this
+/// changes speed only (for benchmarks: `mpm bench --scalar-kernels`).
+pub fn set_scalar_kernels(scalar: bool) {
+    SCALAR.store(scalar, Ordering::Relaxed);
+}
+
+/// Whether the vectorised build may run ([`set_scalar_kernels`]).
+#[inline]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(crate) fn vectorised() -> bool {
+    !SCALAR.load(Ordering::Relaxed)
+}
+
+/// Whether the AVX2 build of the kernels runs: the CPU has AVX2 and it is not switched off.
+#[inline]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(crate) fn avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        vectorised() && std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Declares `$name`, which runs `$body::<S, true>` from a copy compiled for AVX2 when [`avx2`]
+/// says so and `$body::<S, false>` from the baseline build otherwise (see the note on bits).
+macro_rules! dispatch {
+    ($(#[$doc:meta])* fn $name:ident $(<const $c:ident : usize>)? / $avx:ident = $body:ident ( $($arg:ident : $ty:ty),* ) -> $ret:ty) => {
+        $(#[$doc])*
+        fn $name<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            if $crate::lanes::avx2() {
+                // SAFETY: the CPU has AVX2, checked at run time just above.
+                return unsafe { $avx::<S $(, $c)?>($($arg),*) };
+            }
+            $body::<S $(, $c)?, false>($($arg),*)
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        unsafe fn $avx<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
+            $body::<S $(, $c)?, true>($($arg),*)
+        }
+    };
+}
+pub(crate) use dispatch;
+
+
 
 /// One value per lane: `f64` (one lane) or [`F64x4`] (four).
 pub(crate) trait Real:
@@ -46,6 +107,14 @@ pub(crate) trait Real:
     }
     /// `ln x`, lane by lane (the scalar `f64::ln`).
     fn ln(self) -> Self;
+    /// Whether `self > other` in every lane (false where either is NaN).
+    fn all_gt(self, other: Self) -> bool;
+    /// Whether `self >= other` in every lane (false where either is NaN).
+    fn all_ge(self, other: Self) -> bool;
+    /// Whether `self == other` in some lane.
+    fn any_eq(self, other: Self) -> bool;
+    /// `⌊x⌋` for `0 ≤ x < 2⁵²` (the truncation `x as u64`).
+    fn floor_nonneg(self) -> Self;
     /// `√x`.
     fn sqrt(self) -> Self;
 }
@@ -95,6 +164,22 @@ impl Real for f64 {
     #[inline(always)]
     fn ln(self) -> f64 {
         f64::ln(self)
+    }
+    #[inline(always)]
+    fn all_gt(self, other: f64) -> bool {
+        self > other
+    }
+    #[inline(always)]
+    fn all_ge(self, other: f64) -> bool {
+        self >= other
+    }
+    #[inline(always)]
+    fn any_eq(self, other: f64) -> bool {
+        self == other
+    }
+    #[inline(always)]
+    fn floor_nonneg(self) -> f64 {
+        (self as u64) as f64
     }
     #[inline(always)]
     fn sqrt(self) -> f64 {
@@ -197,6 +282,26 @@ mod avx2 {
         fn ln(self) -> F64x4 {
             let l = self.lanes();
             F64x4::from_fn(|i| l[i].ln())
+        }
+        #[inline(always)]
+        fn all_gt(self, other: F64x4) -> bool {
+            // SAFETY: as above. An ordered, non-signalling comparison: false for NaN.
+            unsafe { _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GT_OQ>(self.0, other.0)) == 0b1111 }
+        }
+        #[inline(always)]
+        fn all_ge(self, other: F64x4) -> bool {
+            // SAFETY: as above. Ordered: false for NaN.
+            unsafe { _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GE_OQ>(self.0, other.0)) == 0b1111 }
+        }
+        #[inline(always)]
+        fn any_eq(self, other: F64x4) -> bool {
+            // SAFETY: as above.
+            unsafe { _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_EQ_OQ>(self.0, other.0)) != 0 }
+        }
+        #[inline(always)]
+        fn floor_nonneg(self) -> F64x4 {
+            // SAFETY: as above. Rounds toward −∞: the truncation for x ≥ 0.
+            F64x4(unsafe { _mm256_floor_pd(self.0) })
         }
         #[inline(always)]
         fn sqrt(self) -> F64x4 {

@@ -5,8 +5,8 @@
 //! transposed into lanes), with the same bits as the scalar build.
 
 use super::columns::Columns;
-use super::particle::{update_stress, ParticleSums, StressInput, StressOutput, StressSums};
-use super::simd::dispatch;
+use super::particle::{update_stress, Four, StressInput, StressOutput, StressPartials, SumInput, SumPartials};
+use crate::lanes::dispatch;
 use super::{ApicInertia, GridField, GridState, KineticEnergies, ParticleScratch};
 use crate::fields::VectorField;
 use crate::lanes::Real;
@@ -105,9 +105,10 @@ pub(crate) struct Fused<'a> {
 /// What a fused pass returns per block of particles.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct G2pBlock {
-    pub kinetic: KineticEnergies,
-    pub stress: StressSums,
-    pub sums: ParticleSums,
+    /// `K_p` before, `K(v)`, `K(w)`.
+    pub kinetic: [Four; 3],
+    pub stress: StressPartials,
+    pub sums: SumPartials,
 }
 
 /// (9)–(11) in one pass over N, Gx, Gy. With `v_pic = Nᵀ w` and the increment
@@ -158,13 +159,21 @@ pub(crate) fn pack_velocities(ops: &Operators, grid: &GridState, rule: &G2pRule,
         w
     };
     let gradient = grid.field(rule.gradient.unwrap_or(GridField::Updated));
+    reserve_packed(packed, width * grid.updated.len());
     packed.clear();
-    packed.reserve(span.len() * width);
     for i in span {
         packed.extend_from_slice(&[w.x[i], w.y[i], v.x[i], v.y[i]]);
         if width == 8 {
             packed.extend_from_slice(&[target.x[i], target.y[i], gradient.x[i], gradient.y[i]]);
         }
+    }
+}
+
+/// Address space for `len` packed values (pages are touched as the span needs them), so that a
+/// growing span never reallocates.
+pub(crate) fn reserve_packed(packed: &mut Vec<f64>, len: usize) {
+    if packed.capacity() < len {
+        packed.reserve_exact(len - packed.len());
     }
 }
 
@@ -541,16 +550,9 @@ fn update_group<R: Gather, const S: usize, const W: usize>(
     let (old_x, old_y) = (R::load(out.velocity[0], j), R::load(out.velocity[1], j));
     let c = R::splat;
     let half_m = c(0.5) * R::load(input.mass, k);
-    let (before, projected, updated) = (
-        (half_m * (old_x * old_x + old_y * old_y)).lanes(),
-        (half_m * (rx * rx + ry * ry)).lanes(),
-        (half_m * (vx * vx + vy * vy)).lanes(),
-    );
-    for i in 0..R::LANES {
-        block.kinetic.before += before[i];
-        block.kinetic.projected += projected[i];
-        block.kinetic.updated += updated[i];
-    }
+    block.kinetic[0].add(j, half_m * (old_x * old_x + old_y * old_y));
+    block.kinetic[1].add(j, half_m * (rx * rx + ry * ry));
+    block.kinetic[2].add(j, half_m * (vx * vx + vy * vy));
     let (dvx, dvy) = (vx - rx, vy - ry);
     let (new_x, new_y) = match transfer {
         Transfer::Pic | Transfer::Apic => (vx, vy),
@@ -598,11 +600,13 @@ fn update_group<R: Gather, const S: usize, const W: usize>(
             x.store(out.position[0], j);
             y.store(out.position[1], j);
             if let Some(gravity) = gravity {
-                let (x, y, vx, vy) = (x.lanes(), y.lanes(), new_x.lanes(), new_y.lanes());
-                for i in 0..R::LANES {
-                    let (m, b) = (input.mass[k + i], [input.force[0][k + i], input.force[1][k + i]]);
-                    block.sums.add(k + i, [x[i], y[i]], [vx[i], vy[i]], m, b, gravity);
-                }
+                let sum = SumInput {
+                    x: [x, y],
+                    v: [new_x, new_y],
+                    m: R::load(input.mass, k),
+                    b: [R::load(input.force[0], k), R::load(input.force[1], k)],
+                };
+                block.sums.add(j, k, sum, gravity);
             }
         }
     }

@@ -18,19 +18,21 @@
 
 mod columns;
 mod extend;
+mod grid;
 mod g2p;
 mod p2g;
 mod particle;
-mod simd;
 
 pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
 pub use g2p::{g2p, velocity_gradient_into, G2pRule};
 pub(crate) use g2p::{g2p_packed, pack_velocities, Fused, G2pBlock};
-pub use particle::{ParticleSums, StressSums};
-pub(crate) use particle::{update_stress, StressInput, StressOutput};
+pub use particle::{Four, ParticleSums, StressPartials, StressSums, SumPartials};
+pub(crate) use particle::{update_stress, StressInput, StressOutput, SumInput};
 pub(crate) use p2g::subtract_particle_force;
 pub use p2g::{add_internal_force, p2g, reproject_momentum};
-pub use simd::set_scalar_kernels;
+pub(crate) use p2g::p2g_with;
+pub(crate) use grid::update_lumped_grid;
+pub use crate::lanes::set_scalar_kernels;
 
 use crate::fields::VectorField;
 use crate::grid::Grid;
@@ -73,9 +75,14 @@ pub struct GridState {
     /// Nodes outside this range hold zero mass, momentum and force ([`Operators::node_span`]
     /// at the last [`p2g`]).
     pub span: std::ops::Range<usize>,
-    /// Per node of `span`, what [`p2g`] accumulates, `[m_L, q_x, q_y, f_x, f_y]`, interleaved so
-    /// that one particle's contributions to a node land in one cache line.
+    /// Per node of the lines of `span`, what [`p2g`] accumulates, `[m_L, q_x, q_y, f_x, f_y]`
+    /// (`f` without gravity), interleaved so that one particle's contributions to a node land
+    /// together; from node `base`.
     accumulator: Vec<[f64; 5]>,
+    base: usize,
+    /// The nodes whose updated velocity the last lumped grid pass wrote
+    /// ([`update_lumped_grid`]; all of them at first).
+    lumped_span: std::ops::Range<usize>,
 }
 
 impl GridState {
@@ -96,6 +103,8 @@ impl GridState {
             // Reserved for the whole grid (address space only: pages are touched as the span
             // needs them), so that a growing span never reallocates.
             accumulator: Vec::with_capacity(n),
+            base: 0,
+            lumped_span: 0..n,
         }
     }
 
@@ -147,9 +156,9 @@ impl KineticEnergies {
     pub(crate) fn total(blocks: &[G2pBlock]) -> KineticEnergies {
         let mut t = KineticEnergies::default();
         for b in blocks {
-            t.before += b.kinetic.before;
-            t.projected += b.kinetic.projected;
-            t.updated += b.kinetic.updated;
+            t.before += b.kinetic[0].sum();
+            t.projected += b.kinetic[1].sum();
+            t.updated += b.kinetic[2].sum();
         }
         t
     }

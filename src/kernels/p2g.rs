@@ -2,7 +2,7 @@
 //! accumulators over bands of grid lines (one band per worker, see [`crate::parallel`]).
 
 use super::columns::Columns;
-use super::simd::dispatch;
+use crate::lanes::dispatch;
 use super::{apic_affine, ApicInertia, GridState, Stress};
 use crate::lanes::Real;
 #[cfg(target_arch = "x86_64")]
@@ -32,6 +32,24 @@ pub fn p2g(
     lumped: &mut [f64],
     grid: &mut GridState,
     workers: &Workers,
+) {
+    p2g_with(ops, p, apic, gravity, stress, lumped, grid, workers, true);
+}
+
+/// [`p2g`], writing `grid.momentum` and `grid.force` when `fields` (otherwise only `m_L` and
+/// the angular momentum: the lumped grid pass, [`super::update_lumped_grid`], reads the rest
+/// from the accumulator).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn p2g_with(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    gravity: [f64; 2],
+    stress: Stress,
+    lumped: &mut [f64],
+    grid: &mut GridState,
+    workers: &Workers,
+    fields: bool,
 ) {
     let n = ops.num_nodes();
     assert!(
@@ -63,10 +81,12 @@ pub fn p2g(
     for i in span.clone() {
         let r = acc[i - base];
         lumped[i] = r[0];
-        grid.momentum.x[i] = r[1];
-        grid.momentum.y[i] = r[2];
-        grid.force.x[i] = r[3] + r[0] * gx;
-        grid.force.y[i] = r[4] + r[0] * gy;
+        if fields {
+            grid.momentum.x[i] = r[1];
+            grid.momentum.y[i] = r[2];
+            grid.force.x[i] = r[3] + r[0] * gx;
+            grid.force.y[i] = r[4] + r[0] * gy;
+        }
         // Grid::node_position of node i, formed as it forms it.
         let (ix, iy) = if runs_along_x { (along, across) } else { (across, along) };
         let (xi, yi) = (ox + ix as f64 * hx, oy + iy as f64 * hy);
@@ -78,6 +98,7 @@ pub fn p2g(
     }
     grid.angular_momentum = angular;
     grid.span = span;
+    grid.base = base;
 }
 
 /// A deterministic scatter into the interleaved accumulator: zeroes it over the operators'

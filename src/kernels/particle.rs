@@ -8,6 +8,49 @@ use crate::lanes::Real;
 use crate::material::Prepared;
 use crate::parallel::Splittable;
 
+/// Four partial sums (or maxima) over a block of particles: particle `j` of the block goes to
+/// partial `j mod 4`, so that four particles side by side add lane by lane. The partials are
+/// added in order at the end ([`Four::sum`]); either build, any thread count, the same bits.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Four(pub [f64; 4]);
+
+impl Four {
+    /// Adds the lanes of `v`, particles `j …`, to their partials.
+    #[inline(always)]
+    pub(crate) fn add<R: Real>(&mut self, j: usize, v: R) {
+        if R::LANES == 4 {
+            debug_assert!(j % 4 == 0, "four particles side by side start at a multiple of 4");
+            (R::load(&self.0, 0) + v).store(&mut self.0, 0);
+        } else {
+            self.0[j % 4] += v.lanes()[0];
+        }
+    }
+
+    /// Raises the partials to the lanes of `v` (`v.max(partial)`: a NaN in `v` leaves the
+    /// partial as it is).
+    #[inline(always)]
+    pub(crate) fn max<R: Real>(&mut self, j: usize, v: R) {
+        if R::LANES == 4 {
+            debug_assert!(j % 4 == 0, "four particles side by side start at a multiple of 4");
+            v.max(R::load(&self.0, 0)).store(&mut self.0, 0);
+        } else {
+            let p = &mut self.0[j % 4];
+            *p = Real::max(v.lanes()[0], *p);
+        }
+    }
+
+    /// `((s₀ + s₁) + s₂) + s₃`.
+    pub fn sum(&self) -> f64 {
+        let [a, b, c, d] = self.0;
+        ((a + b) + c) + d
+    }
+
+    /// The largest partial.
+    pub fn max_all(&self) -> f64 {
+        self.0.iter().fold(0.0f64, |m, &v| m.max(v))
+    }
+}
+
 /// What the stress update of a block of particles returns: its strain energy, the largest
 /// `C11 V / m`, and the first inverted particle (index, `det(I + Δt L)`, `det F`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -22,15 +65,26 @@ pub struct StressSums {
 
 impl StressSums {
     /// The sums of consecutive blocks, in order.
-    pub fn total(blocks: impl IntoIterator<Item = StressSums>) -> StressSums {
+    pub fn total(blocks: impl IntoIterator<Item = StressPartials>) -> StressSums {
         let mut t = StressSums::default();
         for b in blocks {
-            t.energy += b.energy;
-            t.wave_squared = t.wave_squared.max(b.wave_squared);
+            t.energy += b.energy.sum();
+            t.wave_squared = t.wave_squared.max(b.wave_squared.max_all());
             t.inverted = t.inverted.or(b.inverted);
         }
         t
     }
+}
+
+/// [`StressSums`] of one block of particles, in [`Four`] partials.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StressPartials {
+    /// Strain energy.
+    pub energy: Four,
+    /// `C11 V / m`.
+    pub wave_squared: Four,
+    /// The first inverted particle.
+    pub inverted: Option<(usize, f64, f64)>,
 }
 
 /// What the stress update writes, per particle of a block: `F`, `σ`, `V`.
@@ -87,7 +141,7 @@ pub(crate) fn update_stress<R: Real>(
     k: usize,
     j: usize,
     out: &mut StressOutput,
-    sums: &mut StressSums,
+    sums: &mut StressPartials,
 ) {
     if sums.inverted.is_some() {
         return;
@@ -124,18 +178,26 @@ pub(crate) fn update_stress<R: Real>(
             R::from_fn(|i| each[i].2),
         )
     };
-    let (j_inc, det_f, e, c11, volume_l) = (j_inc.lanes(), det_f.lanes(), e.lanes(), c11.lanes(), volume.lanes());
-    for i in 0..R::LANES {
-        if !(j_inc[i] > 0.0 && det_f[i] > 0.0 && det_f[i].is_finite()) {
-            // The block stops at its first inverted particle, which keeps its state, as do
-            // the block's particles after it: the state holds together for a checkpoint.
-            sums.inverted = Some((k + i, j_inc[i], det_f[i]));
-            store_lanes(&f, &s, &volume, j, i, out);
-            return;
+    let zero = R::splat(0.0);
+    if !(j_inc.all_gt(zero) && det_f.all_gt(zero) && R::splat(f64::INFINITY).all_gt(det_f)) {
+        // The block stops at its first inverted particle, which keeps its state, as do the
+        // block's particles after it: the state holds together for a checkpoint.
+        let (j_inc, det_f) = (j_inc.lanes(), det_f.lanes());
+        let i = (0..R::LANES)
+            .find(|&i| !(j_inc[i] > 0.0 && det_f[i] > 0.0 && det_f[i].is_finite()))
+            .expect("some lane is inverted");
+        sums.inverted = Some((k + i, j_inc[i], det_f[i]));
+        store_lanes(&f, &s, &volume, j, i, out);
+        for lane in 0..i {
+            sums.energy.0[(j + lane) % 4] += e.lanes()[lane];
+            let wave = c11.lanes()[lane] * volume.lanes()[lane] / input.mass[k + lane];
+            let p = &mut sums.wave_squared.0[(j + lane) % 4];
+            *p = Real::max(wave, *p);
         }
-        sums.energy += e[i];
-        sums.wave_squared = sums.wave_squared.max(c11[i] * volume_l[i] / input.mass[k + i]);
+        return;
     }
+    sums.energy.add(j, e);
+    sums.wave_squared.max(j, c11 * volume / R::load(input.mass, k));
     for c in 0..4 {
         f[c].store(out.f[c], j);
     }
@@ -204,42 +266,104 @@ pub struct ParticleSums {
 }
 
 impl ParticleSums {
-    /// Adds particle `k` at `(x, y)` with velocity `(vx, vy)`, mass `m`, body force `b` under
-    /// gravity `g` (a particle with a non-finite speed is only recorded).
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    pub fn add(&mut self, k: usize, [x, y]: [f64; 2], [vx, vy]: [f64; 2], m: f64, [bx, by]: [f64; 2], [gx, gy]: [f64; 2]) {
-        let mut speed = (vx * vx + vy * vy).sqrt();
-        if speed == f64::INFINITY && vx.is_finite() && vy.is_finite() {
-            // Finite but beyond 1e154: the squares overflowed, the speed did not.
-            speed = vx.hypot(vy);
-        }
-        if !speed.is_finite() {
-            self.non_finite.get_or_insert(k);
-            return;
-        }
-        self.max_speed = self.max_speed.max(speed);
-        self.mass += m;
-        self.kinetic += 0.5 * m * (vx * vx + vy * vy);
-        self.momentum[0] += m * vx;
-        self.momentum[1] += m * vy;
-        self.angular += m * (x * vy - y * vx);
-        self.potential -= m * ((bx + gx) * x + (by + gy) * y);
-    }
-
     /// The sums of consecutive blocks, in order.
-    pub fn total(blocks: impl IntoIterator<Item = ParticleSums>) -> ParticleSums {
+    pub fn total(blocks: impl IntoIterator<Item = SumPartials>) -> ParticleSums {
         let mut t = ParticleSums::default();
         for b in blocks {
             t.non_finite = t.non_finite.or(b.non_finite);
-            t.max_speed = t.max_speed.max(b.max_speed);
-            t.mass += b.mass;
-            t.kinetic += b.kinetic;
-            t.momentum[0] += b.momentum[0];
-            t.momentum[1] += b.momentum[1];
-            t.angular += b.angular;
-            t.potential += b.potential;
+            t.max_speed = t.max_speed.max(b.max_speed.max_all());
+            t.mass += b.mass.sum();
+            t.kinetic += b.kinetic.sum();
+            t.momentum[0] += b.momentum[0].sum();
+            t.momentum[1] += b.momentum[1].sum();
+            t.angular += b.angular.sum();
+            t.potential += b.potential.sum();
         }
         t
+    }
+}
+
+/// [`ParticleSums`] of one block of particles, in [`Four`] partials.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SumPartials {
+    /// `½ m |v|²`.
+    pub kinetic: Four,
+    /// `−m (b + g) · x`.
+    pub potential: Four,
+    /// `m (x × v)`.
+    pub angular: Four,
+    /// `m`.
+    pub mass: Four,
+    /// `|v|`.
+    pub max_speed: Four,
+    /// `m v`.
+    pub momentum: [Four; 2],
+    /// The first particle with a non-finite velocity.
+    pub non_finite: Option<usize>,
+}
+
+/// One particle's or four particles' values for [`SumPartials::add`].
+pub(crate) struct SumInput<R> {
+    pub x: [R; 2],
+    pub v: [R; 2],
+    pub m: R,
+    pub b: [R; 2],
+}
+
+impl SumPartials {
+    /// Adds particles `k …` (`j …` in the block) at `x` with velocity `v`, mass `m`, body force
+    /// `b` under gravity `g`; a particle with a non-finite speed is only recorded (the speed
+    /// taken as `hypot` where the squares overflow).
+    #[inline(always)]
+    pub(crate) fn add<R: Real>(&mut self, j: usize, k: usize, p: SumInput<R>, [gx, gy]: [f64; 2]) {
+        let SumInput { x: [x, y], v: [vx, vy], m, b: [bx, by] } = p;
+        let speed = (vx * vx + vy * vy).sqrt();
+        if !R::splat(f64::INFINITY).all_gt(speed) {
+            self.add_lanes(j, k, [x, y], [vx, vy], m, [bx, by], [gx, gy]);
+            return;
+        }
+        let half = R::splat(0.5);
+        self.max_speed.max(j, speed);
+        self.mass.add(j, m);
+        self.kinetic.add(j, half * m * (vx * vx + vy * vy));
+        self.momentum[0].add(j, m * vx);
+        self.momentum[1].add(j, m * vy);
+        self.angular.add(j, m * (x * vy - y * vx));
+        self.potential.add(j, -(m * ((bx + R::splat(gx)) * x + (by + R::splat(gy)) * y)));
+    }
+
+    /// [`SumPartials::add`] lane by lane, where some speed is not finite.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn add_lanes<R: Real>(&mut self, j: usize, k: usize, x: [R; 2], v: [R; 2], m: R, b: [R; 2], g: [f64; 2]) {
+        let (x, v, m, b) = (x.map(R::lanes), v.map(R::lanes), m.lanes(), b.map(R::lanes));
+        for l in 0..R::LANES {
+            let (vx, vy) = (v[0][l], v[1][l]);
+            let mut speed = (vx * vx + vy * vy).sqrt();
+            if speed == f64::INFINITY && vx.is_finite() && vy.is_finite() {
+                // Finite but beyond 1e154: the squares overflowed, the speed did not.
+                speed = vx.hypot(vy);
+            }
+            if !speed.is_finite() {
+                self.non_finite.get_or_insert(k + l);
+                continue;
+            }
+            let lane = SumInput {
+                x: [x[0][l], x[1][l]],
+                v: [vx, vy],
+                m: m[l],
+                b: [b[0][l], b[1][l]],
+            };
+            let i = (j + l) % 4;
+            let (x, y) = (lane.x[0], lane.x[1]);
+            let p = &mut self.max_speed.0[i];
+            *p = Real::max(speed, *p);
+            self.mass.0[i] += lane.m;
+            self.kinetic.0[i] += 0.5 * lane.m * (vx * vx + vy * vy);
+            self.momentum[0].0[i] += lane.m * vx;
+            self.momentum[1].0[i] += lane.m * vy;
+            self.angular.0[i] += lane.m * (x * vy - y * vx);
+            self.potential.0[i] += -(lane.m * ((lane.b[0] + g[0]) * x + (lane.b[1] + g[1]) * y));
+        }
     }
 }

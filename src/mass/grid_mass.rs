@@ -20,7 +20,7 @@ use super::cholesky::SparseCholesky;
 use super::matrices::Matrices;
 use super::options::{Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome};
 use super::stabilization::Stabilization;
-use super::{local_index, lumped_mass_into, mark_active, singular_error, StencilMass};
+use super::{local_index, lumped_mass_into, mark_active_counting, singular_error, StencilMass};
 use crate::error::{MpmError, Result};
 use crate::operators::Operators;
 
@@ -85,8 +85,10 @@ pub struct GridMass {
     pub(super) lumped: Vec<f64>,
     /// `1 / m_L,I` on active nodes, 0 elsewhere.
     pub(super) inverse: Vec<f64>,
-    /// The one active set: `m_L,I > tolerance · max m_L` ([`mark_active`]).
+    /// The one active set: `m_L,I > tolerance · max m_L` ([`mark_active`](super::mark_active)).
     pub(super) is_active: Vec<bool>,
+    /// Whether every node with a positive lumped mass is active.
+    every_massive_node_active: bool,
     /// The prescribed degrees of freedom of the last update.
     pub(super) constraints: Constraints,
     /// Free degrees of freedom of the x and y components (schemes other than lumped).
@@ -143,7 +145,7 @@ impl GridMass {
 
     /// Prepares the solves for the lumped mass this grid mass holds (from
     /// [`GridMass::update`] or written through [`GridMass::lumped_mut`]): the active set
-    /// ([`mark_active`]), `1/m_L` on it, and for schemes other than lumped the free degrees of
+    /// ([`mark_active`](super::mark_active)), `1/m_L` on it, and for schemes other than lumped the free degrees of
     /// freedom, the consistent matrix in the forms the schemes need, and the factorizations.
     ///
     /// # Errors
@@ -166,7 +168,8 @@ impl GridMass {
         self.constraints.fixed_x.clone_from(&constraints.fixed_x);
         self.constraints.fixed_y.clone_from(&constraints.fixed_y);
         self.is_active.resize(n, false);
-        mark_active(&self.lumped, options.active_tolerance, &mut self.is_active);
+        let [active, positive] = mark_active_counting(&self.lumped, options.active_tolerance, &mut self.is_active);
+        self.every_massive_node_active = active == positive;
         self.inverse.resize(n, 0.0);
         for i in 0..n {
             self.inverse[i] = if self.is_active[i] { 1.0 / self.lumped[i] } else { 0.0 };
@@ -238,7 +241,14 @@ impl GridMass {
         &self.inverse
     }
 
-    /// The active set as a mask, one flag per node ([`mark_active`] of the lumped mass).
+    /// Whether no node in a particle's support is inactive, known without looking at the
+    /// particles: every node of positive mass is active, and the operators have no zero weight
+    /// (so that every node in a support has positive mass).
+    pub(crate) fn supports_all_active(&self, ops: &Operators) -> bool {
+        self.every_massive_node_active && !ops.may_have_zero_weights()
+    }
+
+    /// The active set as a mask, one flag per node ([`mark_active`](super::mark_active) of the lumped mass).
     pub fn is_active(&self) -> &[bool] {
         &self.is_active
     }

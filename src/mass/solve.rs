@@ -114,6 +114,17 @@ impl GridMass {
         self.solve_from(Start::Warm, role, r, prescribed, ops, u)
     }
 
+    /// What a lumped solve of `role` reports ([`GridMass::solve_lumped`]'s, when the time loop
+    /// makes the lumped solves in its grid pass).
+    pub(crate) fn lumped_report(&self, role: Role) -> SolveReport {
+        SolveReport {
+            scheme: self.scheme(role),
+            outcome: self.solver(role).outcome.clone(),
+            iterations: 0,
+            relative_residual: 0.0,
+        }
+    }
+
     /// [`GridMass::solve_into`] inside a frequency estimate: a cold start at the relative residual
     /// [`ESTIMATE_SOLVE_TOLERANCE`] (or the scheme's, if looser).
     pub(crate) fn solve_for_estimate(

@@ -55,7 +55,8 @@ use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::parallel::{Strided, Workers};
 use crate::particles::Particles;
-use crate::shape::{bspline, gimp, linear, AxisFrame, Located, ShapeFunction};
+use crate::lanes::Real;
+use crate::shape::{bspline, gimp, linear, AxisFrame, ShapeFunction};
 use crate::with_support;
 use products::{column_entries, fill_csc};
 
@@ -121,11 +122,13 @@ pub struct Operators {
     cell_size: [f64; 2],
     /// The kernel's constants along x and y, whose `weights_at(t)` are the factors.
     frames: [AxisFrame; 2],
-    /// Per particle the kernel coordinates `t_x`, `t_y` ([`Located::t`]): the factors are
+    /// Per particle the kernel coordinates `t_x`, `t_y` ([`Located::t`](crate::shape)): the factors are
     /// their weights, unless `factors` holds them.
     local: [Vec<f64>; 2],
     /// Whether `factors` holds the columns (a fold or a shifted stencil), not `local`.
     stores_factors: bool,
+    /// Whether some column may hold a weight of exactly zero.
+    zero_weights: bool,
     /// Per particle `[wx; S], [w′x; S], [wy; S], [w′y; S]` (when `stores_factors`).
     factors: Vec<f64>,
     /// Node numbers from the lowest to one past the highest node any stencil touches.
@@ -135,7 +138,7 @@ pub struct Operators {
     /// Per block of particles, whether all were accepted, and their lowest and highest first
     /// nodes and whether a stencil was shifted (work arrays of the assembly).
     block_flags: Vec<bool>,
-    block_spans: Vec<(usize, usize, bool)>,
+    block_spans: Vec<(usize, usize, bool, bool)>,
 }
 
 /// The compressed sparse column arrays of N, Gx, Gy (shared pattern).
@@ -237,8 +240,9 @@ impl Operators {
         for t in self.local.iter_mut() {
             t.resize(num_particles, 0.0);
         }
-        let shifted = self.fill_local(x, y, workers);
+        let (shifted, zero_weights) = self.fill_local(x, y, workers);
         self.stores_factors = shifted;
+        self.zero_weights = zero_weights || shifted;
         if shifted {
             // uGIMP stencils shifted at the grid's edge: their weights are not a function of
             // `t` alone, so every column's factors are stored.
@@ -255,33 +259,33 @@ impl Operators {
     }
 
     /// Writes every particle's first node and kernel coordinates, and the node span; whether
-    /// some stencil is shifted ([`Located::shift`]). Every particle must have been accepted.
-    fn fill_local(&mut self, x: &[f64], y: &[f64], workers: &Workers) -> bool {
+    /// some stencil is shifted ([`Located::shift`](crate::shape)) and whether some weight may be zero
+    /// ([`AxisFrame::locate_lanes`](crate::shape)). Every particle must have been accepted.
+    fn fill_local(&mut self, x: &[f64], y: &[f64], workers: &Workers) -> (bool, bool) {
         let [sx, sy] = self.strides;
-        let [fx, fy] = self.frames;
+        let frames = self.frames;
         let s = self.support;
-        let accepted = "position checked against the allowed region above";
         let mut spans = std::mem::take(&mut self.block_spans);
         let [tx, ty] = &mut self.local;
         let out = (&mut self.first[..], [&mut tx[..], &mut ty[..]]);
-        workers.split_blocks(out, &mut spans, |start, (firsts, [tx, ty])| {
-            let (mut lo, mut hi, mut shifted) = (usize::MAX, 0, false);
-            for (j, first) in firsts.iter_mut().enumerate() {
-                let p = start + j;
-                let ax: Located = fx.locate(fx.accept(x[p]).expect(accepted));
-                let ay: Located = fy.locate(fy.accept(y[p]).expect(accepted));
-                let node = ax.first * sx + ay.first * sy;
-                lo = lo.min(node);
-                hi = hi.max(node);
-                shifted |= (ax.shift | ay.shift) != 0;
-                *first = [ax.first as u32, ay.first as u32];
-                (tx[j], ty[j]) = (ax.t, ay.t);
+        workers.split_blocks(out, &mut spans, |start, (firsts, t)| {
+            let block = LocalBlock {
+                frames,
+                strides: [sx as f64, sy as f64],
+                x: &x[start..start + firsts.len()],
+                y: &y[start..start + firsts.len()],
+            };
+            #[cfg(target_arch = "x86_64")]
+            if crate::lanes::avx2() {
+                // SAFETY: the CPU has AVX2 (checked just above).
+                return unsafe { fill_local_avx2(&block, firsts, t) };
             }
-            (lo, hi, shifted)
+            fill_local_body::<false>(&block, firsts, t)
         });
-        let (lo, hi, shifted) = spans
-            .iter()
-            .fold((usize::MAX, 0, false), |(lo, hi, sh), &(l, h, s)| (lo.min(l), hi.max(h), sh | s));
+        let (lo, hi, shifted, zero) = spans.iter().fold(
+            (usize::MAX, 0, false, false),
+            |(lo, hi, sh, z), &(l, h, s, w)| (lo.min(l), hi.max(h), sh | s, z | w),
+        );
         self.block_spans = spans;
         // The last node of a stencil is (S − 1)(sx + sy) after its first.
         self.span = if x.is_empty() {
@@ -289,27 +293,43 @@ impl Operators {
         } else {
             lo..hi + (s - 1) * (sx + sy) + 1
         };
-        shifted
+        (shifted, zero)
     }
 
-    /// Writes every particle's factors from its position (as [`AxisFrame::weights`]); every
-    /// particle must have been accepted.
+    /// Writes every particle's first node and factors from its position (as
+    /// [`AxisFrame::weights`]), and the node span; every particle must have been accepted.
     fn fill_factors<const S: usize>(&mut self, x: &[f64], y: &[f64], workers: &Workers) {
         let [fx, fy] = self.frames;
+        let [sx, sy] = self.strides;
         let accepted = "position checked against the allowed region above";
-        let mut none: Vec<()> = Vec::new();
-        let out = Strided(&mut self.factors[..], 4 * S);
-        workers.split_blocks(out, &mut none, |start, Strided(factors, _)| {
-            for (j, f) in factors.chunks_exact_mut(4 * S).enumerate() {
+        let mut spans = std::mem::take(&mut self.block_spans);
+        let out = (&mut self.first[..], Strided(&mut self.factors[..], 4 * S));
+        workers.split_blocks(out, &mut spans, |start, (firsts, Strided(factors, _))| {
+            let (mut lo, mut hi) = (usize::MAX, 0);
+            for (j, (first, f)) in firsts.iter_mut().zip(factors.chunks_exact_mut(4 * S)).enumerate() {
                 let p = start + j;
                 let wx = fx.weights(fx.accept(x[p]).expect(accepted));
                 let wy = fy.weights(fy.accept(y[p]).expect(accepted));
+                let node = wx.first * sx + wy.first * sy;
+                (lo, hi) = (lo.min(node), hi.max(node));
+                *first = [wx.first as u32, wy.first as u32];
                 f[..S].copy_from_slice(&wx.value[..S]);
                 f[S..2 * S].copy_from_slice(&wx.derivative[..S]);
                 f[2 * S..3 * S].copy_from_slice(&wy.value[..S]);
                 f[3 * S..].copy_from_slice(&wy.derivative[..S]);
             }
+            (lo, hi, true, true)
         });
+        let (lo, hi) = spans
+            .iter()
+            .fold((usize::MAX, 0), |(lo, hi), &(l, h, _, _)| (lo.min(l), hi.max(h)));
+        self.block_spans = spans;
+        // The last node of a stencil is (S − 1)(sx + sy) after its first.
+        self.span = if x.is_empty() {
+            0..0
+        } else {
+            lo..hi + (S - 1) * (sx + sy) + 1
+        };
     }
 
     /// Whether the operators store every column's factors (after a fold of the weights by
@@ -319,13 +339,19 @@ impl Operators {
         self.stores_factors
     }
 
+    /// Whether some column may hold a weight of exactly zero (so that a node in a particle's
+    /// support may get no mass from it): see [`crate::shape`]; always after a fold.
+    pub fn may_have_zero_weights(&self) -> bool {
+        self.zero_weights
+    }
+
     /// The kernel's constants along x and y (their `weights_at(t)` are the factors of a column
     /// stored by its coordinates).
     pub(crate) fn frames(&self) -> &[AxisFrame; 2] {
         &self.frames
     }
 
-    /// Each particle's kernel coordinates along x and y ([`Located::t`]); meaningful while
+    /// Each particle's kernel coordinates along x and y ([`Located::t`](crate::shape)); meaningful while
     /// [`Operators::stores_factors`] is false.
     pub(crate) fn local(&self) -> &[Vec<f64>; 2] {
         &self.local
@@ -467,6 +493,7 @@ impl Operators {
             crate::with_support!(self, store_factors::<S>(self));
             self.stores_factors = true;
         }
+        self.zero_weights = true;
         for (p, (first, factors)) in self
             .first
             .iter_mut()
@@ -564,4 +591,75 @@ fn store_factors<const S: usize>(ops: &mut Operators) {
         f[2 * S..3 * S].copy_from_slice(&wy);
         f[3 * S..].copy_from_slice(&dwy);
     }
+}
+
+/// What [`Operators::fill_local`] reads for one block of particles.
+struct LocalBlock<'a> {
+    frames: [AxisFrame; 2],
+    /// Node-number strides along x and y, as floats (exact).
+    strides: [f64; 2],
+    x: &'a [f64],
+    y: &'a [f64],
+}
+
+/// [`fill_local_body`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn fill_local_avx2(block: &LocalBlock, firsts: &mut [[u32; 2]], t: [&mut [f64]; 2]) -> (usize, usize, bool, bool) {
+    fill_local_body::<true>(block, firsts, t)
+}
+
+/// One block of [`Operators::fill_local`]: four particles at a time in the AVX2 build
+/// ([`AxisFrame::locate_lanes`], the same numbers as the scalar [`AxisFrame::locate`]); the
+/// lowest and highest first node, whether a stencil is shifted, whether a weight may be zero.
+#[inline(always)]
+fn fill_local_body<const AVX2: bool>(
+    block: &LocalBlock,
+    firsts: &mut [[u32; 2]],
+    [tx, ty]: [&mut [f64]; 2],
+) -> (usize, usize, bool, bool) {
+    let n = firsts.len();
+    let (mut lo, mut hi, mut shifted, mut zero) = (f64::INFINITY, 0.0f64, false, false);
+    let mut j = 0;
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        use crate::lanes::F64x4;
+        let (mut lo4, mut hi4) = (F64x4::splat(f64::INFINITY), F64x4::splat(0.0));
+        while j + 4 <= n {
+            let (f, t, sh, z) = locate_group::<F64x4>(block, j);
+            let node = f[0] * F64x4::splat(block.strides[0]) + f[1] * F64x4::splat(block.strides[1]);
+            (lo4, hi4) = (lo4.min(node), hi4.max(node));
+            (shifted, zero) = (shifted | sh, zero | z);
+            let (fx, fy) = (f[0].lanes(), f[1].lanes());
+            for l in 0..4 {
+                firsts[j + l] = [fx[l] as u32, fy[l] as u32];
+            }
+            t[0].store(tx, j);
+            t[1].store(ty, j);
+            j += 4;
+        }
+        let (l4, h4) = (lo4.lanes(), hi4.lanes());
+        for l in 0..4 {
+            (lo, hi) = (lo.min(l4[l]), hi.max(h4[l]));
+        }
+    }
+    while j < n {
+        let (f, t, sh, z) = locate_group::<f64>(block, j);
+        let node = f[0] * block.strides[0] + f[1] * block.strides[1];
+        (lo, hi) = (lo.min(node), hi.max(node));
+        (shifted, zero) = (shifted | sh, zero | z);
+        firsts[j] = [f[0] as u32, f[1] as u32];
+        (tx[j], ty[j]) = (t[0], t[1]);
+        j += 1;
+    }
+    (lo as usize, hi as usize, shifted, zero)
+}
+
+/// Particles `j …` of a block: first node and `t` along x and y, shifted, zero weight.
+#[inline(always)]
+fn locate_group<R: crate::lanes::Real>(block: &LocalBlock, j: usize) -> ([R; 2], [R; 2], bool, bool) {
+    let [fx, fy] = &block.frames;
+    let (_, first_x, t_x, shifted_x, zero_x) = fx.locate_lanes(R::load(block.x, j));
+    let (_, first_y, t_y, shifted_y, zero_y) = fy.locate_lanes(R::load(block.y, j));
+    ([first_x, first_y], [t_x, t_y], shifted_x | shifted_y, zero_x | zero_y)
 }

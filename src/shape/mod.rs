@@ -333,7 +333,6 @@ impl ShapeFunction {
         AxisFrame {
             shape: *self,
             origin: grid.origin()[axis],
-            h: grid.cell_size()[axis],
             lo: bounds[2 * axis],
             hi: bounds[2 * axis + 1],
             cells,
@@ -371,7 +370,6 @@ impl ShapeFunction {
 pub(crate) struct AxisFrame {
     shape: ShapeFunction,
     origin: f64,
-    h: f64,
     lo: f64,
     hi: f64,
     cells: usize,
@@ -393,7 +391,7 @@ impl AxisFrame {
     #[inline]
     pub(crate) fn accepts(&self, value: f64) -> bool {
         // Inside the bounds, rounding may put (x − x₀)/h a hair outside [margin, cells − margin].
-        let s = (value - self.origin) / self.h;
+        let s = self.cell_coordinate(value);
         self.usable
             & (value >= self.lo)
             & (value <= self.hi)
@@ -406,7 +404,13 @@ impl AxisFrame {
     #[inline]
     pub(crate) fn accept(&self, value: f64) -> Option<f64> {
         self.accepts(value)
-            .then(|| ((value - self.origin) / self.h).clamp(self.margin, self.top))
+            .then(|| self.cell_coordinate(value).clamp(self.margin, self.top))
+    }
+
+    /// `s = (value − x₀) · (1/h)`, the coordinate in cells.
+    #[inline(always)]
+    fn cell_coordinate(&self, value: f64) -> f64 {
+        (value - self.origin) * self.inv_h
     }
 
     /// Where the stencil of a point at an accepted, clamped cell coordinate `s` (from
@@ -456,6 +460,49 @@ impl AxisFrame {
                 Located::at(c - 1, s - c as f64)
             }
         }
+    }
+
+    /// [`AxisFrame::accept`] and [`AxisFrame::locate`] for one point or four side by side, with
+    /// the first node as a float (an exact integer): `(accepted, first, t, shifted, zero)`,
+    /// `accepted` and the flags for all lanes together — every lane accepted; some stencil
+    /// shifted ([`Located::shift`]; its `first` is then not the scalar one); some weight
+    /// possibly zero (linear and the cubic B-spline at `t = 0` or `1`, the quadratic B-spline
+    /// at `t = ±1/2`; uGIMP always, its outer nodes carrying no weight whenever the particle's
+    /// domain does not reach them). Otherwise the same numbers as the scalar functions.
+    #[inline(always)]
+    pub(crate) fn locate_lanes<R: Real>(&self, value: R) -> (bool, R, R, bool, bool) {
+        let c = R::splat;
+        let raw = (value - c(self.origin)) * c(self.inv_h);
+        let accepted = self.usable
+            && value.all_ge(c(self.lo))
+            && c(self.hi).all_ge(value)
+            && raw.all_ge(c(self.margin - MARGIN_TOLERANCE))
+            && c(self.top + MARGIN_TOLERANCE).all_ge(raw);
+        let s = raw.clamp(self.margin, self.top);
+        let cells = self.cells as f64;
+        let (first, t, shifted, zero) = match self.shape {
+            ShapeFunction::Linear => {
+                let cell = s.floor_nonneg().min(c(cells - 1.0));
+                let t = s - cell;
+                (cell, t, false, t.any_eq(c(0.0)) || t.any_eq(c(1.0)))
+            }
+            ShapeFunction::Gimp { .. } => {
+                let node = (s + c(0.5)).floor_nonneg();
+                let shifted = node.any_eq(c(0.0)) || !c(cells).all_gt(node);
+                (node - c(1.0), s - node, shifted, true)
+            }
+            ShapeFunction::QuadraticBSpline => {
+                let node = (s + c(0.5)).floor_nonneg().max(c(1.0)).min(c(cells - 1.0));
+                let t = s - node;
+                (node - c(1.0), t, false, t.abs().any_eq(c(0.5)))
+            }
+            ShapeFunction::CubicBSpline => {
+                let node = s.floor_nonneg().max(c(1.0)).min(c(cells - 2.0));
+                let t = s - node;
+                (node - c(1.0), t, false, t.any_eq(c(0.0)) || t.any_eq(c(1.0)))
+            }
+        };
+        (accepted, first, t, shifted, zero)
     }
 
     /// The `S` weights and derivatives (per unit length) of the kernel at `t` (one point, or

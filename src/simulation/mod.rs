@@ -132,8 +132,8 @@ struct Scratch {
     extension: ExtensionScratch,
     series: SeriesScratch,
     sorting: phases::Sorting,
-    stress_blocks: Vec<kernels::StressSums>,
-    report_blocks: Vec<kernels::ParticleSums>,
+    stress_blocks: Vec<kernels::StressPartials>,
+    report_blocks: Vec<kernels::SumPartials>,
     /// The packed grid velocities the grid-to-particle pass reads.
     packed: Vec<f64>,
     /// What each block of particles of the last grid-to-particle pass returned.

@@ -10,7 +10,7 @@ use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::kernels::{
     self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState,
-    ParticleSums, Stress, StressInput, StressOutput, StressSums,
+    ParticleSums, Stress, StressInput, StressOutput, StressPartials, StressSums,
 };
 use crate::mass::{GridMass, Role, SolveReport};
 use crate::operators::Operators;
@@ -51,8 +51,9 @@ impl Simulation {
         };
         let apic = apic_inertia(options, grid);
         let (ops, mass, nodes) = (&cache.ops, &mut cache.mass, &mut cache.nodes);
+        let fields = !lumped_grid_pass(setup, options);
         timed(profile, Phase::P2g, || {
-            kernels::p2g(ops, p, apic, options.gravity, stress, mass.lumped_mut(), nodes, workers);
+            kernels::p2g_with(ops, p, apic, options.gravity, stress, mass.lumped_mut(), nodes, workers, fields);
             mirror.fold_lumped(grid, options.shape, &p.x, &p.y, &p.mass, ops, mass.lumped_mut());
         }); // (2)–(5)
         let constraints = &setup.prescribed.constraints;
@@ -94,6 +95,23 @@ impl Simulation {
         } = self;
         let series = SeriesTransfer::of(options.transfer);
         let (prescribed, active) = (&setup.prescribed, mass.is_active());
+        if lumped_grid_pass(setup, options) {
+            let (inverse, gravity) = (mass.inverse_lumped(), options.gravity);
+            timed(profile, Phase::GridVelocity, || {
+                kernels::update_lumped_grid(nodes, inverse, active, gravity, dt, prescribed, &mut scratch.packed)
+            }); // (6)–(8)
+            timed(profile, Phase::Extend, || {
+                if !mass.supports_all_active(ops) && extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension) {
+                    // The packed w of the grid-to-particle pass follows.
+                    let (span, w) = (ops.node_span(), &nodes.updated);
+                    for (j, i) in span.enumerate() {
+                        scratch.packed[4 * j] = w.x[i];
+                        scratch.packed[4 * j + 1] = w.y[i];
+                    }
+                }
+            }); // (8b)
+            return Ok([mass.lumped_report(Role::Velocity), mass.lumped_report(Role::Acceleration)]);
+        }
         let velocity_solve = timed(profile, Phase::Project, || {
             project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)
         })?; // (6)
@@ -158,8 +176,11 @@ impl Simulation {
         let (p, workers) = (&mut state.particles, &setup.workers);
         let mut blocks = std::mem::take(&mut scratch.g2p_blocks);
         let mut packed = std::mem::take(&mut scratch.packed);
+        let packed_by_grid_pass = lumped_grid_pass(setup, options);
         timed(profile, Phase::G2p, || {
-            kernels::pack_velocities(ops, nodes, &rule, &mut packed);
+            if !packed_by_grid_pass {
+                kernels::pack_velocities(ops, nodes, &rule, &mut packed);
+            }
             kernels::g2p_packed(ops, &packed, &rule, dt, &fused, p, &mut scratch.particle, workers, &mut blocks)
         }); // (9)–(11), USL: (12)–(13), USL and USF: (9)
         scratch.packed = packed;
@@ -254,6 +275,17 @@ fn series_velocity(
     );
 }
 
+/// Whether the step makes (6)–(8) in one pass over the grid ([`kernels::update_lumped_grid`]):
+/// the lumped mass in both solves, no stress update between them (not USF), no series
+/// velocity (not XPIC, FMPM) and no mirrored walls (whose lumped mass is folded).
+fn lumped_grid_pass(setup: &Setup, options: &Options) -> bool {
+    options.mass.velocity == crate::mass::MassScheme::Lumped
+        && options.mass.acceleration == crate::mass::MassScheme::Lumped
+        && !options.update.schedule().stress_first
+        && SeriesTransfer::of(options.transfer).is_none()
+        && setup.prescribed.mirror.is_empty()
+}
+
 /// The APIC inertia of the shape functions, when the transfer is APIC.
 fn apic_inertia(options: &Options, grid: &Grid) -> Option<ApicInertia> {
     (options.transfer == Transfer::Apic).then(|| ApicInertia::of(options.shape, grid))
@@ -302,17 +334,20 @@ fn update_grid_velocity(
     prescribed.apply_velocity(&mut w.x, &mut w.y);
 }
 
-/// (8b) in the grid velocity `u`; prescribed components keep their values.
+/// (8b) in the grid velocity `u`; prescribed components keep their values. Whether any node
+/// changed.
 fn extend(
     ops: &Operators,
     prescribed: &Prescribed,
     is_active: &[bool],
     u: &mut VectorField,
     scratch: &mut ExtensionScratch,
-) {
-    if extend_to_inactive_nodes(ops, is_active, u, scratch) {
+) -> bool {
+    let changed = extend_to_inactive_nodes(ops, is_active, u, scratch);
+    if changed {
         prescribed.apply_velocity(&mut u.x, &mut u.y);
     }
+    changed
 }
 
 /// (11) `L = [Gxᵀ u, Gyᵀ u]` into the particle scratch, for the grid velocity the stress update
@@ -378,7 +413,7 @@ fn update_stress(setup: &Setup, state: &mut State, scratch: &mut Scratch, dt: f6
         volume: &mut p.volume[..],
     };
     setup.workers.split_blocks(out, blocks, |first, mut out| {
-        let mut sums = StressSums::default();
+        let mut sums = StressPartials::default();
         for j in 0..out.volume.len() {
             let k = first + j;
             let l = [l[0][k], l[1][k], l[2][k], l[3][k]];

@@ -2,7 +2,7 @@
 
 use super::{Options, Scratch, Setup, State};
 use crate::error::{MpmError, Result};
-use crate::kernels::{GridState, ParticleSums};
+use crate::kernels::{GridState, ParticleSums, SumInput, SumPartials};
 use crate::mass::{GridMass, SolveOutcome, SolveReport};
 use crate::parallel::Workers;
 use crate::particles::Particles;
@@ -199,11 +199,18 @@ pub(super) fn report(
 
 /// The particles' sums for the report, in fixed blocks of particles so that they do not depend
 /// on the threads (`blocks` is work space).
-fn particle_sums(workers: &Workers, p: &Particles, gravity: [f64; 2], blocks: &mut Vec<ParticleSums>) -> ParticleSums {
+fn particle_sums(workers: &Workers, p: &Particles, gravity: [f64; 2], blocks: &mut Vec<SumPartials>) -> ParticleSums {
     workers.blocks(p.len(), blocks, |range| {
-        let mut s = ParticleSums::default();
+        let mut s = SumPartials::default();
+        let first = range.start;
         for k in range {
-            s.add(k, [p.x[k], p.y[k]], [p.vx[k], p.vy[k]], p.mass[k], [p.bx[k], p.by[k]], gravity);
+            let sum = SumInput {
+                x: [p.x[k], p.y[k]],
+                v: [p.vx[k], p.vy[k]],
+                m: p.mass[k],
+                b: [p.bx[k], p.by[k]],
+            };
+            s.add(k - first, k, sum, gravity);
         }
         s
     });

@@ -1,0 +1,71 @@
+//! (6)–(8) with the lumped mass in both solves, in one pass over the grid nodes.
+
+use super::GridState;
+use crate::boundary::Prescribed;
+
+/// (6)–(8) with the lumped mass in both solves, from what [`super::p2g`] accumulated (`m_L`,
+/// `q`, `f` without gravity), in one pass over the nodes of the operators' span:
+///
+/// ```text
+/// (6) v = q · (1/m_L),   (7) a = (f + m_L g) · (1/m_L),   (8) w = s (v + Δt a)
+/// ```
+///
+/// with `1/m_L` the grid mass's inverse (0 on inactive nodes) and `s` 1 on active nodes, 0
+/// elsewhere; then on every prescribed component `v = w = v_D` (`a = 0`). The same operations,
+/// in the same order, as the lumped solves of [`crate::mass::GridMass`], the constraints and
+/// the update of the general step. Writes `w` into `grid.updated` (0 outside the span but for
+/// the prescribed components), and `[w, v]` node by node over the span into `packed` (what the
+/// grid-to-particle pass reads, [`super::pack_velocities`]).
+///
+/// # Panics
+/// If the inverse, the active set or the grid state do not have one entry per node.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn update_lumped_grid(
+    grid: &mut GridState,
+    inverse: &[f64],
+    is_active: &[bool],
+    gravity: [f64; 2],
+    dt: f64,
+    prescribed: &Prescribed,
+    packed: &mut Vec<f64>,
+) {
+    let span = grid.span.clone();
+    let previous = std::mem::replace(&mut grid.lumped_span, span.clone());
+    let n = grid.updated.len();
+    assert!(inverse.len() == n && is_active.len() == n, "one mass and one flag per node");
+    // What the last pass left outside the new span.
+    let below = previous.start..previous.end.min(span.start);
+    let above = previous.start.max(span.end)..previous.end;
+    for range in [below, above].into_iter().filter(|r| r.start < r.end) {
+        grid.updated.x[range.clone()].fill(0.0);
+        grid.updated.y[range].fill(0.0);
+    }
+    let [gx, gy] = gravity;
+    let (acc, base) = (&grid.accumulator, grid.base);
+    super::g2p::reserve_packed(packed, 4 * n);
+    packed.clear();
+    packed.resize(4 * span.len(), 0.0);
+    let (wx, wy) = (&mut grid.updated.x[span.clone()], &mut grid.updated.y[span.clone()]);
+    for (j, i) in span.clone().enumerate() {
+        let [m, qx, qy, fx, fy] = acc[i - base];
+        let inv = inverse[i];
+        let (vx, vy) = (qx * inv, qy * inv);
+        let (ax, ay) = ((fx + m * gx) * inv, (fy + m * gy) * inv);
+        let s = if is_active[i] { 1.0 } else { 0.0 };
+        let (w_x, w_y) = (s * (vx + dt * ax), s * (vy + dt * ay));
+        (wx[j], wy[j]) = (w_x, w_y);
+        packed[4 * j..4 * j + 4].copy_from_slice(&[w_x, w_y, vx, vy]);
+    }
+    let c = &prescribed.constraints;
+    for (component, fixed, value) in [(0, &c.fixed_x, &prescribed.vx), (1, &c.fixed_y, &prescribed.vy)] {
+        let w = if component == 0 { &mut grid.updated.x } else { &mut grid.updated.y };
+        for &i in fixed.iter() {
+            w[i] = value[i];
+            if span.contains(&i) {
+                let j = 4 * (i - span.start);
+                packed[j + component] = value[i];
+                packed[j + 2 + component] = value[i];
+            }
+        }
+    }
+}
