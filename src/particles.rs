@@ -250,21 +250,37 @@ impl Particles {
     /// # Panics
     /// If `order` is not a permutation of `0..P` of the right length (checked by length only).
     pub fn permute(&mut self, order: &[usize], scratch: &mut Vec<f64>, scratch_index: &mut Vec<usize>) {
+        scratch_index.clear();
+        self.permute_by(order.len(), |k| order[k], scratch);
+    }
+
+    /// [`Particles::permute`] with the order as 32-bit indices and one work buffer.
+    ///
+    /// # Panics
+    /// As [`Particles::permute`].
+    pub(crate) fn permute_u32(&mut self, order: &[u32], scratch: &mut Vec<f64>) {
+        self.permute_by(order.len(), |k| order[k] as usize, scratch);
+    }
+
+    /// Particle `k` of the result is particle `from(k)` before, for the `len` particles.
+    fn permute_by(&mut self, len: usize, from: impl Fn(usize) -> usize, scratch: &mut Vec<f64>) {
         let n = self.len();
-        assert_eq!(order.len(), n, "the order must list every particle once");
+        assert_eq!(len, n, "the order must list every particle once");
         scratch.resize(n, 0.0);
-        scratch_index.resize(n, 0);
         for (_, field) in self.fields_mut() {
-            for (k, &p) in order.iter().enumerate() {
-                scratch[k] = field[p];
+            for (k, s) in scratch.iter_mut().enumerate() {
+                *s = field[from(k)];
             }
             std::mem::swap(field, scratch);
         }
+        // The index fields go through the same buffer as bit patterns, then back.
         for field in [&mut self.body, &mut self.id] {
-            for (k, &p) in order.iter().enumerate() {
-                scratch_index[k] = field[p];
+            for (k, s) in scratch.iter_mut().enumerate() {
+                *s = f64::from_bits(field[from(k)] as u64);
             }
-            std::mem::swap(field, scratch_index);
+            for (f, s) in field.iter_mut().zip(scratch.iter()) {
+                *f = s.to_bits() as usize;
+            }
         }
     }
 

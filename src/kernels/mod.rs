@@ -89,14 +89,14 @@ impl GridState {
     /// Zeroed fields for the nodes of `grid`.
     pub fn new(grid: &Grid) -> GridState {
         let n = grid.num_nodes();
-        let zero = VectorField::zeros(n);
+        // Each field zeroed on its own (pages the step never writes stay untouched).
         GridState {
-            momentum: zero.clone(),
-            force: zero.clone(),
-            projected: zero.clone(),
-            acceleration: zero.clone(),
-            updated: zero.clone(),
-            series: zero,
+            momentum: VectorField::zeros(n),
+            force: VectorField::zeros(n),
+            projected: VectorField::zeros(n),
+            acceleration: VectorField::zeros(n),
+            updated: VectorField::zeros(n),
+            series: VectorField::zeros(n),
             frame: (grid.origin(), grid.cell_size()),
             angular_momentum: 0.0,
             span: 0..n,

@@ -450,14 +450,14 @@ fn inversion(bodies: &[Body], state: &State, k: usize, det_increment: f64, det_f
     }
 }
 
-/// The counting sort's arrays.
+/// The counting sort's arrays, with 32-bit indices (the operators number at most 2³² nodes; a
+/// simulation of more particles than that is not sorted).
 #[derive(Debug, Default)]
 pub(super) struct Sorting {
-    keys: Vec<usize>,
-    counts: Vec<usize>,
-    order: Vec<usize>,
+    keys: Vec<u32>,
+    counts: Vec<u32>,
+    order: Vec<u32>,
     values: Vec<f64>,
-    indices: Vec<usize>,
 }
 
 impl Sorting {
@@ -478,6 +478,9 @@ impl Sorting {
 fn sort_particles(grid: &Grid, shape: ShapeFunction, p: &mut Particles, s: &mut Sorting) {
     let np = p.len();
     let [cx, cy] = grid.cells();
+    if u32::try_from(np).is_err() || u32::try_from(cx * cy + 1).is_err() {
+        return;
+    }
     let frames = [shape.axis_frame(grid, 0), shape.axis_frame(grid, 1)];
     s.keys.resize(np, 0);
     s.order.resize(np, 0);
@@ -488,8 +491,8 @@ fn sort_particles(grid: &Grid, shape: ShapeFunction, p: &mut Particles, s: &mut 
             (Some(i), Some(j)) => j * cx + i,
             _ => cx * cy,
         };
-        s.keys[k] = key.min(cx * cy);
-        s.counts[s.keys[k]] += 1;
+        s.keys[k] = key.min(cx * cy) as u32;
+        s.counts[s.keys[k] as usize] += 1;
     }
     let mut start = 0;
     for c in s.counts.iter_mut() {
@@ -498,9 +501,9 @@ fn sort_particles(grid: &Grid, shape: ShapeFunction, p: &mut Particles, s: &mut 
         start += n;
     }
     for k in 0..np {
-        let key = s.keys[k];
-        s.order[s.counts[key]] = k;
+        let key = s.keys[k] as usize;
+        s.order[s.counts[key] as usize] = k as u32;
         s.counts[key] += 1;
     }
-    p.permute(&s.order, &mut s.values, &mut s.indices);
+    p.permute_u32(&s.order, &mut s.values);
 }
