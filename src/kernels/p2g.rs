@@ -404,10 +404,14 @@ impl Scatter for F64x4 {
 
     #[inline(always)]
     fn scatter_lanes<const S: usize>(terms: &[[[F64x4; 5]; S]; S], cols: &Columns<F64x4, S>, acc: &mut [[f64; 5]], base: usize) {
-        let runs: [_; S] = std::array::from_fn(|b| F64x4::lane_terms(&terms[b]));
+        let mut quads = [[[F64x4::splat(0.0).0; 4]; S]; S];
+        let mut fy = [[[0.0; 4]; S]; S];
+        for b in 0..S {
+            (quads[b], fy[b]) = F64x4::lane_terms(&terms[b]);
+        }
         for l in 0..4 {
-            for (b, (quads, fy)) in runs.iter().enumerate() {
-                F64x4::add_run(quads, fy, l, cols.run_start(l, b) - base, acc);
+            for b in 0..S {
+                F64x4::add_run(&quads[b], &fy[b], l, cols.run_start(l, b) - base, acc);
             }
         }
     }
