@@ -15,56 +15,75 @@
 //! specified by the compiler in either build).
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
-static SCALAR: AtomicBool = AtomicBool::new(false);
+static LANES: AtomicUsize = AtomicUsize::new(8);
 
-/// Chooses the scalar build of the transfers (`true`) or the AVX2 build where the CPU has it
+/// Chooses the scalar build of the transfers (`true`) or the widest vector build the CPU has
 /// (`false`, the default) for the whole process. The results are the same bits either way: this
 /// changes speed only (for benchmarks: `mpm bench --scalar-kernels`).
 pub fn set_scalar_kernels(scalar: bool) {
-    SCALAR.store(scalar, Ordering::Relaxed);
+    set_kernel_lanes(if scalar { 1 } else { 8 });
 }
 
-/// Whether the vectorised build may run ([`set_scalar_kernels`]).
-#[inline]
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(crate) fn vectorised() -> bool {
-    !SCALAR.load(Ordering::Relaxed)
+/// Sets the most particles the kernels take side by side for the whole process: 1 (the scalar
+/// build), 4 (AVX2) or 8 (AVX-512, the default); the CPU may allow fewer. The results are the
+/// same bits for every width.
+pub fn set_kernel_lanes(lanes: usize) {
+    LANES.store(lanes, Ordering::Relaxed);
 }
 
-/// Whether the AVX2 build of the kernels runs: the CPU has AVX2 and it is not switched off.
+/// The most particles side by side that the CPU and [`set_kernel_lanes`] allow: 8 with AVX-512F,
+/// 4 with AVX2, 1 otherwise.
+pub fn kernel_lanes() -> usize {
+    lanes_available()
+}
+
+/// [`kernel_lanes`], for the dispatch.
 #[inline]
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(crate) fn avx2() -> bool {
+pub(crate) fn lanes_available() -> usize {
+    let wanted = LANES.load(Ordering::Relaxed);
     #[cfg(target_arch = "x86_64")]
     {
-        vectorised() && std::arch::is_x86_feature_detected!("avx2")
+        if wanted >= 8 && std::arch::is_x86_feature_detected!("avx512f") {
+            return 8;
+        }
+        if wanted >= 4 && std::arch::is_x86_feature_detected!("avx2") {
+            return 4;
+        }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    let _ = wanted;
+    1
 }
 
-/// Declares `$name`, which runs `$body::<S, true>` from a copy compiled for AVX2 when [`avx2`]
-/// says so and `$body::<S, false>` from the baseline build otherwise (see the note on bits).
+/// Declares `$name`, which runs `$body::<S, …, 8>` from a copy compiled for AVX-512F,
+/// `$body::<S, …, 4>` from a copy compiled for AVX2, or `$body::<S, …, 1>` from the baseline
+/// build, the widest that [`lanes_available`] allows (see the note on bits).
 macro_rules! dispatch {
-    ($(#[$doc:meta])* fn $name:ident $(<const $c:ident : usize>)? / $avx:ident = $body:ident ( $($arg:ident : $ty:ty),* ) -> $ret:ty) => {
+    ($(#[$doc:meta])* fn $name:ident $(<const $c:ident : usize>)? / $avx2:ident, $avx512:ident = $body:ident ( $($arg:ident : $ty:ty),* ) -> $ret:ty) => {
         $(#[$doc])*
         fn $name<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
-            if $crate::lanes::avx2() {
+            match $crate::lanes::lanes_available() {
+                // SAFETY: the CPU has AVX-512F, checked at run time just above.
+                8 => return unsafe { $avx512::<S $(, $c)?>($($arg),*) },
                 // SAFETY: the CPU has AVX2, checked at run time just above.
-                return unsafe { $avx::<S $(, $c)?>($($arg),*) };
+                4 => return unsafe { $avx2::<S $(, $c)?>($($arg),*) },
+                _ => {}
             }
-            $body::<S $(, $c)?, false>($($arg),*)
+            $body::<S $(, $c)?, 1>($($arg),*)
         }
 
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx2")]
-        unsafe fn $avx<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
-            $body::<S $(, $c)?, true>($($arg),*)
+        unsafe fn $avx2<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
+            $body::<S $(, $c)?, 4>($($arg),*)
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f")]
+        unsafe fn $avx512<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
+            $body::<S $(, $c)?, 8>($($arg),*)
         }
     };
 }
@@ -93,7 +112,7 @@ pub(crate) trait Real:
     /// Lane `l` from `f(l)`.
     fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
     /// The lanes (lanes past [`Real::LANES`] are 0).
-    fn lanes(self) -> [f64; 4];
+    fn lanes(self) -> [f64; 8];
     /// `|x|`.
     fn abs(self) -> Self;
     /// `if self > other { self } else { other }`, lane by lane.
@@ -138,8 +157,8 @@ impl Real for f64 {
         f(0)
     }
     #[inline(always)]
-    fn lanes(self) -> [f64; 4] {
-        [self, 0.0, 0.0, 0.0]
+    fn lanes(self) -> [f64; 8] {
+        [self, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
     }
     #[inline(always)]
     fn abs(self) -> f64 {
@@ -257,9 +276,9 @@ mod avx2 {
             F64x4(unsafe { _mm256_setr_pd(a, b, c, d) })
         }
         #[inline(always)]
-        fn lanes(self) -> [f64; 4] {
-            let mut out = [0.0; 4];
-            // SAFETY: `out` holds 4 values; AVX as above.
+        fn lanes(self) -> [f64; 8] {
+            let mut out = [0.0; 8];
+            // SAFETY: `out` holds at least 4 values; AVX as above.
             unsafe { _mm256_storeu_pd(out.as_mut_ptr(), self.0) };
             out
         }
@@ -307,6 +326,157 @@ mod avx2 {
         fn sqrt(self) -> F64x4 {
             // SAFETY: as above. sqrtpd rounds as f64::sqrt.
             F64x4(unsafe { _mm256_sqrt_pd(self.0) })
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx512::F64x8;
+
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use super::Real;
+    use std::arch::x86_64::*;
+    use std::ops::{Add, Div, Mul, Neg, Sub};
+
+    /// Eight `f64` lanes in an AVX-512 register.
+    ///
+    /// As [`super::F64x4`]: a value of this type exists only inside functions compiled with
+    /// `#[target_feature(enable = "avx512f")]` that run after a run-time check of the CPU
+    /// ([`super::lanes_available`]), and every method is `#[inline(always)]`.
+    #[derive(Clone, Copy, Debug)]
+    pub(crate) struct F64x8(pub(crate) __m512d);
+
+    macro_rules! binary {
+        ($tr:ident, $f:ident, $intrinsic:ident) => {
+            impl $tr for F64x8 {
+                type Output = F64x8;
+                #[inline(always)]
+                fn $f(self, o: F64x8) -> F64x8 {
+                    // SAFETY: F64x8 values are only made where the CPU has AVX-512F (type docs).
+                    F64x8(unsafe { $intrinsic(self.0, o.0) })
+                }
+            }
+        };
+    }
+    binary!(Add, add, _mm512_add_pd);
+    binary!(Sub, sub, _mm512_sub_pd);
+    binary!(Mul, mul, _mm512_mul_pd);
+    binary!(Div, div, _mm512_div_pd);
+
+    /// The sign bit of every lane.
+    #[inline(always)]
+    fn sign() -> __m512i {
+        // SAFETY: as above.
+        unsafe { _mm512_set1_epi64(i64::MIN) }
+    }
+
+    impl Neg for F64x8 {
+        type Output = F64x8;
+        #[inline(always)]
+        fn neg(self) -> F64x8 {
+            // SAFETY: as above. −x flips the sign bit, as the scalar negation does.
+            F64x8(unsafe { _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(self.0), sign())) })
+        }
+    }
+
+    impl Real for F64x8 {
+        const LANES: usize = 8;
+        #[inline(always)]
+        fn splat(v: f64) -> F64x8 {
+            // SAFETY: as above.
+            F64x8(unsafe { _mm512_set1_pd(v) })
+        }
+        #[inline(always)]
+        fn load(values: &[f64], k: usize) -> F64x8 {
+            let v = &values[k..k + 8];
+            // SAFETY: `v` holds 8 values; AVX-512F as above.
+            F64x8(unsafe { _mm512_loadu_pd(v.as_ptr()) })
+        }
+        #[inline(always)]
+        fn store(self, values: &mut [f64], k: usize) {
+            let v = &mut values[k..k + 8];
+            // SAFETY: `v` holds 8 values; AVX-512F as above.
+            unsafe { _mm512_storeu_pd(v.as_mut_ptr(), self.0) }
+        }
+        #[inline(always)]
+        fn from_fn(mut f: impl FnMut(usize) -> f64) -> F64x8 {
+            let v = [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)];
+            // SAFETY: `v` holds 8 values; as above.
+            F64x8(unsafe { _mm512_loadu_pd(v.as_ptr()) })
+        }
+        #[inline(always)]
+        fn lanes(self) -> [f64; 8] {
+            let mut out = [0.0; 8];
+            // SAFETY: `out` holds 8 values; as above.
+            unsafe { _mm512_storeu_pd(out.as_mut_ptr(), self.0) };
+            out
+        }
+        #[inline(always)]
+        fn abs(self) -> F64x8 {
+            // SAFETY: as above. Clears the sign bit, as f64::abs.
+            F64x8(unsafe { _mm512_castsi512_pd(_mm512_andnot_si512(sign(), _mm512_castpd_si512(self.0))) })
+        }
+        #[inline(always)]
+        fn max(self, other: F64x8) -> F64x8 {
+            // SAFETY: as above. vmaxpd(a, b) is `a > b ? a : b` lane by lane.
+            F64x8(unsafe { _mm512_max_pd(self.0, other.0) })
+        }
+        #[inline(always)]
+        fn min(self, other: F64x8) -> F64x8 {
+            // SAFETY: as above. vminpd(a, b) is `a < b ? a : b` lane by lane.
+            F64x8(unsafe { _mm512_min_pd(self.0, other.0) })
+        }
+        #[inline(always)]
+        fn ln(self) -> F64x8 {
+            let l = self.lanes();
+            F64x8::from_fn(|i| l[i].ln())
+        }
+        #[inline(always)]
+        fn all_gt(self, other: F64x8) -> bool {
+            // SAFETY: as above. Ordered, non-signalling: false for NaN.
+            unsafe { _mm512_cmp_pd_mask::<_CMP_GT_OQ>(self.0, other.0) == 0xff }
+        }
+        #[inline(always)]
+        fn all_ge(self, other: F64x8) -> bool {
+            // SAFETY: as above.
+            unsafe { _mm512_cmp_pd_mask::<_CMP_GE_OQ>(self.0, other.0) == 0xff }
+        }
+        #[inline(always)]
+        fn any_eq(self, other: F64x8) -> bool {
+            // SAFETY: as above.
+            unsafe { _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(self.0, other.0) != 0 }
+        }
+        #[inline(always)]
+        fn floor_nonneg(self) -> F64x8 {
+            // SAFETY: as above. Rounds toward −∞ (no exception): the truncation for x ≥ 0.
+            F64x8(unsafe { _mm512_roundscale_pd::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(self.0) })
+        }
+        #[inline(always)]
+        fn sqrt(self) -> F64x8 {
+            // SAFETY: as above. vsqrtpd rounds as f64::sqrt.
+            F64x8(unsafe { _mm512_sqrt_pd(self.0) })
+        }
+    }
+
+    impl F64x8 {
+        /// Lanes 0–3 and 4–7 as two four-lane vectors.
+        #[inline(always)]
+        pub(crate) fn halves(self) -> [super::F64x4; 2] {
+            // SAFETY: as above.
+            unsafe {
+                [
+                    super::F64x4(_mm512_castpd512_pd256(self.0)),
+                    super::F64x4(_mm512_extractf64x4_pd::<1>(self.0)),
+                ]
+            }
+        }
+
+        /// The vector of lanes `lo` then `hi`.
+        #[inline(always)]
+        pub(crate) fn join(lo: super::F64x4, hi: super::F64x4) -> F64x8 {
+            // SAFETY: as above.
+            F64x8(unsafe { _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(lo.0), hi.0) })
         }
     }
 }

@@ -1,18 +1,19 @@
-//! The AVX2 build of the transfers changes nothing: runs with it equal runs with the scalar
-//! build bit for bit, for every shape function, update scheme and transfer, serial and threaded
-//! (`sparse_mpm::kernels::set_scalar_kernels`; the kernels' module note says why). The switch
-//! is process-wide, so this file holds one test.
+//! The vector builds of the kernels change nothing: runs with four particles side by side
+//! (AVX2) and with eight (AVX-512) equal runs with the scalar build bit for bit, for every shape
+//! function, update scheme and transfer, serial and threaded
+//! (`sparse_mpm::kernels::set_kernel_lanes`; the lanes module note says why). The switch is
+//! process-wide, so this file holds one test.
 
 use sparse_mpm::bench::{problem, BenchSpec};
-use sparse_mpm::kernels::set_scalar_kernels;
+use sparse_mpm::kernels::{kernel_lanes, set_kernel_lanes};
 use sparse_mpm::simulation::{StepReport, Transfer, UpdateScheme};
 use sparse_mpm::ShapeFunction;
 
 /// Every particle field and every report's energies and momenta, as bits, after `steps` steps
 /// (or the error that stopped the run: it must be the same error).
-fn run(spec: &BenchSpec, scalar: bool) -> Result<Vec<u64>, String> {
-    set_scalar_kernels(scalar);
-    // An odd count: the four-particle scatter's last particles go one by one.
+fn run(spec: &BenchSpec, lanes: usize) -> Result<Vec<u64>, String> {
+    set_kernel_lanes(lanes);
+    // An odd count: the last particles of a block go four, then one at a time.
     let mut sim = problem(4003, spec).expect("benchmark problem");
     let mut reports: Vec<StepReport> = Vec::new();
     for _ in 0..55 {
@@ -55,9 +56,15 @@ fn run(spec: &BenchSpec, scalar: bool) -> Result<Vec<u64>, String> {
 
 #[test]
 fn the_vectorised_transfers_equal_the_scalar_ones_bit_for_bit() {
-    #[cfg(target_arch = "x86_64")]
-    if !std::arch::is_x86_feature_detected!("avx2") {
-        eprintln!("this CPU has no AVX2: both runs take the scalar build");
+    let widths: Vec<usize> = [4, 8]
+        .into_iter()
+        .filter(|&w| {
+            set_kernel_lanes(w);
+            kernel_lanes() == w
+        })
+        .collect();
+    if widths.is_empty() {
+        eprintln!("this CPU has no AVX2: every run takes the scalar build");
     }
     let shapes = [
         ShapeFunction::Linear,
@@ -82,30 +89,33 @@ fn the_vectorised_transfers_equal_the_scalar_ones_bit_for_bit() {
                 transfer,
                 ..BenchSpec::default()
             };
-            let scalar = run(&spec, true);
-            let vector = run(&spec, false);
-            assert!(
-                scalar == vector,
-                "{shape:?} {update:?} {transfer:?}: the AVX2 transfers differ from the scalar ones"
-            );
+            let scalar = run(&spec, 1);
+            for &lanes in &widths {
+                let vector = run(&spec, lanes);
+                assert!(
+                    scalar == vector,
+                    "{shape:?} {update:?} {transfer:?}: {lanes} particles side by side differ from the scalar build"
+                );
+            }
+            let widest = widths.last().copied().unwrap_or(1);
             for threads in [2, 3] {
                 let threaded = run(
                     &BenchSpec {
                         threads,
                         ..spec.clone()
                     },
-                    false,
+                    widest,
                 );
                 assert!(
                     scalar == threaded,
-                    "{shape:?} {update:?} {transfer:?}: the AVX2 transfers on {threads} threads differ"
+                    "{shape:?} {update:?} {transfer:?}: {widest} particles side by side on {threads} threads differ"
                 );
             }
             cases += 1;
             completed += usize::from(scalar.is_ok());
         }
     }
-    set_scalar_kernels(false);
+    set_kernel_lanes(8);
     assert_eq!(cases, 28);
     assert!(
         completed >= 20,

@@ -254,9 +254,23 @@ struct BenchArgs {
     #[arg(long)]
     profile: bool,
     /// Run the transfers particle by particle instead of in lanes (the same results, to the
-    /// bit; for comparing their speed).
+    /// bit; for comparing their speed). The same as `--lanes 1`.
     #[arg(long)]
     scalar_kernels: bool,
+    /// The most particles the transfers take side by side: 1 (scalar), 4 (AVX2) or 8
+    /// (AVX-512; the CPU may allow fewer). The same results, to the bit, for every width.
+    #[arg(long, default_value_t = 8, value_parser = lanes)]
+    lanes: usize,
+}
+
+/// A kernel width: 1, 4 or 8.
+fn lanes(text: &str) -> Result<usize, String> {
+    match text {
+        "1" => Ok(1),
+        "4" => Ok(4),
+        "8" => Ok(8),
+        _ => Err(format!("{text:?}: the transfers take 1, 4 or 8 particles side by side")),
+    }
 }
 
 /// A finite positive number.
@@ -542,7 +556,7 @@ fn study(args: &StudyArgs) -> Result<(), String> {
 }
 
 fn bench(args: &BenchArgs) -> Result<(), String> {
-    sparse_mpm::kernels::set_scalar_kernels(args.scalar_kernels);
+    sparse_mpm::kernels::set_kernel_lanes(if args.scalar_kernels { 1 } else { args.lanes });
     let defaults = sparse_mpm::bench::BenchSpec::default();
     let spec = sparse_mpm::bench::BenchSpec {
         shape: args.shape,
@@ -565,14 +579,14 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
         ..defaults
     };
     println!(
-        "# sparse-mpm {}: shape {:#}, mass {:#}, transfer {:#}, update {}, {} thread(s), f64, {} transfers",
+        "# sparse-mpm {}: shape {:#}, mass {:#}, transfer {:#}, update {}, {} thread(s), f64, transfers {} particle(s) side by side",
         env!("CARGO_PKG_VERSION"),
         spec.shape,
         spec.mass,
         spec.transfer,
         spec.update,
         spec.threads,
-        if args.scalar_kernels { "scalar" } else { "lane" }
+        sparse_mpm::kernels::kernel_lanes()
     );
     println!("particles,n_grid,steps,dt,reps,setup_s,min_psps,median_psps,max_psps,peak_bytes_per_particle");
     let rows = sparse_mpm::bench::run(&spec, |row| {

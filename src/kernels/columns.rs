@@ -21,7 +21,7 @@ pub(crate) struct Columns<R, const S: usize> {
     pub dwb: [R; S],
     pub db: [R; S],
     /// Each lane's first node.
-    pub first: [usize; 4],
+    pub first: [usize; 8],
     /// Node-number distance between runs, and whether runs go along x (`α = x`).
     pub run_stride: usize,
     pub runs_along_x: bool,
@@ -55,7 +55,7 @@ impl<R: Real, const S: usize> Columns<R, S> {
         let [sx, sy] = ops.strides();
         let ([ox, oy], [hx, hy]) = (ops.origin(), ops.cell_size());
         let lane = |l: usize| firsts[l.min(R::LANES - 1)];
-        let mut first = [0; 4];
+        let mut first = [0; 8];
         for (l, f) in first.iter_mut().enumerate() {
             let [i, j] = lane(l);
             *f = i as usize * sx + j as usize * sy;

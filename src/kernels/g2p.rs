@@ -5,13 +5,13 @@
 //! transposed into lanes), with the same bits as the scalar build.
 
 use super::columns::Columns;
-use super::particle::{update_stress, Four, StressInput, StressOutput, StressPartials, SumInput, SumPartials};
+use super::particle::{update_stress, Partials, StressInput, StressOutput, StressPartials, SumInput, SumPartials};
 use crate::lanes::dispatch;
 use super::{ApicInertia, GridField, GridState, KineticEnergies, ParticleScratch};
 use crate::fields::VectorField;
 use crate::lanes::Real;
 #[cfg(target_arch = "x86_64")]
-use crate::lanes::F64x4;
+use crate::lanes::{F64x4, F64x8};
 use crate::operators::Operators;
 use crate::parallel::{Splittable, Workers};
 use crate::particles::Particles;
@@ -106,7 +106,7 @@ pub(crate) struct Fused<'a> {
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct G2pBlock {
     /// `K_p` before, `K(v)`, `K(w)`.
-    pub kinetic: [Four; 3],
+    pub kinetic: [Partials; 3],
     pub stress: StressPartials,
     pub sums: SumPartials,
 }
@@ -344,12 +344,12 @@ trait Gather: Real {
     ///
     /// # Safety
     /// `at_l + W ≤ packed.len()` for every lane `l < LANES`.
-    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 4]) -> [Self; W];
+    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [Self; W];
 }
 
 impl Gather for f64 {
     #[inline(always)]
-    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 4]) -> [f64; W] {
+    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [f64; W] {
         let mut out = [0.0; W];
         for (c, o) in out.iter_mut().enumerate() {
             // SAFETY: in bounds by the caller's contract.
@@ -363,7 +363,7 @@ impl Gather for f64 {
 impl Gather for F64x4 {
     /// Each lane's node as 4-wide rows (one or two per node), transposed into lanes.
     #[inline(always)]
-    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 4]) -> [F64x4; W] {
+    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [F64x4; W] {
         use std::arch::x86_64::*;
         let mut out = [F64x4::splat(0.0); W];
         let base = packed.as_ptr();
@@ -375,6 +375,22 @@ impl Gather for F64x4 {
             for c in 0..4 {
                 out[4 * half + c] = F64x4(t[c]);
             }
+        }
+        out
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Gather for F64x8 {
+    /// Lanes 0–3 and lanes 4–7 as [`F64x4`] gathers them, joined.
+    #[inline(always)]
+    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [F64x8; W] {
+        let hi = [at[4], at[5], at[6], at[7], 0, 0, 0, 0];
+        // SAFETY: the caller's contract covers every lane.
+        let (lo, hi) = unsafe { (F64x4::gather::<W>(packed, at), F64x4::gather::<W>(packed, hi)) };
+        let mut out = [F64x8::splat(0.0); W];
+        for c in 0..W {
+            out[c] = F64x8::join(lo[c], hi[c]);
         }
         out
     }
@@ -408,13 +424,13 @@ fn gather_sums<R: Gather, const S: usize, const W: usize>(
         }
     }
     // Each lane's first packed value, and the stencil's reach from there, checked once.
-    let mut at = [0; 4];
-    for (l, at) in at.iter_mut().enumerate() {
-        *at = W * (cols.first[l.min(R::LANES - 1)] - lo);
+    let mut at = [0; 8];
+    for (l, at) in at.iter_mut().enumerate().take(R::LANES) {
+        *at = W * (cols.first[l] - lo);
     }
     let reach = W * ((S - 1) * cols.run_stride + S);
     assert!(
-        at.iter().all(|&a| a + reach <= packed.len()),
+        at[..R::LANES].iter().all(|&a| a + reach <= packed.len()),
         "a stencil reaches past the packed grid velocities"
     );
     // Nᵀw, Nᵀv, Nᵀv*; ∂/∂α and ∂/∂β of w and of the gradient field; Σ N w dα, Σ N w dβ.
@@ -427,7 +443,11 @@ fn gather_sums<R: Gather, const S: usize, const W: usize>(
         for a in 0..S {
             let offset = W * (b * cols.run_stride + a);
             // SAFETY: every lane's node of the stencil is in bounds (checked above).
-            let u = unsafe { R::gather::<W>(packed, [at[0] + offset, at[1] + offset, at[2] + offset, at[3] + offset]) };
+            let mut node = at;
+            for n in node.iter_mut().take(R::LANES) {
+                *n += offset;
+            }
+            let u = unsafe { R::gather::<W>(packed, node) };
             for c in 0..2 {
                 aw[c] = aw[c] + wa[a] * u[c];
                 av[c] = av[c] + wa[a] * u[2 + c];
@@ -490,13 +510,13 @@ fn gather_sums<R: Gather, const S: usize, const W: usize>(
 dispatch! {
     /// The particle loop of [`g2p`] for the particles from `first` (a block), for a support of
     /// `S` nodes per axis and `W` packed values per node.
-    fn g2p_block<const W: usize> / g2p_block_avx2 = g2p_block_body(input: &G2pInput, first: usize, out: G2pOutput) -> G2pBlock
+    fn g2p_block<const W: usize> / g2p_block_avx2, g2p_block_avx512 = g2p_block_body(input: &G2pInput, first: usize, out: G2pOutput) -> G2pBlock
 }
 
-/// The body of [`g2p_block`]: the particles' sums four at a time in the AVX2 build (one at a
-/// time for the last few of a block), then their updates.
+/// The body of [`g2p_block`]: the particles' sums `V` at a time (eight in the AVX-512 build,
+/// four in the AVX2 build; then fewer for the last few of a block), then their updates.
 #[inline(always)]
-fn g2p_block_body<const S: usize, const W: usize, const AVX2: bool>(
+fn g2p_block_body<const S: usize, const W: usize, const V: usize>(
     input: &G2pInput,
     first: usize,
     mut out: G2pOutput,
@@ -505,9 +525,12 @@ fn g2p_block_body<const S: usize, const W: usize, const AVX2: bool>(
     let mut block = G2pBlock::default();
     let mut j = 0;
     #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
-        while j + 4 <= np {
+    {
+        while V >= 8 && j + 8 <= np {
+            update_group::<F64x8, S, W>(input, first, j, &mut out, &mut block);
+            j += 8;
+        }
+        while V >= 4 && j + 4 <= np {
             update_group::<F64x4, S, W>(input, first, j, &mut out, &mut block);
             j += 4;
         }

@@ -6,7 +6,7 @@ use crate::lanes::dispatch;
 use super::{apic_affine, ApicInertia, GridState, Stress};
 use crate::lanes::Real;
 #[cfg(target_arch = "x86_64")]
-use crate::lanes::F64x4;
+use crate::lanes::{F64x4, F64x8};
 use crate::fields::VectorField;
 use crate::operators::{Operators, Stencil};
 use crate::parallel::Workers;
@@ -125,7 +125,7 @@ fn scatter_bands<'a>(
 dispatch! {
     /// The particle loop of [`p2g`] for a support of `S` nodes per axis, into the interleaved
     /// accumulator of the nodes from `base`.
-    fn p2g_columns / p2g_columns_avx2 = p2g_columns_body(
+    fn p2g_columns / p2g_columns_avx2, p2g_columns_avx512 = p2g_columns_body(
         ops: &Operators,
         p: &Particles,
         apic: Option<ApicInertia>,
@@ -137,11 +137,12 @@ dispatch! {
 }
 
 /// The body of [`p2g_columns`]: every particle whose stencil reaches the band, in order, its
-/// terms added to the nodes of the band; in the AVX2 build four particles at a time where all
-/// four stencils lie in the band ([`F64x4`]), one at a time otherwise. Every node receives its
-/// terms in particle order either way.
+/// terms added to the nodes of the band; four particles at a time in the vector builds
+/// ([`p2g_lanes`]; the AVX-512 build too: its scatter goes lane by lane, and eight lanes side by
+/// side measured slower than four) where all their stencils lie in the band, one at a time
+/// otherwise. Every node receives its terms in particle order either way.
 #[inline(always)]
-fn p2g_columns_body<const S: usize, const AVX2: bool>(
+fn p2g_columns_body<const S: usize, const V: usize>(
     ops: &Operators,
     p: &Particles,
     apic: Option<ApicInertia>,
@@ -158,27 +159,12 @@ fn p2g_columns_body<const S: usize, const AVX2: bool>(
     let mut k = 0;
     while k < np {
         #[cfg(target_arch = "x86_64")]
-        if AVX2 && k + 4 <= np && inside(k) && inside(k + 1) && inside(k + 2) && inside(k + 3) {
-            debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
-            let group = Group::<F64x4, S>::new(ops, p, apic, internal, k);
-            let l0 = ops.first_line(k);
-            if (1..4).all(|l| ops.first_line(k + l) == l0) {
-                // Every lane's run b lies on the same grid line, and different runs on different
-                // lines: run by run, each run's nodes lane after lane, keeps particle order.
-                for b in 0..S {
-                    F64x4::scatter_run(&group.run(b), &group.cols, b, acc, base);
-                }
-            } else {
-                // Stencils on different lines may meet at different runs: every lane's terms
-                // first, then lane after lane.
-                let mut all = [[[F64x4::splat(0.0); 5]; S]; S];
-                for (b, run) in all.iter_mut().enumerate() {
-                    *run = group.run(b);
-                }
-                F64x4::scatter_lanes(&all, &group.cols, acc, base);
+        {
+            if V >= 4 && k + 4 <= np && (k..k + 4).all(inside) {
+                p2g_lanes::<F64x4, S>(ops, p, apic, internal, k, acc, base);
+                k += 4;
+                continue;
             }
-            k += 4;
-            continue;
         }
         let l0 = ops.first_line(k);
         if l0 + S > lines.start && l0 < lines.end {
@@ -188,6 +174,36 @@ fn p2g_columns_body<const S: usize, const AVX2: bool>(
             }
         }
         k += 1;
+    }
+}
+
+/// Particles `k …` side by side (`R::LANES` of them, all stencils in the band): their terms
+/// added run by run where they start on one grid line (every lane's run `b` then lies on the
+/// same line and different runs on different lines, so each run's nodes lane after lane keep
+/// particle order), every lane's terms first otherwise (stencils on different lines may meet
+/// at different runs), then lane after lane.
+#[inline(always)]
+fn p2g_lanes<R: Scatter, const S: usize>(
+    ops: &Operators,
+    p: &Particles,
+    apic: Option<ApicInertia>,
+    internal: f64,
+    k: usize,
+    acc: &mut [[f64; 5]],
+    base: usize,
+) {
+    let group = Group::<R, S>::new(ops, p, apic, internal, k);
+    let l0 = ops.first_line(k);
+    if (k + 1..k + R::LANES).all(|q| ops.first_line(q) == l0) {
+        for b in 0..S {
+            R::scatter_run(&group.run(b), &group.cols, b, acc, base);
+        }
+    } else {
+        let mut all = [[[R::splat(0.0); 5]; S]; S];
+        for (b, run) in all.iter_mut().enumerate() {
+            *run = group.run(b);
+        }
+        R::scatter_lanes(&all, &group.cols, acc, base);
     }
 }
 
@@ -363,7 +379,8 @@ impl F64x4 {
         for a in 0..S {
             let t = &terms[a];
             quads[a] = transpose([t[0].0, t[1].0, t[2].0, t[3].0]);
-            fy[a] = t[4].lanes();
+            let l = t[4].lanes();
+            fy[a] = [l[0], l[1], l[2], l[3]];
         }
         (quads, fy)
     }
@@ -412,6 +429,49 @@ impl Scatter for F64x4 {
         for l in 0..4 {
             for b in 0..S {
                 F64x4::add_run(&quads[b], &fy[b], l, cols.run_start(l, b) - base, acc);
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Scatter for F64x8 {
+    /// Lanes 0–3, then lanes 4–7, each half as [`F64x4`] does it.
+    #[inline(always)]
+    fn scatter_run<const S: usize>(terms: &[[F64x8; 5]; S], cols: &Columns<F64x8, S>, b: usize, acc: &mut [[f64; 5]], base: usize) {
+        for half in 0..2 {
+            let mut quarter = [[F64x4::splat(0.0); 5]; S];
+            for a in 0..S {
+                for c in 0..5 {
+                    quarter[a][c] = terms[a][c].halves()[half];
+                }
+            }
+            let (quads, fy) = F64x4::lane_terms(&quarter);
+            for l in 0..4 {
+                F64x4::add_run(&quads, &fy, l, cols.run_start(4 * half + l, b) - base, acc);
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn scatter_lanes<const S: usize>(terms: &[[[F64x8; 5]; S]; S], cols: &Columns<F64x8, S>, acc: &mut [[f64; 5]], base: usize) {
+        let mut quads = [[[[F64x4::splat(0.0).0; 4]; S]; S]; 2];
+        let mut fy = [[[[0.0; 4]; S]; S]; 2];
+        for half in 0..2 {
+            for b in 0..S {
+                let mut quarter = [[F64x4::splat(0.0); 5]; S];
+                for a in 0..S {
+                    for c in 0..5 {
+                        quarter[a][c] = terms[b][a][c].halves()[half];
+                    }
+                }
+                (quads[half][b], fy[half][b]) = F64x4::lane_terms(&quarter);
+            }
+        }
+        for l in 0..8 {
+            let (half, lane) = (l / 4, l % 4);
+            for b in 0..S {
+                F64x4::add_run(&quads[half][b], &fy[half][b], lane, cols.run_start(l, b) - base, acc);
             }
         }
     }

@@ -8,41 +8,47 @@ use crate::lanes::Real;
 use crate::material::Prepared;
 use crate::parallel::Splittable;
 
-/// Four partial sums (or maxima) over a block of particles: particle `j` of the block goes to
-/// partial `j mod 4`, so that four particles side by side add lane by lane. The partials are
-/// added in order at the end ([`Four::sum`]); either build, any thread count, the same bits.
+/// Eight partial sums (or maxima) over a block of particles: particle `j` of the block goes to
+/// partial `j mod 8`, so that four or eight particles side by side add lane by lane. The
+/// partials are added in order at the end ([`Partials::sum`]); every build and any thread count
+/// gives the same bits.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Four(pub [f64; 4]);
+pub struct Partials(pub [f64; 8]);
 
-impl Four {
+impl Partials {
     /// Adds the lanes of `v`, particles `j …`, to their partials.
     #[inline(always)]
     pub(crate) fn add<R: Real>(&mut self, j: usize, v: R) {
-        if R::LANES == 4 {
-            debug_assert!(j % 4 == 0, "four particles side by side start at a multiple of 4");
-            (R::load(&self.0, 0) + v).store(&mut self.0, 0);
-        } else {
-            self.0[j % 4] += v.lanes()[0];
-        }
+        debug_assert!(j % R::LANES == 0, "particles side by side start at a multiple of their count");
+        let at = j % 8;
+        (R::load(&self.0, at) + v).store(&mut self.0, at);
     }
 
     /// Raises the partials to the lanes of `v` (`v.max(partial)`: a NaN in `v` leaves the
     /// partial as it is).
     #[inline(always)]
     pub(crate) fn max<R: Real>(&mut self, j: usize, v: R) {
-        if R::LANES == 4 {
-            debug_assert!(j % 4 == 0, "four particles side by side start at a multiple of 4");
-            v.max(R::load(&self.0, 0)).store(&mut self.0, 0);
-        } else {
-            let p = &mut self.0[j % 4];
-            *p = Real::max(v.lanes()[0], *p);
-        }
+        debug_assert!(j % R::LANES == 0, "particles side by side start at a multiple of their count");
+        let at = j % 8;
+        v.max(R::load(&self.0, at)).store(&mut self.0, at);
     }
 
-    /// `((s₀ + s₁) + s₂) + s₃`.
+    /// Adds `v` to the partial of particle `j` alone.
+    #[inline(always)]
+    pub(crate) fn add_one(&mut self, j: usize, v: f64) {
+        self.0[j % 8] += v;
+    }
+
+    /// Raises the partial of particle `j` alone to `v` (as [`Partials::max`]).
+    #[inline(always)]
+    pub(crate) fn max_one(&mut self, j: usize, v: f64) {
+        let p = &mut self.0[j % 8];
+        *p = Real::max(v, *p);
+    }
+
+    /// `(…((s₀ + s₁) + s₂) … ) + s₇`.
     pub fn sum(&self) -> f64 {
-        let [a, b, c, d] = self.0;
-        ((a + b) + c) + d
+        self.0.iter().fold(0.0, |a, &b| a + b)
     }
 
     /// The largest partial.
@@ -76,13 +82,13 @@ impl StressSums {
     }
 }
 
-/// [`StressSums`] of one block of particles, in [`Four`] partials.
+/// [`StressSums`] of one block of particles, in [`Partials`] partials.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StressPartials {
     /// Strain energy.
-    pub energy: Four,
+    pub energy: Partials,
     /// `C11 V / m`.
-    pub wave_squared: Four,
+    pub wave_squared: Partials,
     /// The first inverted particle.
     pub inverted: Option<(usize, f64, f64)>,
 }
@@ -189,10 +195,9 @@ pub(crate) fn update_stress<R: Real>(
         sums.inverted = Some((k + i, j_inc[i], det_f[i]));
         store_lanes(&f, &s, &volume, j, i, out);
         for lane in 0..i {
-            sums.energy.0[(j + lane) % 4] += e.lanes()[lane];
+            sums.energy.add_one(j + lane, e.lanes()[lane]);
             let wave = c11.lanes()[lane] * volume.lanes()[lane] / input.mass[k + lane];
-            let p = &mut sums.wave_squared.0[(j + lane) % 4];
-            *p = Real::max(wave, *p);
+            sums.wave_squared.max_one(j + lane, wave);
         }
         return;
     }
@@ -228,12 +233,12 @@ fn store_lanes<R: Real>(f: &[R; 4], s: &[R; 3], volume: &R, j: usize, count: usi
 fn mixed_bodies(
     input: &StressInput,
     body: &[usize],
-    sigma: [[f64; 4]; 3],
-    l: [[f64; 4]; 4],
-    f: [[f64; 4]; 4],
-    volume: [f64; 4],
-) -> [([f64; 3], f64, f64); 4] {
-    let mut each = [([0.0; 3], 0.0, 0.0); 4];
+    sigma: [[f64; 8]; 3],
+    l: [[f64; 8]; 4],
+    f: [[f64; 8]; 4],
+    volume: [f64; 8],
+) -> [([f64; 3], f64, f64); 8] {
+    let mut each = [([0.0; 3], 0.0, 0.0); 8];
     for (i, e) in each.iter_mut().enumerate().take(body.len()) {
         *e = input.materials[body[i]].update_with_modulus(
             sigma.map(|v| v[i]),
@@ -283,21 +288,21 @@ impl ParticleSums {
     }
 }
 
-/// [`ParticleSums`] of one block of particles, in [`Four`] partials.
+/// [`ParticleSums`] of one block of particles, in [`Partials`] partials.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct SumPartials {
     /// `½ m |v|²`.
-    pub kinetic: Four,
+    pub kinetic: Partials,
     /// `−m (b + g) · x`.
-    pub potential: Four,
+    pub potential: Partials,
     /// `m (x × v)`.
-    pub angular: Four,
+    pub angular: Partials,
     /// `m`.
-    pub mass: Four,
+    pub mass: Partials,
     /// `|v|`.
-    pub max_speed: Four,
+    pub max_speed: Partials,
     /// `m v`.
-    pub momentum: [Four; 2],
+    pub momentum: [Partials; 2],
     /// The first particle with a non-finite velocity.
     pub non_finite: Option<usize>,
 }
@@ -354,16 +359,15 @@ impl SumPartials {
                 m: m[l],
                 b: [b[0][l], b[1][l]],
             };
-            let i = (j + l) % 4;
+            let i = j + l;
             let (x, y) = (lane.x[0], lane.x[1]);
-            let p = &mut self.max_speed.0[i];
-            *p = Real::max(speed, *p);
-            self.mass.0[i] += lane.m;
-            self.kinetic.0[i] += 0.5 * lane.m * (vx * vx + vy * vy);
-            self.momentum[0].0[i] += lane.m * vx;
-            self.momentum[1].0[i] += lane.m * vy;
-            self.angular.0[i] += lane.m * (x * vy - y * vx);
-            self.potential.0[i] += -(lane.m * ((lane.b[0] + g[0]) * x + (lane.b[1] + g[1]) * y));
+            self.max_speed.max_one(i, speed);
+            self.mass.add_one(i, lane.m);
+            self.kinetic.add_one(i, 0.5 * lane.m * (vx * vx + vy * vy));
+            self.momentum[0].add_one(i, lane.m * vx);
+            self.momentum[1].add_one(i, lane.m * vy);
+            self.angular.add_one(i, lane.m * (x * vy - y * vx));
+            self.potential.add_one(i, -(lane.m * ((lane.b[0] + g[0]) * x + (lane.b[1] + g[1]) * y)));
         }
     }
 }
