@@ -178,7 +178,11 @@ impl Hooke {
     #[inline(always)]
     fn increment<R: Real>(&self, [dexx, deyy, dexy]: [R; 3]) -> [R; 3] {
         let (c11, c12, shear) = (R::splat(self.c11), R::splat(self.c12), R::splat(self.shear));
-        [c11 * dexx + c12 * deyy, c12 * dexx + c11 * deyy, R::splat(2.0) * shear * dexy]
+        [
+            c11 * dexx + c12 * deyy,
+            c12 * dexx + c11 * deyy,
+            R::splat(2.0) * shear * dexy,
+        ]
     }
 
     /// `σ + C : Δε`.
@@ -274,8 +278,8 @@ pub(crate) struct Lame {
 /// What the neo-Hookean model gives at one deformation gradient (or four, [`Real`]).
 #[derive(Debug, Clone, Copy)]
 struct NeoHookeanState<R> {
-    /// `J = det F`.
-    j: R,
+    /// `1/J`, `J = det F`.
+    inv_j: R,
     /// The Cauchy stress `(σxx, σyy, σxy)`.
     stress: [R; 3],
     /// `W(F)` per unit reference volume.
@@ -294,7 +298,9 @@ impl Lame {
         let [fxx, fxy, fyx, fyy] = f;
         let j = fxx * fyy - fxy * fyx;
         let ln_j = j.ln();
-        let (a, b) = (mu / j, lambda * ln_j / j);
+        // One division: 1/J, which every quantity below is a product with.
+        let inv_j = c(1.0) / j;
+        let (a, b) = (mu * inv_j, lambda * ln_j * inv_j);
         let stress = [
             a * (fxx * fxx + fxy * fxy - c(1.0)) + b,
             a * (fyx * fyx + fyy * fyy - c(1.0)) + b,
@@ -304,10 +310,10 @@ impl Lame {
             + c(0.5) * lambda * ln_j * ln_j;
         let mu_j = mu - lambda * ln_j;
         NeoHookeanState {
-            j,
+            inv_j,
             stress,
             energy_density,
-            tangent: [(lambda + c(2.0) * mu_j) / j, lambda / j, mu_j / j],
+            tangent: [(lambda + c(2.0) * mu_j) * inv_j, lambda * inv_j, mu_j * inv_j],
         }
     }
 }
@@ -350,7 +356,7 @@ impl Prepared {
             }
             Prepared::NeoHookean(lame) => {
                 let at = lame.at(f);
-                (at.stress, volume / at.j * at.energy_density, at.tangent[0])
+                (at.stress, volume * at.inv_j * at.energy_density, at.tangent[0])
             }
         }
     }
@@ -432,7 +438,7 @@ impl Material {
             Prepared::Linear(hooke) => volume * hooke.energy_density(sigma),
             Prepared::NeoHookean(lame) => {
                 let at = lame.at(f);
-                volume / at.j * at.energy_density
+                volume * at.inv_j * at.energy_density
             }
         }
     }

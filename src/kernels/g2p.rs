@@ -6,9 +6,9 @@
 
 use super::columns::Columns;
 use super::particle::{update_stress, Partials, StressInput, StressOutput, StressPartials, SumInput, SumPartials};
-use crate::lanes::dispatch;
 use super::{ApicInertia, GridField, GridState, KineticEnergies, ParticleScratch};
 use crate::fields::VectorField;
+use crate::lanes::dispatch;
 use crate::lanes::Real;
 #[cfg(target_arch = "x86_64")]
 use crate::lanes::{F64x4, F64x8};
@@ -589,7 +589,11 @@ fn update_group<R: Gather, const S: usize, const W: usize>(
     new_x.store(out.velocity[0], j);
     new_y.store(out.velocity[1], j);
     if apic {
-        let b = if rule.inertia == ApicInertia::StoredC { g.lw } else { g.b };
+        let b = if rule.inertia == ApicInertia::StoredC {
+            g.lw
+        } else {
+            g.b
+        };
         for c in 0..4 {
             b[c].store(out.affine[c], j);
         }

@@ -32,7 +32,10 @@ pub(crate) fn update_lumped_grid(
     let span = grid.span.clone();
     let previous = std::mem::replace(&mut grid.lumped_span, span.clone());
     let n = grid.updated.len();
-    assert!(inverse.len() == n && is_active.len() == n, "one mass and one flag per node");
+    assert!(
+        inverse.len() == n && is_active.len() == n,
+        "one mass and one flag per node"
+    );
     // What the last pass left outside the new span.
     let below = previous.start..previous.end.min(span.start);
     let above = previous.start.max(span.end)..previous.end;
@@ -58,7 +61,11 @@ pub(crate) fn update_lumped_grid(
     }
     let c = &prescribed.constraints;
     for (component, fixed, value) in [(0, &c.fixed_x, &prescribed.vx), (1, &c.fixed_y, &prescribed.vy)] {
-        let w = if component == 0 { &mut grid.updated.x } else { &mut grid.updated.y };
+        let w = if component == 0 {
+            &mut grid.updated.x
+        } else {
+            &mut grid.updated.y
+        };
         for &i in fixed.iter() {
             w[i] = value[i];
             if span.contains(&i) {

@@ -18,21 +18,21 @@
 
 mod columns;
 mod extend;
-mod grid;
 mod g2p;
+mod grid;
 mod p2g;
 mod particle;
 
+pub use crate::lanes::{kernel_lanes, set_kernel_lanes, set_scalar_kernels};
 pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
 pub use g2p::{g2p, velocity_gradient_into, G2pRule};
 pub(crate) use g2p::{g2p_packed, pack_velocities, Fused, G2pBlock};
-pub use particle::{ParticleSums, Partials, StressPartials, StressSums, SumPartials};
-pub(crate) use particle::{update_stress, StressInput, StressOutput, SumInput};
+pub(crate) use grid::update_lumped_grid;
+pub(crate) use p2g::p2g_with;
 pub(crate) use p2g::subtract_particle_force;
 pub use p2g::{add_internal_force, p2g, reproject_momentum};
-pub(crate) use p2g::p2g_with;
-pub(crate) use grid::update_lumped_grid;
-pub use crate::lanes::{kernel_lanes, set_kernel_lanes, set_scalar_kernels};
+pub(crate) use particle::{update_stress, StressInput, StressOutput, SumInput};
+pub use particle::{Partials, ParticleSums, StressPartials, StressSums, SumPartials};
 
 use crate::fields::VectorField;
 use crate::grid::Grid;

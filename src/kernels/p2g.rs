@@ -2,12 +2,12 @@
 //! accumulators over bands of grid lines (one band per worker, see [`crate::parallel`]).
 
 use super::columns::Columns;
-use crate::lanes::dispatch;
 use super::{apic_affine, ApicInertia, GridState, Stress};
+use crate::fields::VectorField;
+use crate::lanes::dispatch;
 use crate::lanes::Real;
 #[cfg(target_arch = "x86_64")]
 use crate::lanes::{F64x4, F64x8};
-use crate::fields::VectorField;
 use crate::operators::{Operators, Stencil};
 use crate::parallel::Workers;
 use crate::particles::Particles;
@@ -343,14 +343,31 @@ impl<R: Real, const S: usize> Group<R, S> {
 /// Adding a group's terms to the grid.
 trait Scatter: Real {
     /// Adds each lane's terms of run `b` (from [`Group::run`]) to its nodes, lane after lane.
-    fn scatter_run<const S: usize>(terms: &[[Self; 5]; S], cols: &Columns<Self, S>, b: usize, acc: &mut [[f64; 5]], base: usize);
+    fn scatter_run<const S: usize>(
+        terms: &[[Self; 5]; S],
+        cols: &Columns<Self, S>,
+        b: usize,
+        acc: &mut [[f64; 5]],
+        base: usize,
+    );
     /// Adds each lane's terms of every run to its nodes, lane after lane (particle order).
-    fn scatter_lanes<const S: usize>(terms: &[[[Self; 5]; S]; S], cols: &Columns<Self, S>, acc: &mut [[f64; 5]], base: usize);
+    fn scatter_lanes<const S: usize>(
+        terms: &[[[Self; 5]; S]; S],
+        cols: &Columns<Self, S>,
+        acc: &mut [[f64; 5]],
+        base: usize,
+    );
 }
 
 impl Scatter for f64 {
     #[inline(always)]
-    fn scatter_run<const S: usize>(terms: &[[f64; 5]; S], cols: &Columns<f64, S>, b: usize, acc: &mut [[f64; 5]], base: usize) {
+    fn scatter_run<const S: usize>(
+        terms: &[[f64; 5]; S],
+        cols: &Columns<f64, S>,
+        b: usize,
+        acc: &mut [[f64; 5]],
+        base: usize,
+    ) {
         let start = cols.run_start(0, b) - base;
         let r = &mut acc[start..start + S];
         for a in 0..S {
@@ -361,7 +378,12 @@ impl Scatter for f64 {
     }
 
     #[inline(always)]
-    fn scatter_lanes<const S: usize>(terms: &[[[f64; 5]; S]; S], cols: &Columns<f64, S>, acc: &mut [[f64; 5]], base: usize) {
+    fn scatter_lanes<const S: usize>(
+        terms: &[[[f64; 5]; S]; S],
+        cols: &Columns<f64, S>,
+        acc: &mut [[f64; 5]],
+        base: usize,
+    ) {
         for b in 0..S {
             f64::scatter_run(&terms[b], cols, b, acc, base);
         }
@@ -412,7 +434,13 @@ impl F64x4 {
 #[cfg(target_arch = "x86_64")]
 impl Scatter for F64x4 {
     #[inline(always)]
-    fn scatter_run<const S: usize>(terms: &[[F64x4; 5]; S], cols: &Columns<F64x4, S>, b: usize, acc: &mut [[f64; 5]], base: usize) {
+    fn scatter_run<const S: usize>(
+        terms: &[[F64x4; 5]; S],
+        cols: &Columns<F64x4, S>,
+        b: usize,
+        acc: &mut [[f64; 5]],
+        base: usize,
+    ) {
         let (quads, fy) = F64x4::lane_terms(terms);
         for l in 0..4 {
             F64x4::add_run(&quads, &fy, l, cols.run_start(l, b) - base, acc);
@@ -420,7 +448,12 @@ impl Scatter for F64x4 {
     }
 
     #[inline(always)]
-    fn scatter_lanes<const S: usize>(terms: &[[[F64x4; 5]; S]; S], cols: &Columns<F64x4, S>, acc: &mut [[f64; 5]], base: usize) {
+    fn scatter_lanes<const S: usize>(
+        terms: &[[[F64x4; 5]; S]; S],
+        cols: &Columns<F64x4, S>,
+        acc: &mut [[f64; 5]],
+        base: usize,
+    ) {
         let mut quads = [[[F64x4::splat(0.0).0; 4]; S]; S];
         let mut fy = [[[0.0; 4]; S]; S];
         for b in 0..S {
@@ -438,7 +471,13 @@ impl Scatter for F64x4 {
 impl Scatter for F64x8 {
     /// Lanes 0–3, then lanes 4–7, each half as [`F64x4`] does it.
     #[inline(always)]
-    fn scatter_run<const S: usize>(terms: &[[F64x8; 5]; S], cols: &Columns<F64x8, S>, b: usize, acc: &mut [[f64; 5]], base: usize) {
+    fn scatter_run<const S: usize>(
+        terms: &[[F64x8; 5]; S],
+        cols: &Columns<F64x8, S>,
+        b: usize,
+        acc: &mut [[f64; 5]],
+        base: usize,
+    ) {
         for half in 0..2 {
             let mut quarter = [[F64x4::splat(0.0); 5]; S];
             for a in 0..S {
@@ -454,7 +493,12 @@ impl Scatter for F64x8 {
     }
 
     #[inline(always)]
-    fn scatter_lanes<const S: usize>(terms: &[[[F64x8; 5]; S]; S], cols: &Columns<F64x8, S>, acc: &mut [[f64; 5]], base: usize) {
+    fn scatter_lanes<const S: usize>(
+        terms: &[[[F64x8; 5]; S]; S],
+        cols: &Columns<F64x8, S>,
+        acc: &mut [[f64; 5]],
+        base: usize,
+    ) {
         let mut quads = [[[[F64x4::splat(0.0).0; 4]; S]; S]; 2];
         let mut fy = [[[[0.0; 4]; S]; S]; 2];
         for half in 0..2 {

@@ -19,7 +19,10 @@ impl Partials {
     /// Adds the lanes of `v`, particles `j …`, to their partials.
     #[inline(always)]
     pub(crate) fn add<R: Real>(&mut self, j: usize, v: R) {
-        debug_assert!(j % R::LANES == 0, "particles side by side start at a multiple of their count");
+        debug_assert!(
+            j.is_multiple_of(R::LANES),
+            "particles side by side start at a multiple of their count"
+        );
         let at = j % 8;
         (R::load(&self.0, at) + v).store(&mut self.0, at);
     }
@@ -28,7 +31,10 @@ impl Partials {
     /// partial as it is).
     #[inline(always)]
     pub(crate) fn max<R: Real>(&mut self, j: usize, v: R) {
-        debug_assert!(j % R::LANES == 0, "particles side by side start at a multiple of their count");
+        debug_assert!(
+            j.is_multiple_of(R::LANES),
+            "particles side by side start at a multiple of their count"
+        );
         let at = j % 8;
         v.max(R::load(&self.0, at)).store(&mut self.0, at);
     }
@@ -173,11 +179,20 @@ pub(crate) fn update_stress<R: Real>(
         R::load(out.sigma[2], j),
     ];
     let body = &input.body[k..k + R::LANES];
-    let (s, e, c11) = if body.iter().all(|&b| b == body[0]) {
+    let (s, e, c11) = if let [material] = input.materials {
+        material.update_with_modulus(sigma, l, f, input.dt, volume)
+    } else if body.iter().all(|&b| b == body[0]) {
         input.materials[body[0]].update_with_modulus(sigma, l, f, input.dt, volume)
     } else {
         // Bodies of different materials side by side: lane by lane, with the same operations.
-        let each = mixed_bodies(input, body, sigma.map(R::lanes), l.map(R::lanes), f.map(R::lanes), volume.lanes());
+        let each = mixed_bodies(
+            input,
+            body,
+            sigma.map(R::lanes),
+            l.map(R::lanes),
+            f.map(R::lanes),
+            volume.lanes(),
+        );
         (
             [0, 1, 2].map(|c| R::from_fn(|i| each[i].0[c])),
             R::from_fn(|i| each[i].1),
@@ -321,7 +336,12 @@ impl SumPartials {
     /// taken as `hypot` where the squares overflow).
     #[inline(always)]
     pub(crate) fn add<R: Real>(&mut self, j: usize, k: usize, p: SumInput<R>, [gx, gy]: [f64; 2]) {
-        let SumInput { x: [x, y], v: [vx, vy], m, b: [bx, by] } = p;
+        let SumInput {
+            x: [x, y],
+            v: [vx, vy],
+            m,
+            b: [bx, by],
+        } = p;
         let speed = (vx * vx + vy * vy).sqrt();
         if !R::splat(f64::INFINITY).all_gt(speed) {
             self.add_lanes(j, k, [x, y], [vx, vy], m, [bx, by], [gx, gy]);
@@ -334,7 +354,8 @@ impl SumPartials {
         self.momentum[0].add(j, m * vx);
         self.momentum[1].add(j, m * vy);
         self.angular.add(j, m * (x * vy - y * vx));
-        self.potential.add(j, -(m * ((bx + R::splat(gx)) * x + (by + R::splat(gy)) * y)));
+        self.potential
+            .add(j, -(m * ((bx + R::splat(gx)) * x + (by + R::splat(gy)) * y)));
     }
 
     /// [`SumPartials::add`] lane by lane, where some speed is not finite.
@@ -367,7 +388,8 @@ impl SumPartials {
             self.momentum[0].add_one(i, lane.m * vx);
             self.momentum[1].add_one(i, lane.m * vy);
             self.angular.add_one(i, lane.m * (x * vy - y * vx));
-            self.potential.add_one(i, -(lane.m * ((lane.b[0] + g[0]) * x + (lane.b[1] + g[1]) * y)));
+            self.potential
+                .add_one(i, -(lane.m * ((lane.b[0] + g[0]) * x + (lane.b[1] + g[1]) * y)));
         }
     }
 }

@@ -21,7 +21,7 @@
 //!
 //! on the `support × support` nodes from the stencil's first node. The 1D factors are the
 //! kernel's polynomials at one coordinate per axis (`wx_p = S(t_x,p)`, `w′x_p = S′(t_x,p)/h`,
-//! [`crate::shape`]), so [`Operators::reassemble`] stores per particle the first node and the
+//! [`shape`](mod@crate::shape)), so [`Operators::reassemble`] stores per particle the first node and the
 //! two coordinates `t_x,p`, `t_y,p`: 24 bytes per particle with every kernel, against 296 for
 //! the three CSC value arrays of quadratic B-splines and their row indices. Where a boundary
 //! rule changes a particle's weights beyond what `t` gives (mirrored walls fold them; uGIMP
@@ -38,7 +38,7 @@
 //!
 //! Two tiers, as in faer:
 //! - matrices for users' own algebra: [`Operators::n_matrix`] (a nalgebra-sparse
-//!   [`CscMatrix`]) and [`Operators::n_faer`] (a borrowed faer view), likewise for Gx, Gy;
+//!   [`CscMatrix`](nalgebra_sparse::CscMatrix)) and [`Operators::n_faer`] (a borrowed faer view), likewise for Gx, Gy;
 //! - the kernels the time step uses: [`Operators::scatter`] (`op · X`, particle → grid) and
 //!   [`Operators::gather`] (`opᵀ · Y`, grid → particle), moving `K` fields in one pass, and the
 //!   fused kernels of [`crate::kernels`], all over [`Stencil`]s.
@@ -53,9 +53,9 @@ pub use stencil::Stencil;
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
+use crate::lanes::Real;
 use crate::parallel::{Strided, Workers};
 use crate::particles::Particles;
-use crate::lanes::Real;
 use crate::shape::{bspline, gimp, linear, AxisFrame, ShapeFunction};
 use crate::with_support;
 use products::{column_entries, fill_csc};
@@ -285,10 +285,11 @@ impl Operators {
             }
             fill_local_body::<1>(&block, firsts, t)
         });
-        let (lo, hi, shifted, zero) = spans.iter().fold(
-            (usize::MAX, 0, false, false),
-            |(lo, hi, sh, z), &(l, h, s, w)| (lo.min(l), hi.max(h), sh | s, z | w),
-        );
+        let (lo, hi, shifted, zero) = spans
+            .iter()
+            .fold((usize::MAX, 0, false, false), |(lo, hi, sh, z), &(l, h, s, w)| {
+                (lo.min(l), hi.max(h), sh | s, z | w)
+            });
         self.block_spans = spans;
         // The last node of a stencil is (S − 1)(sx + sy) after its first.
         self.span = if x.is_empty() {
@@ -343,7 +344,7 @@ impl Operators {
     }
 
     /// Whether some column may hold a weight of exactly zero (so that a node in a particle's
-    /// support may get no mass from it): see [`crate::shape`]; always after a fold.
+    /// support may get no mass from it): see [`shape`](mod@crate::shape); always after a fold.
     pub fn may_have_zero_weights(&self) -> bool {
         self.zero_weights
     }
@@ -448,12 +449,16 @@ impl Operators {
 
     /// Particle `p`'s 1D weights and derivatives along x and along y.
     #[inline(always)]
+    #[allow(clippy::type_complexity)]
     fn factors_of<const S: usize>(&self, p: usize) -> (([f64; S], [f64; S]), ([f64; S], [f64; S])) {
         if self.stores_factors {
             let f = &self.factors[4 * S * p..4 * S * (p + 1)];
             (
                 (std::array::from_fn(|a| f[a]), std::array::from_fn(|a| f[S + a])),
-                (std::array::from_fn(|a| f[2 * S + a]), std::array::from_fn(|a| f[3 * S + a])),
+                (
+                    std::array::from_fn(|a| f[2 * S + a]),
+                    std::array::from_fn(|a| f[3 * S + a]),
+                ),
             )
         } else {
             let [fx, fy] = &self.frames;
@@ -471,7 +476,10 @@ impl Operators {
     /// ([`Operators::stores_factors`]).
     #[inline(always)]
     pub(crate) fn factors_block(&self, p: usize, count: usize) -> &[f64] {
-        assert!(self.stores_factors, "the columns are stored by their kernel coordinates");
+        assert!(
+            self.stores_factors,
+            "the columns are stored by their kernel coordinates"
+        );
         let per = 4 * self.support;
         &self.factors[per * p..per * (p + count)]
     }
@@ -665,7 +673,13 @@ struct LocalSums {
 
 /// Particles `j …` of a block: their first nodes and `t` written, the sums updated.
 #[inline(always)]
-fn locate_into<R: Real>(block: &LocalBlock, j: usize, firsts: &mut [[u32; 2]], [tx, ty]: [&mut [f64]; 2], acc: &mut LocalSums) {
+fn locate_into<R: Real>(
+    block: &LocalBlock,
+    j: usize,
+    firsts: &mut [[u32; 2]],
+    [tx, ty]: [&mut [f64]; 2],
+    acc: &mut LocalSums,
+) {
     let (f, t, shifted, zero) = locate_group::<R>(block, j);
     let node = (f[0] * R::splat(block.strides[0]) + f[1] * R::splat(block.strides[1])).lanes();
     let (fx, fy) = (f[0].lanes(), f[1].lanes());

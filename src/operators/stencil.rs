@@ -60,7 +60,7 @@ impl<const S: usize> Stencil<S> {
     }
 
     /// Offsets from `(xp, yp)` to the stencil's node coordinates along each axis,
-    /// `x_{i0+a} − xp` and `y_{j0+a} − yp` with `x_i = x₀ + i·hx` (as [`Grid::node_position`]).
+    /// `x_{i0+a} − xp` and `y_{j0+a} − yp` with `x_i = x₀ + i·hx` (as [`Grid::node_position`](crate::grid::Grid::node_position)).
     #[inline(always)]
     pub fn offsets(&self, xp: f64, yp: f64) -> ([f64; S], [f64; S]) {
         let ([i0, j0], [ox, oy], [hx, hy]) = (self.first_ij, self.origin, self.cell_size);

@@ -135,6 +135,11 @@ pub(crate) fn cubic_weights_of<R: Real>(t: R) -> ([R; CUBIC_SUPPORT], [R; CUBIC_
             c(2.0 / 3.0) - u2 + c(0.5) * u2 * u,
             t2 * t / c(6.0),
         ],
-        [c(-0.5) * u2, c(-2.0) * t + c(1.5) * t2, c(2.0) * u - c(1.5) * u2, c(0.5) * t2],
+        [
+            c(-0.5) * u2,
+            c(-2.0) * t + c(1.5) * t2,
+            c(2.0) * u - c(1.5) * u2,
+            c(0.5) * t2,
+        ],
     )
 }

@@ -100,7 +100,11 @@ pub(crate) fn nearest_weights_of<R: Real>(t: R, l: f64, half_inv_l: f64) -> ([R;
     let d_left = -((l - t) * h).clamp(0.0, 1.0);
     let d_right = ((l + t) * h).clamp(0.0, 1.0);
     (
-        [(-t).max(c(0.0)) + shared, c(1.0) - a - c(2.0) * shared, t.max(c(0.0)) + shared],
+        [
+            (-t).max(c(0.0)) + shared,
+            c(1.0) - a - c(2.0) * shared,
+            t.max(c(0.0)) + shared,
+        ],
         [d_left, -(d_left + d_right), d_right],
     )
 }

@@ -9,8 +9,8 @@ use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::kernels::{
-    self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState,
-    ParticleSums, Stress, StressInput, StressOutput, StressPartials, StressSums,
+    self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState, ParticleSums,
+    Stress, StressInput, StressOutput, StressPartials, StressSums,
 };
 use crate::mass::{GridMass, Role, SolveReport};
 use crate::operators::Operators;
@@ -53,7 +53,17 @@ impl Simulation {
         let (ops, mass, nodes) = (&cache.ops, &mut cache.mass, &mut cache.nodes);
         let fields = !lumped_grid_pass(setup, options);
         timed(profile, Phase::P2g, || {
-            kernels::p2g_with(ops, p, apic, options.gravity, stress, mass.lumped_mut(), nodes, workers, fields);
+            kernels::p2g_with(
+                ops,
+                p,
+                apic,
+                options.gravity,
+                stress,
+                mass.lumped_mut(),
+                nodes,
+                workers,
+                fields,
+            );
             mirror.fold_lumped(grid, options.shape, &p.x, &p.y, &p.mass, ops, mass.lumped_mut());
         }); // (2)–(5)
         let constraints = &setup.prescribed.constraints;
@@ -101,7 +111,9 @@ impl Simulation {
                 kernels::update_lumped_grid(nodes, inverse, active, gravity, dt, prescribed, &mut scratch.packed)
             }); // (6)–(8)
             timed(profile, Phase::Extend, || {
-                if !mass.supports_all_active(ops) && extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension) {
+                if !mass.supports_all_active(ops)
+                    && extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension)
+                {
                     // The packed w of the grid-to-particle pass follows.
                     let (span, w) = (ops.node_span(), &nodes.updated);
                     for (j, i) in span.enumerate() {
@@ -110,7 +122,10 @@ impl Simulation {
                     }
                 }
             }); // (8b)
-            return Ok([mass.lumped_report(Role::Velocity), mass.lumped_report(Role::Acceleration)]);
+            return Ok([
+                mass.lumped_report(Role::Velocity),
+                mass.lumped_report(Role::Acceleration),
+            ]);
         }
         let velocity_solve = timed(profile, Phase::Project, || {
             project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)
@@ -181,7 +196,17 @@ impl Simulation {
             if !packed_by_grid_pass {
                 kernels::pack_velocities(ops, nodes, &rule, &mut packed);
             }
-            kernels::g2p_packed(ops, &packed, &rule, dt, &fused, p, &mut scratch.particle, workers, &mut blocks)
+            kernels::g2p_packed(
+                ops,
+                &packed,
+                &rule,
+                dt,
+                &fused,
+                p,
+                &mut scratch.particle,
+                workers,
+                &mut blocks,
+            )
         }); // (9)–(11), USL: (12)–(13), USL and USF: (9)
         scratch.packed = packed;
         scratch.particle.kinetic = kernels::KineticEnergies::total(&blocks);
