@@ -15,6 +15,12 @@
 //! | [`velocity_gradient_into`] | `L = [Gxᵀ u, Gyᵀ u]` |
 //! | [`g2p`] | (9)–(11): new particle velocities, APIC moments, position increments, `L` |
 //! | [`extend_to_inactive_nodes`] | (8b): massless support nodes take their particles' mean velocity |
+//! | `update_lumped_grid` | (6)–(8) with the lumped mass in both solves, in one pass over the nodes |
+//! | `g2p` with `Fused` | USL's (9)–(13) and the report's particle sums in one sweep |
+//!
+//! Each per-particle formula is written once, generic over `lanes::Real`, and runs for one
+//! particle, four side by side (AVX2) or eight (AVX-512), the widest the CPU has
+//! ([`set_kernel_lanes`]), with the same bits (`tests/simd.rs`).
 
 mod columns;
 mod extend;

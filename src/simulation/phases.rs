@@ -107,7 +107,7 @@ impl Simulation {
         let (prescribed, active) = (&setup.prescribed, mass.is_active());
         if lumped_grid_pass(setup, options) {
             let (inverse, gravity) = (mass.inverse_lumped(), options.gravity);
-            timed(profile, Phase::GridVelocity, || {
+            timed(profile, Phase::LumpedGrid, || {
                 kernels::update_lumped_grid(nodes, inverse, active, gravity, dt, prescribed, &mut scratch.packed)
             }); // (6)–(8)
             timed(profile, Phase::Extend, || {

@@ -28,11 +28,13 @@ pub enum Phase {
     Accelerate,
     /// (8) updated grid velocity.
     GridVelocity,
+    /// (6)–(8) in one pass over the grid, with the lumped mass in both solves.
+    LumpedGrid,
     /// (8b) velocities of massless support nodes.
     Extend,
     /// XPIC / FMPM series velocity.
     Series,
-    /// (9)–(11) `kernels::g2p`.
+    /// (9)–(11) `kernels::g2p` (USL: with (12)–(13), (9) and the report's particle sums).
     G2p,
     /// USL, MUSL: (11) (MUSL's re-projection) and (12)–(13).
     Stress,
@@ -44,7 +46,7 @@ pub enum Phase {
 
 impl Phase {
     /// Every phase, in step order.
-    pub const ALL: [Phase; 15] = [
+    pub const ALL: [Phase; 16] = [
         Phase::Sort,
         Phase::Assemble,
         Phase::P2g,
@@ -54,6 +56,7 @@ impl Phase {
         Phase::StressFirst,
         Phase::Accelerate,
         Phase::GridVelocity,
+        Phase::LumpedGrid,
         Phase::Extend,
         Phase::Series,
         Phase::G2p,
@@ -74,9 +77,10 @@ impl Phase {
             Phase::StressFirst => "USF: (11)-(13), (5)",
             Phase::Accelerate => "(7) acceleration",
             Phase::GridVelocity => "(8) updated grid velocity",
+            Phase::LumpedGrid => "(6)-(8) lumped grid pass",
             Phase::Extend => "(8b) massless support nodes",
             Phase::Series => "XPIC/FMPM series",
-            Phase::G2p => "(9)-(11) g2p",
+            Phase::G2p => "(9)-(11) g2p (USL: (12)-(13), move, sums)",
             Phase::Stress => "(11)-(13) stress and volume",
             Phase::Move => "(9) move particles",
             Phase::Report => "step report",
