@@ -2,6 +2,7 @@
 
 use super::GridState;
 use crate::boundary::Prescribed;
+use crate::parallel::{Strided, Workers};
 
 /// (6)–(8) with the lumped mass in both solves, from what [`super::p2g`] accumulated (`m_L`,
 /// `q`, `f` without gravity), in one pass over the nodes of the operators' span:
@@ -28,6 +29,7 @@ pub(crate) fn update_lumped_grid(
     dt: f64,
     prescribed: &Prescribed,
     packed: &mut Vec<f64>,
+    workers: &Workers,
 ) {
     let span = grid.span.clone();
     let previous = std::mem::replace(&mut grid.lumped_span, span.clone());
@@ -48,17 +50,25 @@ pub(crate) fn update_lumped_grid(
     super::g2p::reserve_packed(packed, 4 * n);
     packed.clear();
     packed.resize(4 * span.len(), 0.0);
-    let (wx, wy) = (&mut grid.updated.x[span.clone()], &mut grid.updated.y[span.clone()]);
-    for (j, i) in span.clone().enumerate() {
-        let [m, qx, qy, fx, fy] = acc[i - base];
-        let inv = inverse[i];
-        let (vx, vy) = (qx * inv, qy * inv);
-        let (ax, ay) = ((fx + m * gx) * inv, (fy + m * gy) * inv);
-        let s = if is_active[i] { 1.0 } else { 0.0 };
-        let (w_x, w_y) = (s * (vx + dt * ax), s * (vy + dt * ay));
-        (wx[j], wy[j]) = (w_x, w_y);
-        packed[4 * j..4 * j + 4].copy_from_slice(&[w_x, w_y, vx, vy]);
-    }
+    let out = (
+        [&mut grid.updated.x[span.clone()], &mut grid.updated.y[span.clone()]],
+        Strided(&mut packed[..], 4),
+    );
+    // Blocks of nodes in parallel: every node on its own.
+    let mut none: Vec<()> = Vec::new();
+    workers.split_blocks(out, &mut none, |first, ([wx, wy], Strided(packed, _))| {
+        for j in 0..wx.len() {
+            let i = span.start + first + j;
+            let [m, qx, qy, fx, fy] = acc[i - base];
+            let inv = inverse[i];
+            let (vx, vy) = (qx * inv, qy * inv);
+            let (ax, ay) = ((fx + m * gx) * inv, (fy + m * gy) * inv);
+            let s = if is_active[i] { 1.0 } else { 0.0 };
+            let (w_x, w_y) = (s * (vx + dt * ax), s * (vy + dt * ay));
+            (wx[j], wy[j]) = (w_x, w_y);
+            packed[4 * j..4 * j + 4].copy_from_slice(&[w_x, w_y, vx, vy]);
+        }
+    });
     let c = &prescribed.constraints;
     for (component, fixed, value) in [(0, &c.fixed_x, &prescribed.vx), (1, &c.fixed_y, &prescribed.vy)] {
         let w = if component == 0 {

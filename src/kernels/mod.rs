@@ -89,6 +89,8 @@ pub struct GridState {
     /// The nodes whose updated velocity the last lumped grid pass wrote
     /// ([`update_lumped_grid`]; all of them at first).
     lumped_span: std::ops::Range<usize>,
+    /// The angular momentum of each block of nodes of the last [`p2g`].
+    angular_blocks: Vec<f64>,
 }
 
 impl GridState {
@@ -111,6 +113,7 @@ impl GridState {
             accumulator: Vec::with_capacity(n),
             base: 0,
             lumped_span: 0..n,
+            angular_blocks: Vec::new(),
         }
     }
 

@@ -73,29 +73,48 @@ pub(crate) fn p2g_with(
         crate::with_support!(ops, p2g_columns::<S>(ops, p, apic, internal, acc, base, lines))
     });
     let [gx, gy] = gravity;
-    let mut angular = 0.0;
-    let (line_len, ([ox, oy], [hx, hy])) = (ops.line_length(), grid.frame);
+    let (line_len, ([ox, oy], [hx, hy])) = (ops.line_length().max(1), grid.frame);
     let runs_along_x = ops.strides()[0] == 1;
-    // Node i's index along its line and its line, counted up with i.
-    let (mut along, mut across) = (span.start % line_len.max(1), span.start / line_len.max(1));
-    for i in span.clone() {
-        let r = acc[i - base];
-        lumped[i] = r[0];
-        if fields {
-            grid.momentum.x[i] = r[1];
-            grid.momentum.y[i] = r[2];
-            grid.force.x[i] = r[3] + r[0] * gx;
-            grid.force.y[i] = r[4] + r[0] * gy;
+    let GridState {
+        momentum,
+        force,
+        angular_blocks,
+        ..
+    } = grid;
+    let out = (
+        &mut lumped[span.clone()],
+        [
+            &mut momentum.x[span.clone()],
+            &mut momentum.y[span.clone()],
+            &mut force.x[span.clone()],
+            &mut force.y[span.clone()],
+        ],
+    );
+    // Blocks of nodes in parallel; the angular momentum in fixed blocks, added in order.
+    workers.split_blocks(out, angular_blocks, |first, (lumped, [qx, qy, fx, fy])| {
+        let start = span.start + first;
+        let mut angular = 0.0;
+        // Node i's index along its line and its line, counted up with i.
+        let (mut along, mut across) = (start % line_len, start / line_len);
+        for (j, m) in lumped.iter_mut().enumerate() {
+            let r = acc[start + j - base];
+            *m = r[0];
+            if fields {
+                (qx[j], qy[j]) = (r[1], r[2]);
+                (fx[j], fy[j]) = (r[3] + r[0] * gx, r[4] + r[0] * gy);
+            }
+            // Grid::node_position of node i, formed as it forms it.
+            let (ix, iy) = if runs_along_x { (along, across) } else { (across, along) };
+            let (xi, yi) = (ox + ix as f64 * hx, oy + iy as f64 * hy);
+            angular += xi * r[2] - yi * r[1];
+            along += 1;
+            if along == line_len {
+                (along, across) = (0, across + 1);
+            }
         }
-        // Grid::node_position of node i, formed as it forms it.
-        let (ix, iy) = if runs_along_x { (along, across) } else { (across, along) };
-        let (xi, yi) = (ox + ix as f64 * hx, oy + iy as f64 * hy);
-        angular += xi * r[2] - yi * r[1];
-        along += 1;
-        if along == line_len {
-            (along, across) = (0, across + 1);
-        }
-    }
+        angular
+    });
+    let angular = grid.angular_blocks.iter().sum();
     grid.angular_momentum = angular;
     grid.span = span;
     grid.base = base;

@@ -20,9 +20,10 @@ use super::cholesky::SparseCholesky;
 use super::matrices::Matrices;
 use super::options::{Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome};
 use super::stabilization::Stabilization;
-use super::{local_index, lumped_mass_into, mark_active_counting, singular_error, StencilMass};
+use super::{is_active_mass, local_index, lumped_mass_into, singular_error, StencilMass};
 use crate::error::{MpmError, Result};
 use crate::operators::Operators;
+use crate::parallel::Workers;
 
 /// Which of the two solves of a step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -89,6 +90,8 @@ pub struct GridMass {
     pub(super) is_active: Vec<bool>,
     /// Whether every node with a positive lumped mass is active.
     every_massive_node_active: bool,
+    /// Per block of nodes, work space of [`GridMass::prepare_with`].
+    block_counts: Vec<[usize; 2]>,
     /// The prescribed degrees of freedom of the last update.
     pub(super) constraints: Constraints,
     /// Free degrees of freedom of the x and y components (schemes other than lumped).
@@ -161,6 +164,19 @@ impl GridMass {
         options: &MassOptions,
         constraints: &Constraints,
     ) -> Result<()> {
+        self.prepare_with(ops, m, options, constraints, &Workers::default())
+    }
+
+    /// [`GridMass::prepare`], the active set and `1/m_L` in blocks of nodes on `workers`' threads
+    /// (the result does not depend on them).
+    pub(crate) fn prepare_with(
+        &mut self,
+        ops: &Operators,
+        m: &[f64],
+        options: &MassOptions,
+        constraints: &Constraints,
+        workers: &Workers,
+    ) -> Result<()> {
         let n = ops.num_nodes();
         assert_eq!(self.lumped.len(), n, "one lumped mass per node");
         validate(options)?;
@@ -168,12 +184,31 @@ impl GridMass {
         self.constraints.fixed_x.clone_from(&constraints.fixed_x);
         self.constraints.fixed_y.clone_from(&constraints.fixed_y);
         self.is_active.resize(n, false);
-        let [active, positive] = mark_active_counting(&self.lumped, options.active_tolerance, &mut self.is_active);
-        self.every_massive_node_active = active == positive;
         self.inverse.resize(n, 0.0);
-        for i in 0..n {
-            self.inverse[i] = if self.is_active[i] { 1.0 / self.lumped[i] } else { 0.0 };
-        }
+        // mark_active with 1/m_L beside it: the largest mass (order-free), then the flags.
+        let lumped = &self.lumped;
+        let mut maxima = std::mem::take(&mut self.block_counts);
+        workers.blocks(n, &mut maxima, |range| {
+            let max = lumped[range].iter().cloned().fold(0.0, f64::max);
+            [max.to_bits() as usize, 0]
+        });
+        let max = maxima.iter().map(|b| f64::from_bits(b[0] as u64)).fold(0.0, f64::max);
+        let threshold = options.active_tolerance * max;
+        let out = (&mut self.is_active[..], &mut self.inverse[..]);
+        workers.split_blocks(out, &mut maxima, |first, (flags, inverse)| {
+            let (mut active, mut positive) = (0, 0);
+            for (j, (flag, inv)) in flags.iter_mut().zip(inverse.iter_mut()).enumerate() {
+                let m = lumped[first + j];
+                *flag = is_active_mass(m, threshold);
+                *inv = if *flag { 1.0 / m } else { 0.0 };
+                active += usize::from(*flag);
+                positive += usize::from(m > 0.0);
+            }
+            [active, positive]
+        });
+        let [active, positive] = maxima.iter().fold([0, 0], |[a, p], b| [a + b[0], p + b[1]]);
+        self.block_counts = maxima;
+        self.every_massive_node_active = active == positive;
         self.velocity.outcome = SolveOutcome::Solved;
         self.acceleration.outcome = SolveOutcome::Solved;
         if options.velocity == MassScheme::Lumped && options.acceleration == MassScheme::Lumped {

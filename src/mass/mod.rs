@@ -112,21 +112,21 @@ pub fn active_nodes(lumped: &[f64], tolerance: f64) -> Vec<usize> {
 /// # Panics
 /// If `is_active` does not have one entry per node.
 pub fn mark_active(lumped: &[f64], tolerance: f64, is_active: &mut [bool]) -> usize {
-    mark_active_counting(lumped, tolerance, is_active)[0]
+    assert_eq!(lumped.len(), is_active.len(), "one flag per node");
+    let threshold = tolerance * lumped.iter().cloned().fold(0.0, f64::max);
+    let mut active = 0;
+    for (flag, &m) in is_active.iter_mut().zip(lumped) {
+        *flag = is_active_mass(m, threshold);
+        active += usize::from(*flag);
+    }
+    active
 }
 
-/// [`mark_active`], returning the number of active nodes and of nodes with positive mass.
-pub(crate) fn mark_active_counting(lumped: &[f64], tolerance: f64, is_active: &mut [bool]) -> [usize; 2] {
-    assert_eq!(lumped.len(), is_active.len(), "one flag per node");
-    let max = lumped.iter().cloned().fold(0.0, f64::max);
-    let threshold = tolerance * max;
-    let (mut active, mut positive) = (0, 0);
-    for (flag, &m) in is_active.iter_mut().zip(lumped) {
-        *flag = m > threshold && m > 0.0;
-        active += usize::from(*flag);
-        positive += usize::from(m > 0.0);
-    }
-    [active, positive]
+/// Whether a node of lumped mass `m` is active under the threshold `tolerance · max m_L`: the
+/// one definition of [`mark_active`] and the time loop's grid mass.
+#[inline(always)]
+pub(crate) fn is_active_mass(m: f64, threshold: f64) -> bool {
+    m > threshold && m > 0.0
 }
 
 /// Options of the consistent-mass solve.

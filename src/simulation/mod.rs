@@ -134,6 +134,8 @@ struct Scratch {
     sorting: phases::Sorting,
     stress_blocks: Vec<kernels::StressPartials>,
     report_blocks: Vec<kernels::SumPartials>,
+    /// The grid's kinetic energy per block of nodes, for the report.
+    grid_blocks: Vec<f64>,
     /// The packed grid velocities the grid-to-particle pass reads.
     packed: Vec<f64>,
     /// What each block of particles of the last grid-to-particle pass returned.

@@ -68,7 +68,7 @@ impl Simulation {
         }); // (2)–(5)
         let constraints = &setup.prescribed.constraints;
         timed(profile, Phase::Mass, || {
-            mass.prepare(ops, &p.mass, &options.mass, constraints)
+            mass.prepare_with(ops, &p.mass, &options.mass, constraints, workers)
         })?;
         if stability::estimate_due(options, state, &cache.mass) {
             let estimate = timed(profile, Phase::StableStep, || {
@@ -108,7 +108,17 @@ impl Simulation {
         if lumped_grid_pass(setup, options) {
             let (inverse, gravity) = (mass.inverse_lumped(), options.gravity);
             timed(profile, Phase::LumpedGrid, || {
-                kernels::update_lumped_grid(nodes, inverse, active, gravity, dt, prescribed, &mut scratch.packed)
+                let workers = &setup.workers;
+                kernels::update_lumped_grid(
+                    nodes,
+                    inverse,
+                    active,
+                    gravity,
+                    dt,
+                    prescribed,
+                    &mut scratch.packed,
+                    workers,
+                )
             }); // (6)–(8)
             timed(profile, Phase::Extend, || {
                 if !mass.supports_all_active(ops)

@@ -169,9 +169,13 @@ pub(super) fn report(
         ..
     } = t;
     let (m_l, w) = (mass.lumped(), &nodes.updated);
-    let ke_l: f64 = (0..m_l.len())
-        .map(|i| 0.5 * m_l[i] * (w.x[i].powi(2) + w.y[i].powi(2)))
-        .sum();
+    // In fixed blocks of nodes, added in order.
+    setup.workers.blocks(m_l.len(), &mut scratch.grid_blocks, |range| {
+        range
+            .map(|i| 0.5 * m_l[i] * (w.x[i].powi(2) + w.y[i].powi(2)))
+            .sum::<f64>()
+    });
+    let ke_l: f64 = scratch.grid_blocks.iter().sum();
     let kinetic = &scratch.particle.kinetic;
     let [velocity_solve, acceleration_solve] = solves;
     Ok(StepReport {
