@@ -19,23 +19,30 @@ impl Partials {
     /// Adds the lanes of `v`, particles `j …`, to their partials.
     #[inline(always)]
     pub(crate) fn add<R: Real>(&mut self, j: usize, v: R) {
+        let at = Self::at::<R>(j);
+        (R::load(&self.0, at) + v).store(&mut self.0, at);
+    }
+
+    /// The first partial of particles `j …` side by side (a constant for eight lanes, so that
+    /// the partials of a block's eight-lane loop can stay in a register).
+    #[inline(always)]
+    fn at<R: Real>(j: usize) -> usize {
         debug_assert!(
             j.is_multiple_of(R::LANES),
             "particles side by side start at a multiple of their count"
         );
-        let at = j % 8;
-        (R::load(&self.0, at) + v).store(&mut self.0, at);
+        if R::LANES == 8 {
+            0
+        } else {
+            j % 8
+        }
     }
 
     /// Raises the partials to the lanes of `v` (`v.max(partial)`: a NaN in `v` leaves the
     /// partial as it is).
     #[inline(always)]
     pub(crate) fn max<R: Real>(&mut self, j: usize, v: R) {
-        debug_assert!(
-            j.is_multiple_of(R::LANES),
-            "particles side by side start at a multiple of their count"
-        );
-        let at = j % 8;
+        let at = Self::at::<R>(j);
         v.max(R::load(&self.0, at)).store(&mut self.0, at);
     }
 
