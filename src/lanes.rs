@@ -33,7 +33,7 @@ pub fn set_kernel_lanes(lanes: usize) {
     LANES.store(lanes, Ordering::Relaxed);
 }
 
-/// The most particles side by side that the CPU and [`set_kernel_lanes`] allow: 8 with AVX-512F,
+/// The most particles side by side that the CPU and [`set_kernel_lanes`] allow: 8 with AVX-512F and AVX-512VL (the four-lane kernels in that build then have 32 vector registers),
 /// 4 with AVX2, 1 otherwise.
 pub fn kernel_lanes() -> usize {
     lanes_available()
@@ -45,7 +45,10 @@ pub(crate) fn lanes_available() -> usize {
     let wanted = LANES.load(Ordering::Relaxed);
     #[cfg(target_arch = "x86_64")]
     {
-        if wanted >= 8 && std::arch::is_x86_feature_detected!("avx512f") {
+        if wanted >= 8
+            && std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+        {
             return 8;
         }
         if wanted >= 4 && std::arch::is_x86_feature_detected!("avx2") {
@@ -81,7 +84,7 @@ macro_rules! dispatch {
         }
 
         #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx512f,avx512vl")]
         unsafe fn $avx512<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
             $body::<S $(, $c)?, 8>($($arg),*)
         }
@@ -422,7 +425,7 @@ mod avx512 {
     /// Eight `f64` lanes in an AVX-512 register.
     ///
     /// As [`super::F64x4`]: a value of this type exists only inside functions compiled with
-    /// `#[target_feature(enable = "avx512f")]` that run after a run-time check of the CPU
+    /// `#[target_feature(enable = "avx512f,avx512vl")]` that run after a run-time check of the CPU
     /// ([`super::lanes_available`]), and every method is `#[inline(always)]`.
     #[derive(Clone, Copy, Debug)]
     pub(crate) struct F64x8(pub(crate) __m512d);

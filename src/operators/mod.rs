@@ -622,7 +622,7 @@ fn fill_local_avx2(block: &LocalBlock, firsts: &mut [[u32; 2]], t: [&mut [f64]; 
 
 /// [`fill_local_body`] compiled for AVX-512F.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,avx512vl")]
 fn fill_local_avx512(block: &LocalBlock, firsts: &mut [[u32; 2]], t: [&mut [f64]; 2]) -> (usize, usize, bool, bool) {
     fill_local_body::<8>(block, firsts, t)
 }
