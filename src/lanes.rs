@@ -33,8 +33,9 @@ pub fn set_kernel_lanes(lanes: usize) {
     LANES.store(lanes, Ordering::Relaxed);
 }
 
-/// The most particles side by side that the CPU and [`set_kernel_lanes`] allow: 8 with AVX-512F and AVX-512VL (the four-lane kernels in that build then have 32 vector registers),
-/// 4 with AVX2, 1 otherwise.
+/// The most particles side by side that the CPU and [`set_kernel_lanes`] allow: 8 with AVX-512F
+/// and AVX-512VL (the four-lane kernels of that build then have 32 vector registers), 4 with
+/// AVX2, 1 otherwise.
 pub fn kernel_lanes() -> usize {
     lanes_available()
 }
