@@ -558,18 +558,6 @@ mod avx512 {
     }
 
     impl F64x8 {
-        /// Lanes 0–3 and 4–7 as two four-lane vectors.
-        #[inline(always)]
-        pub(crate) fn halves(self) -> [super::F64x4; 2] {
-            // SAFETY: as above.
-            unsafe {
-                [
-                    super::F64x4(_mm512_castpd512_pd256(self.0)),
-                    super::F64x4(_mm512_extractf64x4_pd::<1>(self.0)),
-                ]
-            }
-        }
-
         /// The vector of lanes `lo` then `hi`.
         #[inline(always)]
         pub(crate) fn join(lo: super::F64x4, hi: super::F64x4) -> F64x8 {

@@ -7,7 +7,7 @@ use crate::fields::VectorField;
 use crate::lanes::dispatch;
 use crate::lanes::Real;
 #[cfg(target_arch = "x86_64")]
-use crate::lanes::{F64x4, F64x8};
+use crate::lanes::F64x4;
 use crate::operators::{Operators, Stencil};
 use crate::parallel::Workers;
 use crate::particles::Particles;
@@ -481,60 +481,6 @@ impl Scatter for F64x4 {
         for l in 0..4 {
             for b in 0..S {
                 F64x4::add_run(&quads[b], &fy[b], l, cols.run_start(l, b) - base, acc);
-            }
-        }
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-impl Scatter for F64x8 {
-    /// Lanes 0–3, then lanes 4–7, each half as [`F64x4`] does it.
-    #[inline(always)]
-    fn scatter_run<const S: usize>(
-        terms: &[[F64x8; 5]; S],
-        cols: &Columns<F64x8, S>,
-        b: usize,
-        acc: &mut [[f64; 5]],
-        base: usize,
-    ) {
-        for half in 0..2 {
-            let mut quarter = [[F64x4::splat(0.0); 5]; S];
-            for a in 0..S {
-                for c in 0..5 {
-                    quarter[a][c] = terms[a][c].halves()[half];
-                }
-            }
-            let (quads, fy) = F64x4::lane_terms(&quarter);
-            for l in 0..4 {
-                F64x4::add_run(&quads, &fy, l, cols.run_start(4 * half + l, b) - base, acc);
-            }
-        }
-    }
-
-    #[inline(always)]
-    fn scatter_lanes<const S: usize>(
-        terms: &[[[F64x8; 5]; S]; S],
-        cols: &Columns<F64x8, S>,
-        acc: &mut [[f64; 5]],
-        base: usize,
-    ) {
-        let mut quads = [[[[F64x4::splat(0.0).0; 4]; S]; S]; 2];
-        let mut fy = [[[[0.0; 4]; S]; S]; 2];
-        for half in 0..2 {
-            for b in 0..S {
-                let mut quarter = [[F64x4::splat(0.0); 5]; S];
-                for a in 0..S {
-                    for c in 0..5 {
-                        quarter[a][c] = terms[b][a][c].halves()[half];
-                    }
-                }
-                (quads[half][b], fy[half][b]) = F64x4::lane_terms(&quarter);
-            }
-        }
-        for l in 0..8 {
-            let (half, lane) = (l / 4, l % 4);
-            for b in 0..S {
-                F64x4::add_run(&quads[half][b], &fy[half][b], lane, cols.run_start(l, b) - base, acc);
             }
         }
     }
