@@ -110,6 +110,73 @@ pub fn apply_tangent_stiffness(ops: &Operators, volume: &[f64], tangent: &[[f64;
     f
 }
 
+/// [`apply_tangent_stiffness`] into `f` (one entry per node, zero outside the operators' node
+/// span, as this leaves it): `f` is cleared over the span only, so that a field reused across
+/// products touches no page outside it.
+pub(crate) fn apply_tangent_stiffness_into(
+    ops: &Operators,
+    volume: &[f64],
+    tangent: &[[f64; 3]],
+    u: &VectorField,
+    f: &mut VectorField,
+) {
+    let span = ops.node_span();
+    assert!(
+        u.len() == ops.num_nodes() && f.len() == ops.num_nodes(),
+        "one value per node"
+    );
+    f.x[span.clone()].fill(0.0);
+    f.y[span.clone()].fill(0.0);
+    crate::with_support!(ops, tangent_columns::<S>(ops, volume, tangent, u, f));
+    // f holds f_int(σ); K u is its negation (exact).
+    for v in f.x[span.clone()].iter_mut().chain(f.y[span].iter_mut()) {
+        *v = -*v;
+    }
+}
+
+/// The free degrees of freedom of a grid field (`d < n`: x of node `d`; `d ≥ n`: y of node
+/// `d − n`), and the maps between a field and the vector of its free entries.
+struct FreeDofs {
+    n: usize,
+    list: Vec<usize>,
+}
+
+impl FreeDofs {
+    fn new(free: &[bool]) -> FreeDofs {
+        FreeDofs {
+            n: free.len() / 2,
+            list: (0..free.len()).filter(|&d| free[d]).collect(),
+        }
+    }
+
+    /// The free entries of `field`.
+    fn compress(&self, field: &VectorField) -> Vec<f64> {
+        let n = self.n;
+        self.list
+            .iter()
+            .map(|&d| if d < n { field.x[d] } else { field.y[d - n] })
+            .collect()
+    }
+
+    /// The free entries of a vector of all `2n` degrees of freedom.
+    fn compress_slice(&self, all: &[f64]) -> Vec<f64> {
+        self.list.iter().map(|&d| all[d]).collect()
+    }
+
+    /// Writes the free entries `v` into `field`, whose other entries stay as they are (zero
+    /// for the fields of an estimate).
+    fn expand(&self, v: &[f64], field: &mut VectorField) {
+        let n = self.n;
+        for (&d, &x) in self.list.iter().zip(v) {
+            if d < n {
+                field.x[d] = x;
+            } else {
+                field.y[d - n] = x;
+            }
+        }
+    }
+}
+
 /// The particle loop of [`apply_tangent_stiffness`]: per particle its `L = [Gxᵀ u, Gyᵀ u]`,
 /// `σ = C : sym L` and its part of `f_int`, in one sweep over its stencil (no per-particle
 /// arrays; the sums in the order of `transfer::velocity_gradient` and
@@ -267,26 +334,39 @@ pub fn mpm_max_frequency_squared(
 ) -> Result<FrequencyEstimate> {
     let n = ops.num_nodes();
     assert_eq!(free.len(), 2 * n, "one flag per degree of freedom");
-    let k = |v: &[f64]| on_free(join(apply_tangent_stiffness(ops, volume, tangent, &split(v))), free);
+    // Lanczos runs on the free degrees of freedom only (every other entry of its vectors is
+    // zero, and stays zero): a grid field is expanded from them and compressed back around
+    // each product, so that the iteration holds a few vectors of the free count.
+    let dofs = FreeDofs::new(free);
+    let k_into = |v: &[f64], u: &mut VectorField, f: &mut VectorField| -> Vec<f64> {
+        dofs.expand(v, u);
+        apply_tangent_stiffness_into(ops, volume, tangent, u, f);
+        dofs.compress(f)
+    };
     let m_times = |u: &VectorField| {
         let up = crate::transfer::interpolate(ops, u);
         let mut out = VectorField::zeros(n);
         ops.scatter_scaled(Operator::N, Some(mass), [&up.x, &up.y], [&mut out.x, &mut out.y]);
         out
     };
-    let start = start_vector(2 * n, |d| free[d]);
+    let start = dofs.compress_slice(&start_vector(2 * n, |d| free[d]));
     let run = |inverse: &mut MassInverse<'_>| -> Result<(f64, usize)> {
         let mut failure = None;
+        let (mut u, mut f) = (VectorField::zeros(n), VectorField::zeros(n));
+        let (mut u_b, mut f_b) = (VectorField::zeros(n), VectorField::zeros(n));
         let mut apply = |v: &[f64]| -> Vec<f64> {
-            let step = inverse(&split(&k(v))).and_then(|u| inverse(&m_times(&u)));
+            let kv = k_into(v, &mut u, &mut f);
+            dofs.expand(&kv, &mut u);
+            let step = inverse(&u).and_then(|w| inverse(&m_times(&w)));
             match step {
-                Ok(u) => join(u),
+                Ok(w) => dofs.compress(&w),
                 Err(e) => {
                     failure.get_or_insert(e);
-                    vec![0.0; 2 * n]
+                    vec![0.0; v.len()]
                 }
             }
         };
+        let k = |v: &[f64]| k_into(v, &mut u_b, &mut f_b);
         let result = lanczos_max(&start, FREQUENCY_MAX_STEPS, FREQUENCY_TOLERANCE, &mut apply, k);
         if let Some(e) = failure {
             return Err(e);

@@ -5,9 +5,9 @@ use super::columns::Columns;
 use super::{apic_affine, ApicInertia, GridState, Stress};
 use crate::fields::VectorField;
 use crate::lanes::dispatch;
-use crate::lanes::Real;
 #[cfg(target_arch = "x86_64")]
 use crate::lanes::F64x4;
+use crate::lanes::Real;
 use crate::operators::{Operators, Stencil};
 use crate::parallel::Workers;
 use crate::particles::Particles;
