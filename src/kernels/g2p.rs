@@ -81,7 +81,7 @@ pub struct G2pRule {
 impl G2pRule {
     /// Values per node of the packed grid velocities the pass reads: 4 (`[w, v]`) when the
     /// transfer's target and the gradient field are `w`, 8 (`[w, v, v*, u]`) otherwise.
-    fn packed_width(&self) -> usize {
+    pub(crate) fn packed_width(&self) -> usize {
         let plain_target = self.transfer.series_terms().is_none();
         let plain_gradient = matches!(self.gradient, None | Some(GridField::Updated));
         if plain_target && plain_gradient {
@@ -141,7 +141,12 @@ pub fn g2p(
         moves: None,
     };
     let mut blocks = std::mem::take(&mut scratch.blocks);
-    g2p_packed(ops, &packed, rule, dt, &fused, p, scratch, workers, &mut blocks);
+    let width = rule.packed_width();
+    let view = Packed {
+        values: &packed,
+        stride: width,
+    };
+    g2p_packed(ops, view, rule, dt, &fused, p, scratch, workers, &mut blocks);
     scratch.kinetic = KineticEnergies::total(&blocks);
     scratch.packed = packed;
     scratch.blocks = blocks;
@@ -182,7 +187,7 @@ pub(crate) fn reserve_packed(packed: &mut Vec<f64>, len: usize) {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn g2p_packed(
     ops: &Operators,
-    packed: &[f64],
+    packed: Packed,
     rule: &G2pRule,
     dt: f64,
     fused: &Fused,
@@ -240,11 +245,19 @@ pub(crate) fn g2p_packed(
     });
 }
 
+/// The grid velocities a grid-to-particle pass reads: node `lo + i` holds `W` values (`[w, v]`,
+/// or `[w, v, v*, u]`) from `values[stride · i]`.
+#[derive(Clone, Copy)]
+pub(crate) struct Packed<'a> {
+    pub values: &'a [f64],
+    pub stride: usize,
+}
+
 /// What every block of [`g2p`] reads.
 struct G2pInput<'a> {
     ops: &'a Operators,
     /// Grid velocities packed per node from node `lo`.
-    packed: &'a [f64],
+    packed: Packed<'a>,
     lo: usize,
     rule: &'a G2pRule,
     dt: f64,
@@ -410,10 +423,12 @@ impl Gather for F64x8 {
 #[inline(always)]
 fn gather_sums<R: Gather, const S: usize, const W: usize>(
     cols: &Columns<R, S>,
-    packed: &[f64],
+    packed: Packed,
     lo: usize,
     wanted: Wanted,
 ) -> Gathered<R> {
+    let Packed { values: packed, stride } = packed;
+    debug_assert!(stride >= W, "a node holds the values read");
     let z = R::splat(0.0);
     let (wa, dwa, da, wb, dwb, db) = (&cols.wa, &cols.dwa, &cols.da, &cols.wb, &cols.dwb, &cols.db);
     let gradient_of_w = wanted.apic || (W == 4 && wanted.l);
@@ -426,9 +441,9 @@ fn gather_sums<R: Gather, const S: usize, const W: usize>(
     // Each lane's first packed value, and the stencil's reach from there, checked once.
     let mut at = [0; 8];
     for (l, at) in at.iter_mut().enumerate().take(R::LANES) {
-        *at = W * (cols.first[l] - lo);
+        *at = stride * (cols.first[l] - lo);
     }
-    let reach = W * ((S - 1) * cols.run_stride + S);
+    let reach = stride * ((S - 1) * cols.run_stride + S - 1) + W;
     assert!(
         at[..R::LANES].iter().all(|&a| a + reach <= packed.len()),
         "a stencil reaches past the packed grid velocities"
@@ -441,7 +456,7 @@ fn gather_sums<R: Gather, const S: usize, const W: usize>(
         let (mut aw, mut av, mut at_, mut ag) = ([z; 2], [z; 2], [z; 2], [z; 2]);
         let (mut dw, mut dg, mut xw) = ([z; 2], [z; 2], [z; 2]);
         for a in 0..S {
-            let offset = W * (b * cols.run_stride + a);
+            let offset = stride * (b * cols.run_stride + a);
             // SAFETY: every lane's node of the stencil is in bounds (checked above).
             let mut node = at;
             for n in node.iter_mut().take(R::LANES) {

@@ -1,8 +1,8 @@
 //! (6)–(8) with the lumped mass in both solves, in one pass over the grid nodes.
 
-use super::GridState;
+use super::{GridState, Packed};
 use crate::boundary::Prescribed;
-use crate::parallel::{Strided, Workers};
+use crate::parallel::Workers;
 
 /// (6)–(8) with the lumped mass in both solves, from what [`super::p2g`] accumulated (`m_L`,
 /// `q`, `f` without gravity), in one pass over the nodes of the operators' span:
@@ -15,8 +15,8 @@ use crate::parallel::{Strided, Workers};
 /// elsewhere; then on every prescribed component `v = w = v_D` (`a = 0`). The same operations,
 /// in the same order, as the lumped solves of [`crate::mass::GridMass`], the constraints and
 /// the update of the general step. Writes `w` into `grid.updated` (0 outside the span but for
-/// the prescribed components), and `[w, v]` node by node over the span into `packed` (what the
-/// grid-to-particle pass reads, [`super::pack_velocities`]).
+/// the prescribed components), and `[w, v]` node by node over the span into the accumulator in
+/// place of `[m_L, q]` (what the grid-to-particle pass reads, [`GridState::lumped_velocities`]).
 ///
 /// # Panics
 /// If the inverse, the active set or the grid state do not have one entry per node.
@@ -28,7 +28,6 @@ pub(crate) fn update_lumped_grid(
     gravity: [f64; 2],
     dt: f64,
     prescribed: &Prescribed,
-    packed: &mut Vec<f64>,
     workers: &Workers,
 ) {
     let span = grid.span.clone();
@@ -46,27 +45,24 @@ pub(crate) fn update_lumped_grid(
         grid.updated.y[range].fill(0.0);
     }
     let [gx, gy] = gravity;
-    let (acc, base) = (&grid.accumulator, grid.base);
-    super::g2p::reserve_packed(packed, 4 * n);
-    packed.clear();
-    packed.resize(4 * span.len(), 0.0);
+    let base = grid.base;
     let out = (
         [&mut grid.updated.x[span.clone()], &mut grid.updated.y[span.clone()]],
-        Strided(&mut packed[..], 4),
+        &mut grid.accumulator[span.start - base..span.end - base],
     );
-    // Blocks of nodes in parallel: every node on its own.
+    // Blocks of nodes in parallel: every node on its own, `[w, v]` over its accumulator.
     let mut none: Vec<()> = Vec::new();
-    workers.split_blocks(out, &mut none, |first, ([wx, wy], Strided(packed, _))| {
+    workers.split_blocks(out, &mut none, |first, ([wx, wy], acc)| {
         for j in 0..wx.len() {
             let i = span.start + first + j;
-            let [m, qx, qy, fx, fy] = acc[i - base];
+            let [m, qx, qy, fx, fy] = acc[j];
             let inv = inverse[i];
             let (vx, vy) = (qx * inv, qy * inv);
             let (ax, ay) = ((fx + m * gx) * inv, (fy + m * gy) * inv);
             let s = if is_active[i] { 1.0 } else { 0.0 };
             let (w_x, w_y) = (s * (vx + dt * ax), s * (vy + dt * ay));
             (wx[j], wy[j]) = (w_x, w_y);
-            packed[4 * j..4 * j + 4].copy_from_slice(&[w_x, w_y, vx, vy]);
+            acc[j] = [w_x, w_y, vx, vy, m];
         }
     });
     let c = &prescribed.constraints;
@@ -79,10 +75,32 @@ pub(crate) fn update_lumped_grid(
         for &i in fixed.iter() {
             w[i] = value[i];
             if span.contains(&i) {
-                let j = 4 * (i - span.start);
-                packed[j + component] = value[i];
-                packed[j + 2 + component] = value[i];
+                let node = &mut grid.accumulator[i - base];
+                node[component] = value[i];
+                node[2 + component] = value[i];
             }
+        }
+    }
+}
+
+impl GridState {
+    /// The `[w, v]` of every node of the span that [`update_lumped_grid`] left in the
+    /// accumulator, for the grid-to-particle pass (stride 5: `[w_x, w_y, v_x, v_y, m_L]`).
+    pub(crate) fn lumped_velocities(&self) -> Packed<'_> {
+        let start = self.span.start - self.base;
+        Packed {
+            values: self.accumulator[start..start + self.span.len()].as_flattened(),
+            stride: 5,
+        }
+    }
+
+    /// Copies `updated` (`w`) over the span into what [`GridState::lumped_velocities`] reads
+    /// (after the massless-node extension changed it).
+    pub(crate) fn refresh_lumped_w(&mut self) {
+        for i in self.span.clone() {
+            let node = &mut self.accumulator[i - self.base];
+            node[0] = self.updated.x[i];
+            node[1] = self.updated.y[i];
         }
     }
 }

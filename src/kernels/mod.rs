@@ -32,7 +32,7 @@ mod particle;
 pub use crate::lanes::{kernel_lanes, set_kernel_lanes, set_scalar_kernels};
 pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
 pub use g2p::{g2p, velocity_gradient_into, G2pRule};
-pub(crate) use g2p::{g2p_packed, pack_velocities, Fused, G2pBlock};
+pub(crate) use g2p::{g2p_packed, pack_velocities, Fused, G2pBlock, Packed};
 pub(crate) use grid::update_lumped_grid;
 pub(crate) use p2g::p2g_with;
 pub(crate) use p2g::subtract_particle_force;

@@ -109,27 +109,14 @@ impl Simulation {
             let (inverse, gravity) = (mass.inverse_lumped(), options.gravity);
             timed(profile, Phase::LumpedGrid, || {
                 let workers = &setup.workers;
-                kernels::update_lumped_grid(
-                    nodes,
-                    inverse,
-                    active,
-                    gravity,
-                    dt,
-                    prescribed,
-                    &mut scratch.packed,
-                    workers,
-                )
+                kernels::update_lumped_grid(nodes, inverse, active, gravity, dt, prescribed, workers)
             }); // (6)–(8)
             timed(profile, Phase::Extend, || {
                 if !mass.supports_all_active(ops)
                     && extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension)
                 {
-                    // The packed w of the grid-to-particle pass follows.
-                    let (span, w) = (ops.node_span(), &nodes.updated);
-                    for (j, i) in span.enumerate() {
-                        scratch.packed[4 * j] = w.x[i];
-                        scratch.packed[4 * j + 1] = w.y[i];
-                    }
+                    // The w the grid-to-particle pass reads follows.
+                    nodes.refresh_lumped_w();
                 }
             }); // (8b)
             return Ok([
@@ -201,14 +188,21 @@ impl Simulation {
         let (p, workers) = (&mut state.particles, &setup.workers);
         let mut blocks = std::mem::take(&mut scratch.g2p_blocks);
         let mut packed = std::mem::take(&mut scratch.packed);
-        let packed_by_grid_pass = lumped_grid_pass(setup, options);
+        let by_grid_pass = lumped_grid_pass(setup, options);
         timed(profile, Phase::G2p, || {
-            if !packed_by_grid_pass {
+            // The lumped grid pass left [w, v] in p2g's accumulator; otherwise pack them.
+            let velocities = if by_grid_pass {
+                nodes.lumped_velocities()
+            } else {
                 kernels::pack_velocities(ops, nodes, &rule, &mut packed);
-            }
+                kernels::Packed {
+                    values: &packed,
+                    stride: rule.packed_width(),
+                }
+            };
             kernels::g2p_packed(
                 ops,
-                &packed,
+                velocities,
                 &rule,
                 dt,
                 &fused,
