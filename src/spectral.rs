@@ -70,19 +70,20 @@ fn normalized(start: &[f64], apply_b: &mut impl FnMut(&[f64]) -> Vec<f64>) -> Op
 /// A deterministic start vector with entries in (0.5, 1.5) on the given positions, 0 elsewhere
 /// (positive so that it is not orthogonal to the smooth modes).
 pub fn start_vector(len: usize, support: impl Fn(usize) -> bool) -> Vec<f64> {
+    let mut out = Vec::with_capacity(len);
+    start_sequence(len, |i, value| out.push(if support(i) { value } else { 0.0 }));
+    out
+}
+
+/// The values of [`start_vector`] at every position `0..len`, in order, to `f(i, value)`.
+pub(crate) fn start_sequence(len: usize, mut f: impl FnMut(usize, f64)) {
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
-    (0..len)
-        .map(|i| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            if support(i) {
-                0.5 + (state >> 11) as f64 / (1u64 << 53) as f64
-            } else {
-                0.0
-            }
-        })
-        .collect()
+    for i in 0..len {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        f(i, 0.5 + (state >> 11) as f64 / (1u64 << 53) as f64);
+    }
 }
 
 /// The largest eigenvalue of an operator `T` self-adjoint in `⟨x, y⟩ = xᵀ B y` (`B` symmetric

@@ -21,7 +21,7 @@ use crate::material::LinearElastic;
 use crate::operators::weighted_product;
 use crate::operators::{Operator, Operators};
 use crate::shape::ShapeFunction;
-use crate::spectral::{lanczos_extremes, lanczos_max, lobpcg_max, start_vector, DEFAULT_LANCZOS_STEPS};
+use crate::spectral::{lanczos_extremes, lanczos_max, lobpcg_max, start_sequence, start_vector, DEFAULT_LANCZOS_STEPS};
 use crate::transfer::VectorField;
 
 /// The grid stiffness `K = Bᵀ D B` (2n × 2n, x degrees of freedom first), from four weighted
@@ -102,7 +102,8 @@ pub fn apply_tangent_stiffness(ops: &Operators, volume: &[f64], tangent: &[[f64;
     assert_eq!(volume.len(), np, "one volume per particle");
     assert_eq!(u.len(), ops.num_nodes(), "one displacement per node");
     let mut f = VectorField::zeros(ops.num_nodes());
-    crate::with_support!(ops, tangent_columns::<S>(ops, volume, tangent, u, &mut f));
+    let tangent_of = |p: usize| tangent[p];
+    crate::with_support!(ops, tangent_columns::<S>(ops, volume, &tangent_of, u, &mut f));
     // f holds f_int(σ); K u is its negation (exact).
     for v in f.x.iter_mut().chain(f.y.iter_mut()) {
         *v = -*v;
@@ -116,7 +117,7 @@ pub fn apply_tangent_stiffness(ops: &Operators, volume: &[f64], tangent: &[[f64;
 pub(crate) fn apply_tangent_stiffness_into(
     ops: &Operators,
     volume: &[f64],
-    tangent: &[[f64; 3]],
+    tangent: &impl Fn(usize) -> [f64; 3],
     u: &VectorField,
     f: &mut VectorField,
 ) {
@@ -158,9 +159,28 @@ impl FreeDofs {
             .collect()
     }
 
-    /// The free entries of a vector of all `2n` degrees of freedom.
-    fn compress_slice(&self, all: &[f64]) -> Vec<f64> {
-        self.list.iter().map(|&d| all[d]).collect()
+    /// [`start_vector`] of all `2n` degrees of freedom on the free ones, at the free ones (the
+    /// same pseudo-random sequence, without the full vector).
+    fn start_vector(&self) -> Vec<f64> {
+        let mut next = self.list.iter().peekable();
+        let mut out = Vec::with_capacity(self.list.len());
+        start_sequence(2 * self.n, |d, value| {
+            if next.peek() == Some(&&d) {
+                next.next();
+                out.push(value);
+            }
+        });
+        out
+    }
+
+    /// `x_d · inv(node of d)` for each free entry `x_d`: the lumped solve `r · (1/m_L)`.
+    fn scale(&self, x: &[f64], inv: &[f64]) -> Vec<f64> {
+        let n = self.n;
+        self.list
+            .iter()
+            .zip(x)
+            .map(|(&d, &v)| v * inv[if d < n { d } else { d - n }])
+            .collect()
     }
 
     /// Writes the free entries `v` into `field`, whose other entries stay as they are (zero
@@ -184,7 +204,7 @@ impl FreeDofs {
 fn tangent_columns<const S: usize>(
     ops: &Operators,
     volume: &[f64],
-    tangent: &[[f64; 3]],
+    tangent: &impl Fn(usize) -> [f64; 3],
     u: &VectorField,
     f: &mut VectorField,
 ) {
@@ -201,7 +221,7 @@ fn tangent_columns<const S: usize>(
                 lyy += gy[a] * uy[a];
             }
         }
-        let [c11, c12, g] = tangent[p];
+        let [c11, c12, g] = tangent(p);
         let (sxx, syy, sxy) = (c11 * lxx + c12 * lyy, c12 * lxx + c11 * lyy, g * (lxy + lyx));
         let t = [volume[p] * sxx, volume[p] * syy, volume[p] * sxy];
         crate::kernels::subtract_particle_force(&st, t, f);
@@ -332,34 +352,71 @@ pub fn mpm_max_frequency_squared(
     inverse_velocity: &mut MassInverse<'_>,
     inverse_acceleration: Option<&mut MassInverse<'_>>,
 ) -> Result<FrequencyEstimate> {
+    let tangent_of = |p: usize| tangent[p];
+    let velocity = Inverse::Solve(inverse_velocity);
+    let acceleration = inverse_acceleration.map(Inverse::Solve);
+    max_frequency_squared_with(ops, mass, volume, &tangent_of, free, velocity, acceleration)
+}
+
+/// How [`max_frequency_squared_with`] applies a mass inverse.
+pub(crate) enum Inverse<'a, 'b> {
+    /// A solve of grid fields.
+    Solve(&'a mut MassInverse<'b>),
+    /// The lumped mass: `1/m_L` per node (0 where inactive), applied to the free entries.
+    Lumped(&'a [f64]),
+}
+
+/// [`mpm_max_frequency_squared`] with each particle's tangent from `tangent(p)` and each mass
+/// inverse as an [`Inverse`]: the same operations (and bits) for either form of an inverse.
+/// Lanczos runs on the free degrees of freedom only (every other entry of its vectors is zero,
+/// and stays zero): a grid field is expanded from them and compressed back around each
+/// product, so that the iteration holds a few vectors of the free count and two grid fields
+/// (four with a solve), written over the node span only.
+pub(crate) fn max_frequency_squared_with(
+    ops: &Operators,
+    mass: &[f64],
+    volume: &[f64],
+    tangent: &impl Fn(usize) -> [f64; 3],
+    free: &[bool],
+    velocity: Inverse<'_, '_>,
+    acceleration: Option<Inverse<'_, '_>>,
+) -> Result<FrequencyEstimate> {
     let n = ops.num_nodes();
     assert_eq!(free.len(), 2 * n, "one flag per degree of freedom");
-    // Lanczos runs on the free degrees of freedom only (every other entry of its vectors is
-    // zero, and stays zero): a grid field is expanded from them and compressed back around
-    // each product, so that the iteration holds a few vectors of the free count.
     let dofs = FreeDofs::new(free);
     let k_into = |v: &[f64], u: &mut VectorField, f: &mut VectorField| -> Vec<f64> {
         dofs.expand(v, u);
         apply_tangent_stiffness_into(ops, volume, tangent, u, f);
         dofs.compress(f)
     };
-    let m_times = |u: &VectorField| {
-        let up = crate::transfer::interpolate(ops, u);
-        let mut out = VectorField::zeros(n);
-        ops.scatter_scaled(Operator::N, Some(mass), [&up.x, &up.y], [&mut out.x, &mut out.y]);
-        out
-    };
-    let start = dofs.compress_slice(&start_vector(2 * n, |d| free[d]));
-    let run = |inverse: &mut MassInverse<'_>| -> Result<(f64, usize)> {
+    let start = dofs.start_vector();
+    let run = |inverse: Inverse<'_, '_>| -> Result<(f64, usize)> {
         let mut failure = None;
         let (mut u, mut f) = (VectorField::zeros(n), VectorField::zeros(n));
         let (mut u_b, mut f_b) = (VectorField::zeros(n), VectorField::zeros(n));
+        let mut inverse = inverse;
         let mut apply = |v: &[f64]| -> Vec<f64> {
             let kv = k_into(v, &mut u, &mut f);
-            dofs.expand(&kv, &mut u);
-            let step = inverse(&u).and_then(|w| inverse(&m_times(&w)));
+            let step = match &mut inverse {
+                // u = M_L⁻¹ r as GridMass::solve_lumped forms it on the free entries.
+                Inverse::Lumped(inv) => {
+                    let w = dofs.scale(&kv, inv);
+                    dofs.expand(&w, &mut u);
+                    ops.mass_product_into(mass, &u, &mut f);
+                    Ok(dofs.scale(&dofs.compress(&f), inv))
+                }
+                Inverse::Solve(solve) => {
+                    dofs.expand(&kv, &mut u);
+                    solve(&u)
+                        .and_then(|w| {
+                            ops.mass_product_into(mass, &w, &mut f);
+                            solve(&f)
+                        })
+                        .map(|w| dofs.compress(&w))
+                }
+            };
             match step {
-                Ok(w) => dofs.compress(&w),
+                Ok(w) => w,
                 Err(e) => {
                     failure.get_or_insert(e);
                     vec![0.0; v.len()]
@@ -373,8 +430,8 @@ pub fn mpm_max_frequency_squared(
         }
         Ok(result.map_or((0.0, 0), |(top, steps)| (top.max(0.0), steps)))
     };
-    let (velocity, steps_v) = run(inverse_velocity)?;
-    let (omega_squared, lanczos_steps) = match inverse_acceleration {
+    let (velocity, steps_v) = run(velocity)?;
+    let (omega_squared, lanczos_steps) = match acceleration {
         None => (velocity, steps_v),
         Some(inverse) => {
             let (acceleration, steps_a) = run(inverse)?;

@@ -6,6 +6,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use nalgebra_sparse::CscMatrix;
 
 use super::{Csc, Operator, Operators, Stencil};
+use crate::fields::VectorField;
 use crate::with_support;
 
 impl Operators {
@@ -122,6 +123,54 @@ impl Operators {
             assert_eq!(o.len(), np, "particle output length must equal the particle count");
         }
         with_support!(self, gather_columns::<S, K>(self, op, &y, &mut out));
+    }
+}
+
+impl Operators {
+    /// The consistent-mass product without the matrix, in one sweep over the particles:
+    ///
+    /// ```text
+    /// out = N diag(w) Nᵀ u      (n-vectors, both components)
+    /// ```
+    ///
+    /// the same operations and order as [`Operators::gather`] of `N` followed by
+    /// [`Operators::scatter_scaled`] with weights `w` (so the same bits), with no per-particle
+    /// array. `out` is cleared over the node span only and must be zero outside it.
+    ///
+    /// # Panics
+    /// If `w` does not have one entry per particle, or `u`, `out` one per node.
+    pub(crate) fn mass_product_into(&self, w: &[f64], u: &VectorField, out: &mut VectorField) {
+        assert_eq!(w.len(), self.num_particles(), "one weight per particle");
+        assert!(u.len() == self.num_nodes && out.len() == self.num_nodes, "one value per node");
+        let span = self.node_span();
+        out.x[span.clone()].fill(0.0);
+        out.y[span].fill(0.0);
+        with_support!(self, mass_product_columns::<S>(self, w, u, out));
+    }
+}
+
+fn mass_product_columns<const S: usize>(ops: &Operators, w: &[f64], u: &VectorField, out: &mut VectorField) {
+    for p in 0..ops.num_particles {
+        let st = ops.stencil::<S>(p);
+        // gather_columns' sums, then scatter_columns' products.
+        let mut acc = [0.0; 2];
+        for b in 0..S {
+            let (start, v) = st.n_row(b);
+            for (k, y) in [&u.x, &u.y].into_iter().enumerate() {
+                for a in 0..S {
+                    acc[k] += v[a] * y[start + a];
+                }
+            }
+        }
+        let xp = [w[p] * acc[0], w[p] * acc[1]];
+        for b in 0..S {
+            let (start, v) = st.n_row(b);
+            for (k, o) in [&mut out.x, &mut out.y].into_iter().enumerate() {
+                for a in 0..S {
+                    o[start + a] += v[a] * xp[k];
+                }
+            }
+        }
     }
 }
 

@@ -8,7 +8,7 @@ use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::mass::{series_velocity_into, GridMass, MassScheme, Role, SeriesScratch};
 use crate::particles::Particles;
-use crate::stiffness::{self, FrequencyEstimate};
+use crate::stiffness::{self, FrequencyEstimate, Inverse};
 
 /// The stable step found by the last frequency estimate.
 #[derive(Debug, Clone, Copy)]
@@ -255,12 +255,11 @@ pub(super) fn estimate_by(
 ) -> Result<Stability> {
     let (ops, p, mass) = (&cache.ops, &state.particles, &cache.mass);
     let n = ops.num_nodes();
-    let tangent: Vec<[f64; 3]> = (0..p.len())
-        .map(|k| {
-            let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
-            setup.bodies[p.body[k]].material.tangent(f)
-        })
-        .collect();
+    // Each particle's tangent, formed where a product reads it (no per-particle array).
+    let tangent_of = |k: usize| {
+        let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
+        setup.bodies[p.body[k]].material.tangent(f)
+    };
     let mut free: Vec<bool> = mass.is_active().iter().chain(mass.is_active()).copied().collect();
     let c = &setup.prescribed.constraints;
     c.fixed_x.iter().for_each(|&i| free[i] = false);
@@ -310,18 +309,25 @@ pub(super) fn estimate_by(
     let mut velocity = inverse(Role::Velocity);
     let mut acceleration = inverse(Role::Acceleration);
     let same = options.mass.velocity == options.mass.acceleration;
+    let lumped = options.mass.velocity == MassScheme::Lumped && same && series.is_none();
     let estimate = match bound {
         Some(m) => {
+            let tangent: Vec<[f64; 3]> = (0..p.len()).map(tangent_of).collect();
             stiffness::mpm_mass_bound_frequency_squared(ops, &p.volume, &tangent, free, |_, x| m.mul(x), m.diagonal())
         }
-        None => stiffness::mpm_max_frequency_squared(
+        None if lumped => {
+            // The lumped solve as a scaling of the free entries (the same bits as the solve).
+            let inverse = Inverse::Lumped(mass.inverse_lumped());
+            stiffness::max_frequency_squared_with(ops, &p.mass, &p.volume, &tangent_of, free, inverse, None)?
+        }
+        None => stiffness::max_frequency_squared_with(
             ops,
             &p.mass,
             &p.volume,
-            &tangent,
+            &tangent_of,
             free,
-            &mut velocity,
-            if same { None } else { Some(&mut acceleration) },
+            Inverse::Solve(&mut velocity),
+            (!same).then_some(Inverse::Solve(&mut acceleration)),
         )?,
     };
     let alpha = options.transfer.flip_weight();
