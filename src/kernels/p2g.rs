@@ -63,7 +63,8 @@ pub(crate) fn p2g_with(
     let above = old.start.max(span.end)..old.end;
     for range in [below, above].into_iter().filter(|r| r.start < r.end) {
         lumped[range.clone()].fill(0.0);
-        for field in [&mut grid.momentum, &mut grid.force] {
+        // (Without `fields` they are never written, so never need clearing.)
+        for field in [&mut grid.momentum, &mut grid.force].into_iter().filter(|_| fields) {
             field.x[range.clone()].fill(0.0);
             field.y[range.clone()].fill(0.0);
         }

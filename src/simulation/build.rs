@@ -90,7 +90,7 @@ impl Simulation {
         };
         let setup = Setup {
             materials: bodies.iter().map(|b| b.material.prepared()).collect(),
-            prescribed_velocity: prescribed_velocity_field(&prescribed),
+            prescribed_velocity: std::sync::OnceLock::new(),
             grid,
             bodies,
             density,
@@ -187,7 +187,7 @@ fn reference_densities(particles: &Particles, num_bodies: usize) -> Vec<f64> {
 }
 
 /// The prescribed velocities as a grid field, 0 where free.
-fn prescribed_velocity_field(prescribed: &Prescribed) -> VectorField {
+pub(super) fn prescribed_velocity_field(prescribed: &Prescribed) -> VectorField {
     let zero_free = |v: &[f64]| v.iter().map(|v| if v.is_nan() { 0.0 } else { *v }).collect();
     VectorField {
         x: zero_free(&prescribed.vx),

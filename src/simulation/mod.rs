@@ -88,7 +88,7 @@ struct Setup {
     /// The resolved boundary conditions.
     prescribed: Prescribed,
     /// The prescribed velocities as a grid field (0 where free).
-    prescribed_velocity: VectorField,
+    prescribed_velocity: std::sync::OnceLock<VectorField>,
     /// The worker threads ([`Options::threads`]).
     workers: Workers,
 }

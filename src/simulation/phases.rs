@@ -328,7 +328,10 @@ fn project_velocity(
     q: &VectorField,
     v: &mut VectorField,
 ) -> Result<SolveReport> {
-    let report = mass.solve_warm_into(Role::Velocity, q, Some(&setup.prescribed_velocity), ops, v)?;
+    let prescribed = setup
+        .prescribed_velocity
+        .get_or_init(|| super::build::prescribed_velocity_field(&setup.prescribed));
+    let report = mass.solve_warm_into(Role::Velocity, q, Some(prescribed), ops, v)?;
     setup.prescribed.apply_velocity(&mut v.x, &mut v.y);
     Ok(report)
 }
