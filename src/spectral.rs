@@ -135,8 +135,10 @@ pub fn lanczos_max(
             return Some((top, j + 1));
         }
         beta.push(b);
-        v_prev = std::mem::replace(&mut v, w.iter().map(|x| x / b).collect());
-        bv_prev = std::mem::replace(&mut bv, bw.iter().map(|x| x / b).collect());
+        let (mut w, mut bw) = (w, bw);
+        w.iter_mut().chain(bw.iter_mut()).for_each(|x| *x /= b);
+        v_prev = std::mem::replace(&mut v, w);
+        bv_prev = std::mem::replace(&mut bv, bw);
     }
     unreachable!("the loop returns at its last step")
 }

@@ -139,33 +139,38 @@ pub(crate) fn apply_tangent_stiffness_into(
 /// `d − n`), and the maps between a field and the vector of its free entries.
 struct FreeDofs {
     n: usize,
-    list: Vec<usize>,
+    /// The nodes whose x component is free, then those whose y component is, each ascending
+    /// (32-bit: the operators number fewer than 2³² nodes): the free degrees of freedom in
+    /// order.
+    nodes: [Vec<u32>; 2],
 }
 
 impl FreeDofs {
     fn new(free: &[bool]) -> FreeDofs {
-        FreeDofs {
-            n: free.len() / 2,
-            list: (0..free.len()).filter(|&d| free[d]).collect(),
-        }
+        let n = free.len() / 2;
+        let of = |c: usize| (0..n).filter(|&i| free[c * n + i]).map(|i| i as u32).collect();
+        FreeDofs { n, nodes: [of(0), of(1)] }
+    }
+
+    /// Every free degree of freedom as (component, node), in order.
+    fn each(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (0..2).flat_map(move |c| self.nodes[c].iter().map(move |&i| (c, i as usize)))
     }
 
     /// The free entries of `field`.
     fn compress(&self, field: &VectorField) -> Vec<f64> {
-        let n = self.n;
-        self.list
-            .iter()
-            .map(|&d| if d < n { field.x[d] } else { field.y[d - n] })
-            .collect()
+        let f = [&field.x, &field.y];
+        self.each().map(|(c, i)| f[c][i]).collect()
     }
 
     /// [`start_vector`] of all `2n` degrees of freedom on the free ones, at the free ones (the
     /// same pseudo-random sequence, without the full vector).
     fn start_vector(&self) -> Vec<f64> {
-        let mut next = self.list.iter().peekable();
-        let mut out = Vec::with_capacity(self.list.len());
-        start_sequence(2 * self.n, |d, value| {
-            if next.peek() == Some(&&d) {
+        let n = self.n;
+        let mut next = self.each().map(|(c, i)| c * n + i).peekable();
+        let mut out = Vec::new();
+        start_sequence(2 * n, |d, value| {
+            if next.peek() == Some(&d) {
                 next.next();
                 out.push(value);
             }
@@ -175,23 +180,17 @@ impl FreeDofs {
 
     /// `x_d · inv(node of d)` for each free entry `x_d`: the lumped solve `r · (1/m_L)`.
     fn scale(&self, x: &[f64], inv: &[f64]) -> Vec<f64> {
-        let n = self.n;
-        self.list
-            .iter()
-            .zip(x)
-            .map(|(&d, &v)| v * inv[if d < n { d } else { d - n }])
-            .collect()
+        self.each().zip(x).map(|((_, i), &v)| v * inv[i]).collect()
     }
 
     /// Writes the free entries `v` into `field`, whose other entries stay as they are (zero
     /// for the fields of an estimate).
     fn expand(&self, v: &[f64], field: &mut VectorField) {
-        let n = self.n;
-        for (&d, &x) in self.list.iter().zip(v) {
-            if d < n {
-                field.x[d] = x;
+        for ((c, i), &x) in self.each().zip(v) {
+            if c == 0 {
+                field.x[i] = x;
             } else {
-                field.y[d - n] = x;
+                field.y[i] = x;
             }
         }
     }
@@ -392,25 +391,26 @@ pub(crate) fn max_frequency_squared_with(
     let start = dofs.start_vector();
     let run = |inverse: Inverse<'_, '_>| -> Result<(f64, usize)> {
         let mut failure = None;
-        let (mut u, mut f) = (VectorField::zeros(n), VectorField::zeros(n));
-        let (mut u_b, mut f_b) = (VectorField::zeros(n), VectorField::zeros(n));
+        // Two grid fields, shared by the two products (Lanczos applies them one after the other).
+        let fields = std::cell::RefCell::new((VectorField::zeros(n), VectorField::zeros(n)));
         let mut inverse = inverse;
         let mut apply = |v: &[f64]| -> Vec<f64> {
-            let kv = k_into(v, &mut u, &mut f);
+            let (u, f) = &mut *fields.borrow_mut();
+            let kv = k_into(v, u, f);
             let step = match &mut inverse {
                 // u = M_L⁻¹ r as GridMass::solve_lumped forms it on the free entries.
                 Inverse::Lumped(inv) => {
                     let w = dofs.scale(&kv, inv);
-                    dofs.expand(&w, &mut u);
-                    ops.mass_product_into(mass, &u, &mut f);
-                    Ok(dofs.scale(&dofs.compress(&f), inv))
+                    dofs.expand(&w, u);
+                    ops.mass_product_into(mass, u, f);
+                    Ok(dofs.scale(&dofs.compress(f), inv))
                 }
                 Inverse::Solve(solve) => {
-                    dofs.expand(&kv, &mut u);
-                    solve(&u)
+                    dofs.expand(&kv, u);
+                    solve(u)
                         .and_then(|w| {
-                            ops.mass_product_into(mass, &w, &mut f);
-                            solve(&f)
+                            ops.mass_product_into(mass, &w, f);
+                            solve(f)
                         })
                         .map(|w| dofs.compress(&w))
                 }
@@ -423,7 +423,10 @@ pub(crate) fn max_frequency_squared_with(
                 }
             }
         };
-        let k = |v: &[f64]| k_into(v, &mut u_b, &mut f_b);
+        let k = |v: &[f64]| {
+            let (u, f) = &mut *fields.borrow_mut();
+            k_into(v, u, f)
+        };
         let result = lanczos_max(&start, FREQUENCY_MAX_STEPS, FREQUENCY_TOLERANCE, &mut apply, k);
         if let Some(e) = failure {
             return Err(e);
