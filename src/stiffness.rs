@@ -149,7 +149,10 @@ impl FreeDofs {
     fn new(free: &[bool]) -> FreeDofs {
         let n = free.len() / 2;
         let of = |c: usize| (0..n).filter(|&i| free[c * n + i]).map(|i| i as u32).collect();
-        FreeDofs { n, nodes: [of(0), of(1)] }
+        FreeDofs {
+            n,
+            nodes: [of(0), of(1)],
+        }
     }
 
     /// Every free degree of freedom as (component, node), in order.

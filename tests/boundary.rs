@@ -9,8 +9,9 @@ fn grid() -> Grid {
     Grid::new([1.0, 2.0], [0.5, 0.25], [4, 3]).unwrap()
 }
 
-fn prescribed_nodes(values: &[f64]) -> Vec<usize> {
-    (0..values.len()).filter(|&i| !values[i].is_nan()).collect()
+/// The nodes with a prescribed component `c` (0: x, 1: y), read back node by node.
+fn prescribed_nodes(g: &Grid, p: &sparse_mpm::boundary::Prescribed, c: usize) -> Vec<usize> {
+    (0..g.num_nodes()).filter(|&i| p.velocity(i)[c].is_some()).collect()
 }
 
 #[test]
@@ -23,9 +24,10 @@ fn an_edge_covers_the_kernels_boundary_layers_by_default() {
     ] {
         let p = resolve(&g, shape, &[BoundaryCondition::edge(Edge::Bottom, Condition::Fixed)]).unwrap();
         let expected: Vec<usize> = (0..5 * layers).collect();
-        assert_eq!(prescribed_nodes(&p.vx), expected, "{shape:?}");
-        assert_eq!(prescribed_nodes(&p.vy), expected, "{shape:?}");
-        assert!(expected.iter().all(|&i| p.vx[i] == 0.0 && p.vy[i] == 0.0));
+        assert_eq!(prescribed_nodes(&g, &p, 0), expected, "{shape:?}");
+        assert_eq!(prescribed_nodes(&g, &p, 1), expected, "{shape:?}");
+        assert_eq!(p.constraints.fixed_x, expected, "{shape:?}");
+        assert!(expected.iter().all(|&i| p.velocity(i) == [Some(0.0), Some(0.0)]));
     }
 }
 
@@ -62,11 +64,11 @@ fn rectangles_and_node_lists_select_their_nodes_and_later_conditions_win() {
             expected.push(g.node_index(i, j));
         }
     }
-    assert_eq!(prescribed_nodes(&p.vx), expected);
-    assert_eq!(prescribed_nodes(&p.vy), vec![g.node_index(2, 2)]);
-    assert_eq!(p.vx[g.node_index(1, 1)], 1.0);
-    assert_eq!(p.vx[g.node_index(2, 2)], -3.0);
-    assert_eq!(p.vy[g.node_index(2, 2)], 4.0);
+    assert_eq!(prescribed_nodes(&g, &p, 0), expected);
+    assert_eq!(prescribed_nodes(&g, &p, 1), vec![g.node_index(2, 2)]);
+    assert_eq!(p.velocity(g.node_index(1, 1)), [Some(1.0), None]);
+    assert_eq!(p.velocity(g.node_index(2, 2)), [Some(-3.0), Some(4.0)]);
+    assert_eq!(p.velocity(g.node_index(0, 0)), [None, None]);
     // Applying them overwrites exactly those components.
     let (mut vx, mut vy) = (vec![9.0; g.num_nodes()], vec![9.0; g.num_nodes()]);
     p.apply_velocity(&mut vx, &mut vy);

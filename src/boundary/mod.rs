@@ -210,15 +210,16 @@ impl BoundaryCondition {
     }
 }
 
-/// The prescribed nodal velocity components of a grid, resolved from a list of conditions.
+/// The prescribed nodal velocity components of a grid, resolved from a list of conditions:
+/// the prescribed degrees of freedom as lists and their values beside them (nothing per free
+/// node).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Prescribed {
-    /// Prescribed x velocity per node, NaN where free.
-    pub vx: Vec<f64>,
-    /// Prescribed y velocity per node, NaN where free.
-    pub vy: Vec<f64>,
-    /// The prescribed degrees of freedom as lists (for the mass solves).
+    /// The prescribed degrees of freedom as lists, ascending (for the mass solves).
     pub constraints: Constraints,
+    /// The prescribed value of each entry of `constraints.fixed_x` (then of `fixed_y`), in the
+    /// same order.
+    pub values: [Vec<f64>; 2],
     /// The walls under [`WallRule::Mirror`], whose ghost lines the operators fold.
     pub mirror: MirrorWalls,
 }
@@ -229,13 +230,30 @@ impl Prescribed {
         self.constraints.fixed_x.is_empty() && self.constraints.fixed_y.is_empty()
     }
 
+    /// The prescribed `[x, y]` velocity components of `node` (`None` where free).
+    pub fn velocity(&self, node: usize) -> [Option<f64>; 2] {
+        let c = &self.constraints;
+        let at = |k: usize, list: &[usize]| list.binary_search(&node).ok().map(|j| self.values[k][j]);
+        [at(0, &c.fixed_x), at(1, &c.fixed_y)]
+    }
+
+    /// Each prescribed component as `(component, node, value)`: x components first.
+    pub fn each(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+        let c = &self.constraints;
+        [&c.fixed_x, &c.fixed_y]
+            .into_iter()
+            .enumerate()
+            .flat_map(move |(k, list)| list.iter().zip(&self.values[k]).map(move |(&i, &v)| (k, i, v)))
+    }
+
     /// Overwrites the prescribed components of a grid velocity with their values.
     pub fn apply_velocity(&self, vx: &mut [f64], vy: &mut [f64]) {
-        for &i in &self.constraints.fixed_x {
-            vx[i] = self.vx[i];
-        }
-        for &i in &self.constraints.fixed_y {
-            vy[i] = self.vy[i];
+        for (k, i, v) in self.each() {
+            if k == 0 {
+                vx[i] = v;
+            } else {
+                vy[i] = v;
+            }
         }
     }
 
@@ -454,12 +472,10 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
         bc.validate(k, grid, shape)?;
     }
     let n = grid.num_nodes();
-    let mut out = Prescribed {
-        vx: vec![f64::NAN; n],
-        vy: vec![f64::NAN; n],
-        constraints: Constraints::none(),
-        mirror: MirrorWalls::default(),
-    };
+    // The values per node while the conditions are read (a later condition overrides an earlier
+    // one on a node they share); kept as lists.
+    let (mut vx_of, mut vy_of) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+    let mut out = Prescribed::default();
     let [nx, ny] = grid.nodes_per_axis();
     let mut nodes = Vec::new();
     for (k, bc) in conditions.iter().enumerate() {
@@ -511,15 +527,19 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
         }
         for &i in &nodes {
             if let Some(v) = vx {
-                out.vx[i] = v;
+                vx_of[i] = v;
             }
             if let Some(v) = vy {
-                out.vy[i] = v;
+                vy_of[i] = v;
             }
         }
     }
     out.mirror.validate(shape)?;
-    out.constraints.fixed_x = (0..n).filter(|&i| !out.vx[i].is_nan()).collect();
-    out.constraints.fixed_y = (0..n).filter(|&i| !out.vy[i].is_nan()).collect();
+    out.constraints.fixed_x = (0..n).filter(|&i| !vx_of[i].is_nan()).collect();
+    out.constraints.fixed_y = (0..n).filter(|&i| !vy_of[i].is_nan()).collect();
+    out.values = [
+        out.constraints.fixed_x.iter().map(|&i| vx_of[i]).collect(),
+        out.constraints.fixed_y.iter().map(|&i| vy_of[i]).collect(),
+    ];
     Ok(out)
 }

@@ -65,20 +65,17 @@ pub(crate) fn update_lumped_grid(
             acc[j] = [w_x, w_y, vx, vy, m];
         }
     });
-    let c = &prescribed.constraints;
-    for (component, fixed, value) in [(0, &c.fixed_x, &prescribed.vx), (1, &c.fixed_y, &prescribed.vy)] {
+    for (component, i, value) in prescribed.each() {
         let w = if component == 0 {
             &mut grid.updated.x
         } else {
             &mut grid.updated.y
         };
-        for &i in fixed.iter() {
-            w[i] = value[i];
-            if span.contains(&i) {
-                let node = &mut grid.accumulator[i - base];
-                node[component] = value[i];
-                node[2 + component] = value[i];
-            }
+        w[i] = value;
+        if span.contains(&i) {
+            let node = &mut grid.accumulator[i - base];
+            node[component] = value;
+            node[2 + component] = value;
         }
     }
 }

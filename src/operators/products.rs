@@ -141,7 +141,10 @@ impl Operators {
     /// If `w` does not have one entry per particle, or `u`, `out` one per node.
     pub(crate) fn mass_product_into(&self, w: &[f64], u: &VectorField, out: &mut VectorField) {
         assert_eq!(w.len(), self.num_particles(), "one weight per particle");
-        assert!(u.len() == self.num_nodes && out.len() == self.num_nodes, "one value per node");
+        assert!(
+            u.len() == self.num_nodes && out.len() == self.num_nodes,
+            "one value per node"
+        );
         let span = self.node_span();
         out.x[span.clone()].fill(0.0);
         out.y[span].fill(0.0);

@@ -187,10 +187,8 @@ fn reference_densities(particles: &Particles, num_bodies: usize) -> Vec<f64> {
 }
 
 /// The prescribed velocities as a grid field, 0 where free.
-pub(super) fn prescribed_velocity_field(prescribed: &Prescribed) -> VectorField {
-    let zero_free = |v: &[f64]| v.iter().map(|v| if v.is_nan() { 0.0 } else { *v }).collect();
-    VectorField {
-        x: zero_free(&prescribed.vx),
-        y: zero_free(&prescribed.vy),
-    }
+pub(super) fn prescribed_velocity_field(prescribed: &Prescribed, n: usize) -> VectorField {
+    let mut field = VectorField::zeros(n);
+    prescribed.apply_velocity(&mut field.x, &mut field.y);
+    field
 }

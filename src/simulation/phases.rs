@@ -330,7 +330,7 @@ fn project_velocity(
 ) -> Result<SolveReport> {
     let prescribed = setup
         .prescribed_velocity
-        .get_or_init(|| super::build::prescribed_velocity_field(&setup.prescribed));
+        .get_or_init(|| super::build::prescribed_velocity_field(&setup.prescribed, setup.grid.num_nodes()));
     let report = mass.solve_warm_into(Role::Velocity, q, Some(prescribed), ops, v)?;
     setup.prescribed.apply_velocity(&mut v.x, &mut v.y);
     Ok(report)
