@@ -181,9 +181,11 @@ impl FreeDofs {
         out
     }
 
-    /// `x_d · inv(node of d)` for each free entry `x_d`: the lumped solve `r · (1/m_L)`.
-    fn scale(&self, x: &[f64], inv: &[f64]) -> Vec<f64> {
-        self.each().zip(x).map(|((_, i), &v)| v * inv[i]).collect()
+    /// `x_d ← x_d · inv(node of d)` for each free entry `x_d`: the lumped solve `r · (1/m_L)`.
+    fn scale(&self, x: &mut [f64], inv: &[f64]) {
+        for ((_, i), v) in self.each().zip(x) {
+            *v *= inv[i];
+        }
     }
 
     /// Writes the free entries `v` into `field`, whose other entries stay as they are (zero
@@ -403,10 +405,13 @@ pub(crate) fn max_frequency_squared_with(
             let step = match &mut inverse {
                 // u = M_L⁻¹ r as GridMass::solve_lumped forms it on the free entries.
                 Inverse::Lumped(inv) => {
-                    let w = dofs.scale(&kv, inv);
+                    let mut w = kv;
+                    dofs.scale(&mut w, inv);
                     dofs.expand(&w, u);
                     ops.mass_product_into(mass, u, f);
-                    Ok(dofs.scale(&dofs.compress(f), inv))
+                    let mut out = dofs.compress(f);
+                    dofs.scale(&mut out, inv);
+                    Ok(out)
                 }
                 Inverse::Solve(solve) => {
                     dofs.expand(&kv, u);

@@ -92,6 +92,8 @@ pub struct GridMass {
     every_massive_node_active: bool,
     /// Per block of nodes, work space of [`GridMass::prepare_with`].
     block_counts: Vec<[usize; 2]>,
+    /// The nodes whose active flag and `1/m_L` the last preparation wrote.
+    prepared: std::ops::Range<usize>,
     /// The prescribed degrees of freedom of the last update.
     pub(super) constraints: Constraints,
     /// Free degrees of freedom of the x and y components (schemes other than lumped).
@@ -135,7 +137,9 @@ impl GridMass {
         options: &MassOptions,
         constraints: &Constraints,
     ) -> Result<()> {
-        self.lumped.resize(ops.num_nodes(), 0.0);
+        if self.lumped.len() != ops.num_nodes() {
+            self.lumped = vec![0.0; ops.num_nodes()];
+        }
         lumped_mass_into(ops, m, &mut self.lumped);
         self.prepare(ops, m, options, constraints)
     }
@@ -164,37 +168,51 @@ impl GridMass {
         options: &MassOptions,
         constraints: &Constraints,
     ) -> Result<()> {
-        self.prepare_with(ops, m, options, constraints, &Workers::default())
+        let all = 0..ops.num_nodes();
+        self.prepare_with(ops, m, options, constraints, all, &Workers::default())
     }
 
-    /// [`GridMass::prepare`], the active set and `1/m_L` in blocks of nodes on `workers`' threads
-    /// (the result does not depend on them).
+    /// [`GridMass::prepare`] for a lumped mass that is zero outside the nodes `nodes` (the
+    /// operators' node span, for the time loop's particle-to-grid pass): the active set and
+    /// `1/m_L` written there only (and cleared where the last call wrote them and this one does
+    /// not), in blocks of nodes on `workers`' threads (the result does not depend on them).
     pub(crate) fn prepare_with(
         &mut self,
         ops: &Operators,
         m: &[f64],
         options: &MassOptions,
         constraints: &Constraints,
+        nodes: std::ops::Range<usize>,
         workers: &Workers,
     ) -> Result<()> {
         let n = ops.num_nodes();
         assert_eq!(self.lumped.len(), n, "one lumped mass per node");
+        assert!(nodes.end <= n, "the nodes lie on the grid");
         validate(options)?;
         self.options = *options;
         self.constraints.fixed_x.clone_from(&constraints.fixed_x);
         self.constraints.fixed_y.clone_from(&constraints.fixed_y);
-        self.is_active.resize(n, false);
-        self.inverse.resize(n, 0.0);
+        if self.is_active.len() != n {
+            // Zeroed pages, touched where the nodes need them.
+            (self.is_active, self.inverse, self.prepared) = (vec![false; n], vec![0.0; n], 0..0);
+        }
+        let old = std::mem::replace(&mut self.prepared, nodes.clone());
+        for range in [old.start..old.end.min(nodes.start), old.start.max(nodes.end)..old.end] {
+            if range.start < range.end {
+                self.is_active[range.clone()].fill(false);
+                self.inverse[range].fill(0.0);
+            }
+        }
         // mark_active with 1/m_L beside it: the largest mass (order-free), then the flags.
-        let lumped = &self.lumped;
+        let lumped = &self.lumped[nodes.clone()];
         let mut maxima = std::mem::take(&mut self.block_counts);
-        workers.blocks(n, &mut maxima, |range| {
+        workers.blocks(lumped.len(), &mut maxima, |range| {
             let max = lumped[range].iter().cloned().fold(0.0, f64::max);
             [max.to_bits() as usize, 0]
         });
         let max = maxima.iter().map(|b| f64::from_bits(b[0] as u64)).fold(0.0, f64::max);
         let threshold = options.active_tolerance * max;
-        let out = (&mut self.is_active[..], &mut self.inverse[..]);
+        let out = (&mut self.is_active[nodes.clone()], &mut self.inverse[nodes]);
         workers.split_blocks(out, &mut maxima, |first, (flags, inverse)| {
             let (mut active, mut positive) = (0, 0);
             for (j, (flag, inv)) in flags.iter_mut().zip(inverse.iter_mut()).enumerate() {

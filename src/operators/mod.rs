@@ -336,6 +336,15 @@ impl Operators {
         };
     }
 
+    /// A per-particle array whose contents the next [`Operators::reassemble`] rewrites whatever
+    /// they are, lent as work space (the time loop's sort uses it between two assemblies): the
+    /// operators are not usable until reassembled.
+    pub(crate) fn reassembly_scratch(&mut self) -> &mut Vec<f64> {
+        self.csc.take();
+        self.num_particles = 0;
+        &mut self.local[0]
+    }
+
     /// Whether the operators store every column's factors (after a fold of the weights by
     /// mirrored walls, or with a uGIMP stencil shifted at the grid's edge) rather than the
     /// kernel coordinates they are computed from.

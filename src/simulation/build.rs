@@ -71,7 +71,8 @@ impl Simulation {
             .fold(&grid, options.shape, &particles.x, &particles.y, &mut ops);
         let mut nodes = GridState::new(&grid);
         let mut mass = GridMass::default();
-        mass.lumped_mut().resize(grid.num_nodes(), 0.0);
+        // Zeroed pages: the time loop writes the particles' span only.
+        *mass.lumped_mut() = vec![0.0; grid.num_nodes()];
         let (density, state) = match resume {
             None => (reference_densities(&particles, bodies.len()), State::start(particles)),
             Some(saved) => {

@@ -34,7 +34,10 @@ impl Simulation {
         let interval = options.sort_interval;
         if interval > 0 && state.steps.is_multiple_of(interval) {
             timed(profile, Phase::Sort, || {
-                sort_particles(grid, options.shape, &mut state.particles, &mut scratch.sorting)
+                // The operators' coordinate array, which the assembly below rewrites, lends its
+                // memory as the sort's work array.
+                let work = cache.ops.reassembly_scratch();
+                sort_particles(grid, options.shape, &mut state.particles, &mut scratch.sorting, work)
             });
         }
         let p = &state.particles;
@@ -68,7 +71,14 @@ impl Simulation {
         }); // (2)–(5)
         let constraints = &setup.prescribed.constraints;
         timed(profile, Phase::Mass, || {
-            mass.prepare_with(ops, &p.mass, &options.mass, constraints, workers)
+            mass.prepare_with(
+                ops,
+                &p.mass,
+                &options.mass,
+                constraints,
+                mass_nodes(ops, mirror),
+                workers,
+            )
         })?;
         if stability::estimate_due(options, state, &cache.mass) {
             let estimate = timed(profile, Phase::StableStep, || {
@@ -304,6 +314,16 @@ fn series_velocity(
     );
 }
 
+/// The nodes where the lumped mass of p2g can be non-zero: the operators' span, or every node
+/// with mirrored walls (whose fold adds ghost mass to mirror nodes, possibly outside it).
+fn mass_nodes(ops: &Operators, mirror: &crate::boundary::MirrorWalls) -> std::ops::Range<usize> {
+    if mirror.is_empty() {
+        ops.node_span()
+    } else {
+        0..ops.num_nodes()
+    }
+}
+
 /// Whether the step makes (6)–(8) in one pass over the grid ([`kernels::update_lumped_grid`]):
 /// the lumped mass in both solves, no stress update between them (not USF), no series
 /// velocity (not XPIC, FMPM) and no mirrored walls (whose lumped mass is folded).
@@ -489,7 +509,6 @@ pub(super) struct Sorting {
     keys: Vec<u32>,
     counts: Vec<u32>,
     order: Vec<u32>,
-    values: Vec<f64>,
 }
 
 impl Sorting {
@@ -507,7 +526,7 @@ impl Sorting {
 /// over the cells; particles the operators would refuse last), allocation-free: particles that
 /// share a stencil come together, and so do the stencils that start on one grid line, which
 /// the transfers take four at a time.
-fn sort_particles(grid: &Grid, shape: ShapeFunction, p: &mut Particles, s: &mut Sorting) {
+fn sort_particles(grid: &Grid, shape: ShapeFunction, p: &mut Particles, s: &mut Sorting, work: &mut Vec<f64>) {
     let np = p.len();
     let [cx, cy] = grid.cells();
     if u32::try_from(np).is_err() || u32::try_from(cx * cy + 1).is_err() {
@@ -537,5 +556,5 @@ fn sort_particles(grid: &Grid, shape: ShapeFunction, p: &mut Particles, s: &mut 
         s.order[s.counts[key] as usize] = k as u32;
         s.counts[key] += 1;
     }
-    p.permute_u32(&s.order, &mut s.values);
+    p.permute_u32(&s.order, work);
 }
