@@ -121,6 +121,9 @@ pub struct BenchRow {
     pub peak_bytes_per_particle: Option<f64>,
     /// Phase times summed over every repetition's timed steps, when profiled.
     pub profile: Option<Profile>,
+    /// Frequency estimates made during the timed steps of every repetition, and the Lanczos or
+    /// LOBPCG steps they took in all ([`crate::stiffness::FrequencyEstimate::lanczos_steps`]).
+    pub estimates: [usize; 2],
 }
 
 impl BenchRow {
@@ -307,6 +310,7 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
         let (mut n_grid, mut dt) = (0, 0.0);
         let mut dt_range = [f64::INFINITY, 0.0f64];
         let mut profile = spec.profile.then(Profile::default);
+        let mut estimates = [0, 0];
         for rep in 0..spec.reps {
             let start = Instant::now();
             let mut sim = problem(n, spec)?;
@@ -319,7 +323,12 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
             sim.set_profiling(spec.profile);
             let start = Instant::now();
             for _ in 0..steps {
+                let before = sim.steps();
                 let report = sim.step()?;
+                if let Some((e, _)) = sim.frequency_estimate().filter(|&(_, at)| at == before) {
+                    estimates[0] += 1;
+                    estimates[1] += e.lanczos_steps;
+                }
                 dt_range[0] = dt_range[0].min(report.dt);
                 dt_range[1] = dt_range[1].max(report.dt);
             }
@@ -342,6 +351,7 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
                 _ => None,
             },
             profile,
+            estimates,
         };
         observe(&row);
         rows.push(row);

@@ -627,6 +627,13 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
                 row.particles
             ),
         }
+        let [estimates, iterations] = row.estimates;
+        println!(
+            "N = {}: frequency estimates in the timed steps: {estimates} in {} steps ({} Lanczos/LOBPCG steps each on average)",
+            row.particles,
+            row.steps * row.seconds.len(),
+            if estimates > 0 { format!("{:.1}", iterations as f64 / estimates as f64) } else { "-".into() }
+        );
         if let Some(profile) = &row.profile {
             let total = profile.total();
             let steps = profile.steps().max(1) as f64;
