@@ -229,6 +229,16 @@ pub enum MpmError {
         /// A few of their names.
         examples: Vec<String>,
     },
+    /// A snapshot (`.vtp`) or time series (`.pvd`) cannot be read
+    /// ([`io::vtk::read_vtp`](crate::io::vtk::read_vtp), [`io::vtk::read_pvd`](crate::io::vtk::read_pvd)):
+    /// not such a file, an encoding this reader does not take, truncated or inconsistent data.
+    #[error("{path}: {reason}")]
+    Snapshot {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, in words.
+        reason: String,
+    },
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {

@@ -111,6 +111,47 @@ fn encode_base64_tail(tail: &[u8]) -> [u8; 4] {
     }
 }
 
+/// Decodes base64 (standard alphabet, `=` padding optional, ASCII whitespace ignored) into
+/// `out`, which it clears first. `None` for any other byte, a lone trailing symbol, or data after
+/// padding.
+pub(super) fn decode_base64(input: &[u8], out: &mut Vec<u8>) -> Option<()> {
+    const INVALID: u8 = 0xff;
+    static VALUES: [u8; 256] = {
+        let mut table = [INVALID; 256];
+        let mut i = 0;
+        while i < 64 {
+            table[BASE64_ALPHABET[i] as usize] = i as u8;
+            i += 1;
+        }
+        table
+    };
+    out.clear();
+    out.reserve(input.len() / 4 * 3);
+    let (mut acc, mut bits, mut padded) = (0u32, 0u32, false);
+    for &c in input {
+        if c.is_ascii_whitespace() {
+            continue;
+        }
+        if c == b'=' {
+            padded = true;
+            continue;
+        }
+        let v = VALUES[c as usize];
+        if v == INVALID || padded {
+            return None;
+        }
+        acc = (acc << 6) | u32::from(v);
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    // 6 bits left over: a lone symbol, which encodes no whole byte.
+    (bits < 6).then_some(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -123,6 +164,21 @@ mod tests {
             out.extend_from_slice(&encode_base64_tail(&bytes[whole..]));
         }
         String::from_utf8(out).unwrap()
+    }
+
+    #[test]
+    fn decoding_inverts_encoding_and_refuses_what_is_not_base64() {
+        let mut out = Vec::new();
+        for len in 0..40 {
+            let bytes: Vec<u8> = (0..len).map(|i| (i * 37 + 11) as u8).collect();
+            assert_eq!(decode_base64(encode_all(&bytes).as_bytes(), &mut out), Some(()));
+            assert_eq!(out, bytes, "{len} bytes");
+        }
+        assert_eq!(decode_base64(b"Zm9v\nYmFy", &mut out), Some(()));
+        assert_eq!(out, b"foobar");
+        assert_eq!(decode_base64(b"Zm9v!", &mut out), None);
+        assert_eq!(decode_base64(b"Zg==Zg==", &mut out), None);
+        assert_eq!(decode_base64(b"Zm9vY", &mut out), None);
     }
 
     #[test]

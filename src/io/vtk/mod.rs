@@ -1,7 +1,8 @@
 //! Particle snapshots for ParaView: VTK XML PolyData (`.vtp`) files and a `.pvd` time series.
 //!
-//! This module writes them and does not read them back: ParaView, VTK's own readers and the
-//! `vtkio` crate read them (the tests read every `.vtp` file back with `vtkio`).
+//! This module writes them, and reads them back ([`read_vtp`], [`read_pvd`]) for `mpm render`
+//! and post-processing without ParaView; ParaView, VTK's own readers and the `vtkio` crate read
+//! them too (the tests read every `.vtp` file back with `vtkio`).
 //!
 //! ```no_run
 //! use std::path::Path;
@@ -40,8 +41,8 @@
 //!     <Piece NumberOfPoints="P" NumberOfVerts="P" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="0">
 //!       <PointData>
 //!         <DataArray type="Float64" Name="mass" NumberOfComponents="1" format="binary">…</DataArray>
-//!         <DataArray type="Float64" Name="velocity" NumberOfComponents="3" format="binary">…</DataArray>
-//!         <DataArray type="Float64" Name="stress" NumberOfComponents="9" format="binary">…</DataArray>
+//!         <DataArray type="Float64" Name="velocity" NumberOfComponents="3" ComponentName0="x" ComponentName1="y" ComponentName2="z" format="binary">…</DataArray>
+//!         <DataArray type="Float64" Name="stress" NumberOfComponents="9" ComponentName0="xx" … ComponentName8="zz" format="binary">…</DataArray>
 //!       </PointData>
 //!       <CellData>
 //!       </CellData>
@@ -63,6 +64,9 @@
 //!   (`x0 y0 z0 x1 y1 z1 …`). This is VTK's uncompressed binary format as `vtkXMLWriter` writes it.
 //! * `Points` holds `(x, y, 0)`. `connectivity` is `0, 1, …, P−1` and `offsets` is `1, 2, …, P`
 //!   (the end of each cell, the format of file version 1.0).
+//! * An index [`Field`] (`id`, `body`) is written as `Int64`, every other one as `Float64`.
+//!   Vectors and tensors name their components (`ComponentName0="x"`, … `"xx"`, `"xy"`, …),
+//!   which ParaView shows in its menus (`stress_xy`).
 //! * A scalar [`Field`] has 1 component. A 2D vector has 3, `(x, y, 0)`, so ParaView shows it
 //!   as a vector (arrows, magnitude). A 2 × 2 tensor has 9, the 3 × 3 tensor
 //!   `[[xx, xy, 0], [yx, yy, 0], [0, 0, 0]]` row by row (`xx xy 0 yx yy 0 0 0 0`), which ParaView
@@ -111,9 +115,11 @@ use super::{io_error, write_atomically};
 use crate::numbers::push_round_trip;
 
 mod base64;
+mod read;
 
 use crate::error::{MpmError, Result};
 use base64::Base64Writer;
+pub use read::{read_pvd, read_vtp, Snapshot, SnapshotArray, MAX_SNAPSHOT_BYTES};
 
 /// One point-data array of a snapshot: a value per particle.
 ///
@@ -128,6 +134,13 @@ pub enum Field<'a> {
         name: &'static str,
         /// One value per particle.
         values: &'a [f64],
+    },
+    /// A count or index per particle (id, body …), written as `Int64`.
+    Index {
+        /// Array name shown in ParaView.
+        name: &'static str,
+        /// One value per particle.
+        values: &'a [usize],
     },
     /// A 2D vector per particle (velocity, displacement …), written with 3 components
     /// `(x, y, 0)`.
@@ -160,22 +173,44 @@ impl<'a> Field<'a> {
     /// The array's name.
     pub fn name(&self) -> &'static str {
         match *self {
-            Field::Scalar { name, .. } | Field::Vector { name, .. } | Field::Tensor { name, .. } => name,
+            Field::Scalar { name, .. }
+            | Field::Index { name, .. }
+            | Field::Vector { name, .. }
+            | Field::Tensor { name, .. } => name,
         }
     }
 
     /// The number of components written per particle: 1, 3 or 9.
     pub fn components(&self) -> usize {
         match self {
-            Field::Scalar { .. } => 1,
+            Field::Scalar { .. } | Field::Index { .. } => 1,
             Field::Vector { .. } => 3,
             Field::Tensor { .. } => 9,
         }
     }
 
-    /// The slices the field is made of.
+    /// The names of its components, written as `ComponentName0`, … (ParaView shows them):
+    /// none for a scalar, `x y z` for a vector, `xx xy xz yx yy yz zx zy zz` for a tensor.
+    pub fn component_names(&self) -> &'static [&'static str] {
+        match self {
+            Field::Scalar { .. } | Field::Index { .. } => &[],
+            Field::Vector { .. } => &["x", "y", "z"],
+            Field::Tensor { .. } => &["xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"],
+        }
+    }
+
+    /// The lengths of the slices the field is made of.
+    fn lengths(&self) -> Vec<usize> {
+        match *self {
+            Field::Index { values, .. } => vec![values.len()],
+            _ => self.slices().iter().map(|s| s.len()).collect(),
+        }
+    }
+
+    /// The floating-point slices the field is made of (none for an index field).
     fn slices(&self) -> Vec<&'a [f64]> {
         match *self {
+            Field::Index { .. } => vec![],
             Field::Scalar { values, .. } => vec![values],
             Field::Vector { x, y, .. } => vec![x, y],
             Field::Tensor { xx, xy, yx, yy, .. } => vec![xx, xy, yx, yy],
@@ -197,8 +232,8 @@ pub fn write_vtp(path: &Path, x: &[f64], y: &[f64], fields: &[Field<'_>]) -> Res
     let n = x.len();
     check_len("y", n, y.len())?;
     for field in fields {
-        for slice in field.slices() {
-            check_len(field.name(), n, slice.len())?;
+        for len in field.lengths() {
+            check_len(field.name(), n, len)?;
         }
     }
     write_atomically(path, |w| write_vtp_body(w, x, y, fields))
@@ -226,9 +261,19 @@ fn write_vtp_body<W: Write>(w: &mut W, x: &[f64], y: &[f64], fields: &[Field<'_>
     )?;
     for field in fields {
         let components = field.components();
-        start_array(w, "Float64", field.name(), components)?;
+        let ty = if matches!(field, Field::Index { .. }) {
+            "Int64"
+        } else {
+            "Float64"
+        };
+        start_array(w, ty, field.name(), components, field.component_names())?;
         enc.begin(w, (n * components * 8) as u64)?;
         match *field {
+            Field::Index { values, .. } => {
+                for &v in values {
+                    enc.push(w, (v as i64).to_le_bytes())?;
+                }
+            }
             Field::Scalar { values, .. } => {
                 for &v in values {
                     enc.push(w, v.to_le_bytes())?;
@@ -254,7 +299,7 @@ fn write_vtp_body<W: Write>(w: &mut W, x: &[f64], y: &[f64], fields: &[Field<'_>
         w.write_all(b"</DataArray>\n")?;
     }
     w.write_all(b"      </PointData>\n      <CellData>\n      </CellData>\n      <Points>\n")?;
-    start_array(w, "Float64", "Points", 3)?;
+    start_array(w, "Float64", "Points", 3, &[])?;
     enc.begin(w, (n * 24) as u64)?;
     for (&a, &b) in x.iter().zip(y) {
         enc.push(w, a.to_le_bytes())?;
@@ -264,7 +309,7 @@ fn write_vtp_body<W: Write>(w: &mut W, x: &[f64], y: &[f64], fields: &[Field<'_>
     enc.finish(w)?;
     w.write_all(b"</DataArray>\n      </Points>\n      <Verts>\n")?;
     for (name, first) in [("connectivity", 0i64), ("offsets", 1i64)] {
-        start_array(w, "Int64", name, 1)?;
+        start_array(w, "Int64", name, 1, &[])?;
         enc.begin(w, (n * 8) as u64)?;
         for i in 0..n as i64 {
             enc.push(w, (i + first).to_le_bytes())?;
@@ -275,12 +320,22 @@ fn write_vtp_body<W: Write>(w: &mut W, x: &[f64], y: &[f64], fields: &[Field<'_>
     w.write_all(b"      </Verts>\n    </Piece>\n  </PolyData>\n</VTKFile>\n")
 }
 
-fn start_array<W: Write>(w: &mut W, ty: &str, name: &str, components: usize) -> std::io::Result<()> {
+fn start_array<W: Write>(
+    w: &mut W,
+    ty: &str,
+    name: &str,
+    components: usize,
+    component_names: &[&str],
+) -> std::io::Result<()> {
     write!(
         w,
-        "        <DataArray type=\"{ty}\" Name=\"{}\" NumberOfComponents=\"{components}\" format=\"binary\">",
+        "        <DataArray type=\"{ty}\" Name=\"{}\" NumberOfComponents=\"{components}\"",
         xml_escape(name)
-    )
+    )?;
+    for (c, component) in component_names.iter().enumerate() {
+        write!(w, " ComponentName{c}=\"{component}\"")?;
+    }
+    w.write_all(b" format=\"binary\">")
 }
 
 fn xml_escape(s: &str) -> std::borrow::Cow<'_, str> {
