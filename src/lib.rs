@@ -125,6 +125,7 @@ pub mod numbers;
 pub mod operators;
 pub mod parallel;
 pub mod particles;
+pub mod render;
 pub mod run;
 pub mod scene;
 mod schemes;

@@ -57,10 +57,23 @@ fn every_shipped_scene_runs_and_its_snapshots_read_back() {
             "{name}: times not increasing"
         );
         assert_eq!(series.last().unwrap().0, summary.time);
-        for (_, file) in &series {
+        for (k, (_, file)) in series.iter().enumerate() {
             let data = read_vtp(&out.join(file)).unwrap_or_else(|e| panic!("{name}: {e}"));
             assert_eq!(data.len(), summary.particles, "{name}: {}", file.display());
-            for array in ["id", "mass", "velocity", "stress", "J"] {
+            // The displacement is measured from the first snapshot's positions, by particle id.
+            let displacement = data.array("displacement").expect("a displacement array");
+            if k == 0 {
+                assert!(
+                    displacement.values.iter().all(|&u| u == 0.0),
+                    "{name}: moved at the start"
+                );
+            }
+            let radius = data.array("radius").expect("a radius array");
+            let volume = data.array("volume").expect("a volume array");
+            for (r, v) in radius.values.iter().zip(&volume.values) {
+                assert_eq!(*r, 0.5 * v.sqrt(), "{name}: radius");
+            }
+            for array in ["id", "body", "mass", "velocity", "stress", "strain", "pressure", "J"] {
                 assert!(
                     data.array(array).is_some(),
                     "{name}: no `{array}` in {}",

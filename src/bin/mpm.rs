@@ -75,6 +75,90 @@ enum Command {
     /// Columns `theta,c_ratio`: one row per θ = π j / samples, or with --cells N per wavenumber
     /// of a periodic bar of N cells (θ = 2π j / N, j = 1 … N/2).
     Dispersion(DispersionArgs),
+    /// Draw a run's particles coloured by a field: PNG frames and an animated GIF.
+    ///
+    /// Reads RUN_DIR/particles.pvd and its snapshots (and RUN_DIR/scene.toml for the grid);
+    /// writes OUT/frames_FIELD/frame_NNNNNN.png and OUT/FIELD.gif (OUT: RUN_DIR unless --out).
+    Render(RenderArgs),
+    /// Plot the energies and momenta of a run's report.csv against time into a PNG
+    /// (RUN_DIR/report.png unless --out).
+    Plot(PlotArgs),
+}
+
+#[derive(Args, Debug)]
+struct RenderArgs {
+    /// The run's output folder (it holds particles.pvd).
+    run_dir: PathBuf,
+    /// The colouring field: an array of the snapshots (velocity, displacement, pressure, J,
+    /// mass, volume, body, …; a vector by its length), or a component: velocity:x, stress:xy,
+    /// strain:yy, deformation_gradient:yx.
+    #[arg(long, default_value = "velocity")]
+    field: String,
+    /// Output folder [default: RUN_DIR].
+    #[arg(long, short = 'o', value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Image width in pixels (the height follows the domain).
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    /// Draw the background grid's cell lines.
+    #[arg(long)]
+    grid: bool,
+    /// Fixed colour scale: --range MIN MAX [default: the field's range over all frames].
+    #[arg(long, num_args = 2, value_names = ["MIN", "MAX"], allow_negative_numbers = true)]
+    range: Option<Vec<f64>>,
+    /// Draw every K-th snapshot (the last one always).
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    every: usize,
+    /// Frames per second of the GIF.
+    #[arg(long, default_value_t = 10.0)]
+    fps: f64,
+    /// Write the PNG frames only, no GIF.
+    #[arg(long)]
+    no_gif: bool,
+}
+
+#[derive(Args, Debug)]
+struct PlotArgs {
+    /// The run's output folder (it holds report.csv).
+    run_dir: PathBuf,
+    /// The PNG to write [default: RUN_DIR/report.png].
+    #[arg(long, short = 'o', value_name = "FILE")]
+    out: Option<PathBuf>,
+}
+
+fn render(args: &RenderArgs) -> Result<(), String> {
+    let options = sparse_mpm::render::RenderOptions {
+        field: args.field.clone(),
+        width: args.width,
+        grid_lines: args.grid,
+        range: args.range.as_ref().map(|r| [r[0], r[1]]),
+        every: args.every,
+        fps: args.fps,
+        gif: !args.no_gif,
+        out: args.out.clone(),
+    };
+    let rendered = sparse_mpm::render::render_run(&args.run_dir, &options).map_err(|e| e.to_string())?;
+    let [lo, hi] = rendered.range;
+    println!(
+        "{} frame(s) of {} × {} pixels, `{}` from {lo:.6e} to {hi:.6e}, in {}",
+        rendered.frames.len(),
+        rendered.size[0],
+        rendered.size[1],
+        args.field,
+        rendered.frames[0]
+            .parent()
+            .map_or(String::new(), |p| p.display().to_string())
+    );
+    if let Some(gif) = &rendered.gif {
+        println!("animation: {}", gif.display());
+    }
+    Ok(())
+}
+
+fn plot(args: &PlotArgs) -> Result<(), String> {
+    let png = sparse_mpm::render::plot_report(&args.run_dir, args.out.as_deref()).map_err(|e| e.to_string())?;
+    println!("{}", png.display());
+    Ok(())
 }
 
 #[derive(Args, Debug)]
@@ -696,6 +780,8 @@ fn main() -> ExitCode {
         Command::Study(a) => study(a),
         Command::Bench(a) => bench(a),
         Command::Dispersion(a) => dispersion(a),
+        Command::Render(a) => render(a),
+        Command::Plot(a) => plot(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -19,7 +19,7 @@ use std::sync::OnceLock;
 /// The embedded font (Noto Sans Regular, SIL Open Font License 1.1).
 const FONT: &[u8] = include_bytes!("../../assets/fonts/NotoSans-Regular.ttf");
 /// Family name under which [`FONT`] is registered; plotters' default family.
-const FAMILY: &str = "sans-serif";
+pub(crate) const FAMILY: &str = "sans-serif";
 /// Colour-blind-friendly palette (Okabe & Ito, 2008), yellow left out.
 const PALETTE: [RGBColor; 7] = [
     RGBColor(0, 114, 178),   // blue
@@ -103,27 +103,77 @@ pub fn write_png(chart: &Chart, path: &Path, width: u32, height: u32) -> Result<
     if width < 100 || height < 100 {
         return Err(fail(format!("image size {width}×{height} is below 100×100")));
     }
+    let rgb = draw_rgb(width, height, |root| draw(chart, root)).map_err(fail)?;
+    write_rgb_png(path, &rgb, width, height).map_err(fail)
+}
+
+/// Writes `charts` one above the other into one PNG of `width × height` pixels (each chart a
+/// band of `height / charts.len()` pixels), drawn as [`write_png`] draws one.
+///
+/// # Errors
+/// As [`write_png`]; also when there is no chart or a band is below 100 pixels high.
+pub fn write_png_stack(charts: &[Chart], path: &Path, width: u32, height: u32) -> Result<(), PlotError> {
+    let fail = |what: String| PlotError {
+        path: path.to_path_buf(),
+        what,
+    };
+    if charts.is_empty() || width < 100 || height / (charts.len() as u32).max(1) < 100 {
+        return Err(fail(format!(
+            "{} chart(s) in {width}×{height} pixels: each needs at least 100×100",
+            charts.len()
+        )));
+    }
+    let rgb = draw_rgb(width, height, |root| {
+        for (chart, area) in charts.iter().zip(root.split_evenly((charts.len(), 1))) {
+            draw(chart, &area)?;
+        }
+        Ok(())
+    })
+    .map_err(fail)?;
+    write_rgb_png(path, &rgb, width, height).map_err(fail)
+}
+
+/// A drawing area of [`draw_rgb`].
+pub(crate) type Area<'a> = DrawingArea<Canvas<'a>, plotters::coord::Shift>;
+
+/// What drawing on an [`Area`] returns.
+pub(crate) type DrawResult = Result<(), DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>>;
+
+/// The RGB pixels (row by row, 3 bytes each) of a white `width × height` canvas after `paint`
+/// has drawn on it, with text in the embedded font.
+pub(crate) fn draw_rgb(
+    width: u32,
+    height: u32,
+    paint: impl FnOnce(&Area<'_>) -> DrawResult,
+) -> Result<Vec<u8>, String> {
     // `Canvas` draws all text, but plotters still measures legend lines with its registered font.
     static FONT_OK: OnceLock<bool> = OnceLock::new();
     if !*FONT_OK.get_or_init(|| register_font(FAMILY, FontStyle::Normal, FONT).is_ok()) {
-        return Err(fail("the embedded font could not be parsed".into()));
+        return Err("the embedded font could not be parsed".into());
     }
-    let font = FontRef::try_from_slice(FONT).map_err(|e| fail(format!("embedded font: {e}")))?;
+    let font = FontRef::try_from_slice(FONT).map_err(|e| format!("embedded font: {e}"))?;
     let mut rgb = vec![255u8; width as usize * height as usize * 3];
     {
         let root = Canvas(BitMapBackend::with_buffer(&mut rgb, (width, height)), font).into_drawing_area();
-        draw(chart, &root)
+        paint(&root)
             .and_then(|()| root.present())
-            .map_err(|e| fail(format!("drawing failed: {e}")))?;
+            .map_err(|e| format!("drawing failed: {e}"))?;
     }
-    let file = std::fs::File::create(path).map_err(|e| fail(e.to_string()))?;
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width, height);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    encoder
-        .write_header()
-        .and_then(|mut w| w.write_image_data(&rgb).and_then(|()| w.finish()))
-        .map_err(|e| fail(format!("PNG encoding failed: {e}")))
+    Ok(rgb)
+}
+
+/// Writes RGB pixels as an 8-bit PNG, whole or not at all (a temporary file renamed).
+pub(crate) fn write_rgb_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Result<(), String> {
+    crate::io::write_atomically(path, |w| {
+        let mut encoder = png::Encoder::new(w, width, height);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder
+            .write_header()
+            .and_then(|mut w| w.write_image_data(rgb).and_then(|()| w.finish()))
+            .map_err(std::io::Error::other)
+    })
+    .map_err(|e| e.to_string())
 }
 
 /// `BitMapBackend` with its own text rasterisation. plotters 0.3.7 draws
@@ -131,7 +181,7 @@ pub fn write_png(chart: &Chart, path: &Path, width: u32, height: u32) -> Result<
 /// pen positions, which spaces letters unevenly; this places each glyph at its
 /// exact (sub-pixel) position instead. Shapes go to the bitmap backend (those
 /// it does not implement itself fall back to pixel-wise defaults, as there).
-struct Canvas<'a>(BitMapBackend<'a>, FontRef<'static>);
+pub(crate) struct Canvas<'a>(BitMapBackend<'a>, FontRef<'static>);
 
 impl Canvas<'_> {
     /// Glyphs of `text` at `size` pixels, placed from the top-left corner of

@@ -68,15 +68,17 @@ impl VtpArray {
 pub fn f64_values(buffer: &IOBuffer, what: &str) -> Result<Vec<f64>, String> {
     match buffer {
         IOBuffer::F64(v) => Ok(v.clone()),
+        // Index arrays (`id`, `body`) are written as Int64; their values are exact in f64 below 2^53.
+        IOBuffer::I64(v) => Ok(v.iter().map(|&i| i as f64).collect()),
         other => Err(format!(
-            "{what}: expected Float64 data, found {:?}",
+            "{what}: expected Float64 or Int64 data, found {:?}",
             other.scalar_type()
         )),
     }
 }
 
 /// Reads a `.vtp` file of one inline piece with `vtkio`: its points and point-data arrays (every
-/// array must be `Float64`; `vtkio` skips arrays it cannot read, so compare the count with what
+/// array must be `Float64` or `Int64`; `vtkio` skips arrays it cannot read, so compare the count with what
 /// was written).
 pub fn read_vtp(path: &Path) -> Result<VtpData, String> {
     let vtk = vtkio::Vtk::import(path).map_err(|e| format!("{}: vtkio: {e:?}", path.display()))?;
