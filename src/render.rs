@@ -288,7 +288,7 @@ fn find_series(run_dir: &Path) -> Result<PathBuf> {
 
 /// A colour scale that shows something for a constant field.
 fn widen(lo: f64, hi: f64) -> [f64; 2] {
-    if !(lo <= hi) {
+    if lo.partial_cmp(&hi).is_none_or(|o| o == std::cmp::Ordering::Greater) {
         return [0.0, 1.0];
     }
     if hi > lo {

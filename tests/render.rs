@@ -148,7 +148,7 @@ fn a_run_renders_to_frames_and_a_gif_that_decode_and_show_its_particles() {
     let written = std::fs::read_dir(other.join("frames_stress_xy")).unwrap().count();
     assert_eq!(
         written,
-        snapshots.len().div_ceil(10) + usize::from((snapshots.len() - 1) % 10 != 0)
+        snapshots.len().div_ceil(10) + usize::from(!(snapshots.len() - 1).is_multiple_of(10))
     );
     assert!(!other.join("stress_xy.gif").exists());
 

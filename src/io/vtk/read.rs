@@ -351,7 +351,7 @@ fn read_array(
                 )));
             }
             let data = &data[..(declared as usize).min(data.len())];
-            if data.len() % size != 0 {
+            if !data.len().is_multiple_of(size) {
                 return Err(what(format!(
                     "{} bytes is not a whole number of {ty} values",
                     data.len()
