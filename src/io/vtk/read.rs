@@ -74,7 +74,8 @@ impl SnapshotArray {
     }
 }
 
-/// Reads a `.vtp` snapshot (see the [module documentation](self) for what is read).
+/// Reads a `.vtp` snapshot: the points and the point-data arrays of the first `Piece`, in
+/// `format="binary"` (inline base64, uncompressed) or `format="ascii"`, any VTK numeric type.
 ///
 /// # Errors
 /// [`MpmError::Io`] when the file cannot be read; [`MpmError::Snapshot`] naming the file when it
