@@ -14,13 +14,13 @@
 //!             + Σ_files   file bytes / 24                                   (CSV rows of about 24 bytes)
 //! memory      = 800 B · particles + 200 B · nodes  (+ 600 B · nodes for a non-lumped mass)
 //! steps       = end time / Δt    (Δt fixed, or the CFL number × the stable step at t = 0)
-//! output      = snapshots · 330 B · particles + steps · 600 B (report rows)
+//! output      = snapshots · 490 B · particles + steps · 600 B (report rows)
 //! snapshots   = end time / snapshot interval + 2
 //! ```
 //!
 //! 800 B per particle is the measured peak of a quadratic-B-spline run with its stable-step
-//! estimate (docs/performance.md); 330 B per particle the size of a `.vtp` snapshot with its
-//! fourteen arrays in base64.
+//! estimate (docs/performance.md); 490 B per particle the size of a `.vtp` snapshot with its
+//! twelve arrays (40 components) in base64 (486 B measured on the two disks).
 
 use std::fmt;
 
@@ -37,7 +37,7 @@ pub const BYTES_PER_NODE: f64 = 200.0;
 /// Extra bytes per grid node of a consistent, blended, series or conjugate-gradient mass.
 pub const BYTES_PER_NODE_CONSISTENT: f64 = 600.0;
 /// Bytes per particle of one `.vtp` snapshot.
-pub const SNAPSHOT_BYTES_PER_PARTICLE: f64 = 330.0;
+pub const SNAPSHOT_BYTES_PER_PARTICLE: f64 = 490.0;
 /// Bytes per row of `report.csv`.
 pub const REPORT_BYTES_PER_STEP: f64 = 600.0;
 /// Bytes per particle row of a CSV particle file, for the estimate of its particle count.
