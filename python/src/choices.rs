@@ -85,3 +85,110 @@ pub(crate) fn plane_condition(name: &str) -> PyResult<PlaneCondition> {
         other => Err(mpm_msg(format!("plane = {other:?}: expected \"stress\" or \"strain\""))),
     }
 }
+
+/// A scene written as TOML text with, for each line of it, the key path it sets
+/// (`bodies[0].material.youngs_modulus`): a parse error's line is then named by its key path.
+pub(crate) struct PathText {
+    pub(crate) text: String,
+    /// `paths[i]` is the key path of line `i` (0-based).
+    pub(crate) paths: Vec<String>,
+}
+
+impl PathText {
+    /// `root` (a table) as TOML text: top-level values, then one `[table]` per table and one
+    /// `[[array]]` per element of an array of tables, their contents as dotted keys one per line
+    /// (arrays of tables below those inline on their line).
+    pub(crate) fn write(root: &toml::Value) -> PathText {
+        let mut out = PathText {
+            text: String::new(),
+            paths: Vec::new(),
+        };
+        let Some(table) = root.as_table() else {
+            out.line(format!("scene = {root}"), "scene".into());
+            return out;
+        };
+        for (k, v) in table {
+            if !(is_table(v) || is_table_array(v)) {
+                out.line(format!("{} = {}", key_text(k), v), k.clone());
+            }
+        }
+        for (k, v) in table {
+            if let Some(t) = v.as_table().filter(|t| !t.is_empty()) {
+                out.line(format!("[{}]", key_text(k)), k.clone());
+                out.dotted(t, "", k);
+            } else if is_table_array(v) {
+                for (i, item) in v.as_array().into_iter().flatten().enumerate() {
+                    let path = format!("{k}[{i}]");
+                    out.line(format!("[[{}]]", key_text(k)), path.clone());
+                    if let Some(t) = item.as_table() {
+                        out.dotted(t, "", &path);
+                    }
+                }
+            } else if is_table(v) {
+                out.line(format!("{} = {{}}", key_text(k)), k.clone());
+            }
+        }
+        out
+    }
+
+    fn line(&mut self, text: String, path: String) {
+        self.text.push_str(&text);
+        self.text.push('\n');
+        self.paths.push(path);
+    }
+
+    /// The entries of `t` as `prefix.key = value` lines, sub-tables as longer dotted keys.
+    fn dotted(&mut self, t: &toml::map::Map<String, toml::Value>, prefix: &str, path: &str) {
+        for (k, v) in t {
+            let key = format!("{prefix}{}", key_text(k));
+            let sub = format!("{path}.{k}");
+            match v.as_table() {
+                Some(inner) if !inner.is_empty() => self.dotted(inner, &format!("{key}."), &sub),
+                _ => self.line(format!("{key} = {v}"), sub),
+            }
+        }
+    }
+
+    /// The key path of the line holding byte `offset` of the text.
+    pub(crate) fn path_at(&self, offset: usize) -> &str {
+        let offset = offset.min(self.text.len());
+        let line = self.text[..offset].matches('\n').count();
+        self.paths
+            .get(line.min(self.paths.len().saturating_sub(1)))
+            .map_or("scene", String::as_str)
+    }
+}
+
+fn is_table(v: &toml::Value) -> bool {
+    v.is_table()
+}
+
+/// A non-empty array whose items are all tables (written as `[[key]]` sections).
+fn is_table_array(v: &toml::Value) -> bool {
+    v.as_array()
+        .is_some_and(|a| !a.is_empty() && a.iter().all(toml::Value::is_table))
+}
+
+/// `k` as a TOML key: bare when it can be, quoted otherwise.
+fn key_text(k: &str) -> String {
+    if !k.is_empty() && k.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+        k.to_string()
+    } else {
+        toml::Value::String(k.to_string()).to_string()
+    }
+}
+
+/// The scene in `value` (a table with the keys of a scene file), parsed and validated; a parse
+/// error (unknown key, wrong type, missing key) names the key path, as do the scene's checks.
+pub(crate) fn scene_from_value(value: &toml::Value) -> PyResult<sparse_mpm::scene::Scene> {
+    use sparse_mpm::scene::Scene;
+    let written = PathText::write(value);
+    if let Err(e) = toml::from_str::<Scene>(&written.text) {
+        let key = e.span().map_or("scene", |s| written.path_at(s.start)).to_string();
+        return Err(mpm_err(sparse_mpm::MpmError::InvalidScene {
+            key,
+            reason: e.message().trim().to_string(),
+        }));
+    }
+    Scene::from_toml_str(&written.text).map_err(mpm_err)
+}

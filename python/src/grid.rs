@@ -1,9 +1,10 @@
 //! `Grid` and `Particles`: the background grid and the particle state, copied in from NumPy
 //! arrays and out into new ones.
 
-use crate::{f64_array, index_array, mpm_err, mpm_msg, to_vec};
+use crate::{f64_array, index_array, mpm_err, mpm_msg, read_only, to_vec};
 use numpy::{AllowTypeChange, PyArray1, PyArrayLike1};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
 use sparse_mpm::{Grid, NodeOrder, Particles};
 
@@ -117,16 +118,56 @@ impl PyGrid {
     }
 }
 
-/// Particle state: positions, masses, volumes, velocities (copied from the arrays given).
+/// The float64 fields of `Particles` with a getter, in the order of `PyParticles::cache`.
+const FIELDS: [&str; 11] = ["x", "y", "mass", "volume", "vx", "vy", "sxx", "syy", "sxy", "bx", "by"];
+
+/// Particle state: positions, masses, volumes, velocities, stresses, body forces and bodies
+/// (copied from the arrays given). Immutable: each attribute is a read-only array made on
+/// first access and handed out again after (no copy per access).
 #[pyclass(name = "Particles", module = "sparse_mpm._core", frozen)]
 pub(crate) struct PyParticles {
     pub(crate) inner: Particles,
+    /// The read-only arrays of `FIELDS`, made on first access.
+    cache: [PyOnceLock<Py<PyArray1<f64>>>; 11],
+    /// The read-only `body` array, made on first access.
+    body: PyOnceLock<Py<PyArray1<i64>>>,
+}
+
+impl PyParticles {
+    /// `p` as a Python object (nothing copied yet).
+    pub(crate) fn wrap(p: Particles) -> Self {
+        PyParticles {
+            inner: p,
+            cache: std::array::from_fn(|_| PyOnceLock::new()),
+            body: PyOnceLock::new(),
+        }
+    }
+
+    /// The read-only array of field `FIELDS[k]` (made on first access).
+    fn field<'py>(&self, py: Python<'py>, k: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = &self.inner;
+        let v: &[f64] = match FIELDS[k] {
+            "x" => &p.x,
+            "y" => &p.y,
+            "mass" => &p.mass,
+            "volume" => &p.volume,
+            "vx" => &p.vx,
+            "vy" => &p.vy,
+            "sxx" => &p.sxx,
+            "syy" => &p.syy,
+            "sxy" => &p.sxy,
+            "bx" => &p.bx,
+            _ => &p.by,
+        };
+        let a = self.cache[k].get_or_try_init(py, || read_only(f64_array(py, v)).map(Bound::unbind))?;
+        Ok(a.bind(py).clone())
+    }
 }
 
 #[pymethods]
 impl PyParticles {
     #[new]
-    #[pyo3(signature = (x, y, mass, volume, vx = None, vy = None, *, sxx = None, syy = None, sxy = None, bx = None, by = None))]
+    #[pyo3(signature = (x, y, mass, volume, vx = None, vy = None, *, sxx = None, syy = None, sxy = None, bx = None, by = None, body = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         x: PyArrayLike1<'_, f64, AllowTypeChange>,
@@ -140,6 +181,7 @@ impl PyParticles {
         sxy: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
         bx: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
         by: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
+        body: Option<PyArrayLike1<'_, i64, AllowTypeChange>>,
     ) -> PyResult<Self> {
         let mut p = Particles::new(to_vec(&x), to_vec(&y), to_vec(&mass), to_vec(&volume)).map_err(mpm_err)?;
         let n = p.len();
@@ -156,58 +198,96 @@ impl PyParticles {
         if bx.is_some() || by.is_some() {
             p = p.with_body_force(or_zero(bx), or_zero(by)).map_err(mpm_err)?;
         }
-        Ok(PyParticles { inner: p })
+        if let Some(body) = body {
+            let body: Vec<i64> = body.as_array().iter().copied().collect();
+            if body.len() != n {
+                return Err(mpm_err(sparse_mpm::MpmError::LengthMismatch {
+                    field: "body",
+                    expected: n,
+                    found: body.len(),
+                }));
+            }
+            if let Some(k) = body.iter().position(|&b| b < 0) {
+                return Err(mpm_msg(format!(
+                    "body[{k}] = {}: particle {k} names a negative body index",
+                    body[k]
+                )));
+            }
+            p.body = body.iter().map(|&b| b as usize).collect();
+        }
+        Ok(PyParticles::wrap(p))
     }
     fn __len__(&self) -> usize {
         self.inner.len()
     }
-    /// The particle fields as a dict of new float64 arrays.
+    /// The particle fields as a dict of new (writeable) arrays: the float64 fields, then
+    /// `body` and `id` (int64).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         particles_dict(py, &self.inner)
     }
+    /// x coordinates of the particles (read-only float64 array, made once).
     #[getter]
-    fn x<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.x)
+    fn x<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 0)
     }
+    /// y coordinates of the particles (read-only float64 array, made once).
     #[getter]
-    fn y<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.y)
+    fn y<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 1)
     }
+    /// Particle masses m_p > 0 (read-only float64 array, made once).
     #[getter]
-    fn mass<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.mass)
+    fn mass<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 2)
     }
+    /// Particle volumes V_p > 0 (read-only float64 array, made once).
     #[getter]
-    fn volume<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.volume)
+    fn volume<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 3)
     }
+    /// x velocities (read-only float64 array, made once).
     #[getter]
-    fn vx<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.vx)
+    fn vx<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 4)
     }
+    /// y velocities (read-only float64 array, made once).
     #[getter]
-    fn vy<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.vy)
+    fn vy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 5)
     }
+    /// Cauchy stress σxx (read-only float64 array, made once).
     #[getter]
-    fn sxx<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.sxx)
+    fn sxx<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 6)
     }
+    /// Cauchy stress σyy (read-only float64 array, made once).
     #[getter]
-    fn syy<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.syy)
+    fn syy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 7)
     }
+    /// Cauchy stress σxy (read-only float64 array, made once).
     #[getter]
-    fn sxy<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.sxy)
+    fn sxy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 8)
     }
+    /// Body force per unit mass, x component (read-only float64 array, made once).
     #[getter]
-    fn bx<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.bx)
+    fn bx<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 9)
     }
+    /// Body force per unit mass, y component (read-only float64 array, made once).
     #[getter]
-    fn by<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        f64_array(py, &self.inner.by)
+    fn by<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.field(py, 10)
+    }
+    /// The body each particle belongs to, an index into a simulation's bodies (read-only int64
+    /// array, made once; 0 unless given).
+    #[getter]
+    fn body<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let a = self
+            .body
+            .get_or_try_init(py, || read_only(index_array(py, &self.inner.body)).map(Bound::unbind))?;
+        Ok(a.bind(py).clone())
     }
     fn __repr__(&self) -> String {
         format!("Particles(<{} particles>)", self.inner.len())

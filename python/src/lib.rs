@@ -63,9 +63,18 @@ fn index_array<'py>(py: Python<'py>, v: &[usize]) -> Bound<'py, PyArray1<i64>> {
     PyArray1::from_vec(py, v.iter().map(|&i| i as i64).collect())
 }
 
+/// `a` made read-only (`a.flags.writeable = False`) and returned: an array that is cached and
+/// handed out again must not be changed behind the cache's back.
+fn read_only<'py, T: numpy::Element>(a: Bound<'py, PyArray1<T>>) -> PyResult<Bound<'py, PyArray1<T>>> {
+    a.getattr("flags")?.setattr("writeable", false)?;
+    Ok(a)
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MpmError", m.py().get_type::<MpmError>())?;
+    // The version of this package (python/Cargo.toml, the same in python/pyproject.toml).
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PyGrid>()?;
     m.add_class::<PyParticles>()?;
     m.add_class::<PyOperators>()?;

@@ -167,7 +167,7 @@ pub(crate) fn scene_operators(py: Python<'_>, path: PathBuf) -> PyResult<(PyGrid
         .map_err(mpm_err)?;
     Ok((
         PyGrid { inner: grid },
-        PyParticles { inner: particles },
+        PyParticles::wrap(particles),
         PyOperators { inner: ops },
     ))
 }

@@ -1,26 +1,52 @@
-//! `Simulation`: a scene (file, TOML text or dict) run step by step, its step reports as dicts
-//! or as rows.
+//! `Simulation`: a scene (file, TOML text or dict), NumPy arrays or a checkpoint run step by
+//! step, its step reports as dicts or as rows, its particle state in and out, snapshots and
+//! checkpoints.
 
-use crate::choices::to_toml;
-use crate::grid::{particles_dict, PyGrid};
+use crate::choices::{scene_from_value, to_toml};
+use crate::grid::{particles_dict, PyGrid, PyParticles};
 use crate::operators::PyOperators;
-use crate::{f64_array, mpm_err, mpm_msg};
-use numpy::PyArray1;
+use crate::{f64_array, index_array, mpm_err, mpm_msg, to_vec};
+use numpy::{AllowTypeChange, PyArray1, PyArrayLike1};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyList};
 use sparse_mpm::limits::{prepare_run, Limits};
 use sparse_mpm::scene::Scene;
 use sparse_mpm::simulation::{Simulation, StepReport};
+use sparse_mpm::Particles;
 use std::path::PathBuf;
 
-/// An explicit MPM simulation built from a scene (TOML file, TOML text or dict).
+/// An explicit MPM simulation built from a scene (TOML file, TOML text or dict), from arrays or
+/// from a checkpoint.
 #[pyclass(name = "Simulation", module = "sparse_mpm._core")]
 pub(crate) struct PySimulation {
     sim: Simulation,
-    scene: Scene,
+    /// The scene it was built from; `None` for arrays and checkpoints.
+    scene: Option<Scene>,
+    /// Whether the scene's bodies only stand for particles given as arrays (no scene text).
+    from_arrays: bool,
+    /// The default end of `run`: the scene's `[time] end`, or given.
+    end_time: Option<f64>,
     /// Steps land on multiples of this interval (as `mpm run` lands on snapshot times).
     land_every: Option<f64>,
     next_landing: f64,
+    /// Changes with every change of the state (steps, particle state set from Python).
+    version: u64,
+}
+
+/// The particle fields `set_particle_state` accepts.
+const SETTABLE: [&str; 7] = ["vx", "vy", "sxx", "syy", "sxy", "bx", "by"];
+
+/// The first landing time after `time` for steps landing every `every`, found by adding
+/// `every` as `advance` does, so that a resumed simulation lands on the same bits.
+fn next_landing_after(time: f64, every: f64) -> f64 {
+    if time / every > 1e7 {
+        return ((time / every).floor() + 1.0) * every;
+    }
+    let mut next = every;
+    while time >= next * (1.0 - 1e-12) {
+        next += every;
+    }
+    next
 }
 
 /// A step report as a dict with the keys of `StepReport::COLUMNS`.
@@ -42,14 +68,22 @@ impl PySimulation {
             Limits::default()
         };
         let (sim, _) = prepare_run(&scene, &limits).map_err(mpm_err)?;
+        Ok(Self::wrap(sim, scene, false))
+    }
+
+    /// `sim` built from `scene`, landing on the scene's snapshot times.
+    fn wrap(sim: Simulation, scene: Scene, from_arrays: bool) -> Self {
         let interval = scene.snapshot_interval();
         let land_every = (interval.is_finite() && interval > 0.0).then_some(interval);
-        Ok(PySimulation {
+        PySimulation {
             sim,
-            scene,
+            end_time: Some(scene.time.end),
+            scene: Some(scene),
+            from_arrays,
             land_every,
             next_landing: interval,
-        })
+            version: 0,
+        }
     }
 
     /// One step landing on the next landing time (if any) and on `end`.
@@ -58,6 +92,7 @@ impl PySimulation {
             Some(_) => self.next_landing.min(end),
             None => end,
         };
+        self.version += 1;
         let r = self.sim.step_capped(target - self.sim.time())?;
         if let Some(interval) = self.land_every {
             if self.sim.time() >= self.next_landing * (1.0 - 1e-12) {
@@ -92,8 +127,240 @@ impl PySimulation {
     #[pyo3(signature = (scene, base_dir = None, allow_large = false))]
     fn from_dict(scene: &Bound<'_, PyDict>, base_dir: Option<PathBuf>, allow_large: bool) -> PyResult<Self> {
         let value = to_toml(scene.as_any(), "")?;
-        let text = toml::to_string(&value).map_err(|e| mpm_msg(format!("scene: cannot be written as TOML: {e}")))?;
-        Self::from_toml(&text, base_dir, allow_large)
+        let mut scene = scene_from_value(&value)?;
+        scene.base_dir = base_dir;
+        Self::build(scene, allow_large)
+    }
+
+    /// The simulation of `particles` (with `particles.body` indexing `bodies`) on `grid`:
+    /// `bodies` a list of dicts with `name` and `material` (as in a scene's body), `options` a dict with the other tables of a scene (`time`, `schemes`,
+    /// `loads`, `boundaries`, `output`, `execution`). Errors name the key path or the particle.
+    #[staticmethod]
+    #[pyo3(signature = (grid, particles, bodies, options = None))]
+    fn from_arrays(
+        grid: &PyGrid,
+        particles: &PyParticles,
+        bodies: &Bound<'_, PyList>,
+        options: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let p = &particles.inner;
+        let mut table = match options {
+            Some(o) => match to_toml(o.as_any(), "")? {
+                toml::Value::Table(t) => t,
+                _ => unreachable!("a dict gives a table"),
+            },
+            None => toml::map::Map::new(),
+        };
+        for key in ["grid", "bodies"] {
+            if table.contains_key(key) {
+                return Err(mpm_msg(format!(
+                    "options.{key}: give the {key} as the argument `{key}` of from_arrays, not in options"
+                )));
+            }
+        }
+        let g = &grid.inner;
+        let [x0, x1, y0, y1] = g.bounds();
+        let mut spec = toml::map::Map::new();
+        spec.insert("origin".into(), toml::Value::try_from(g.origin()).expect("two floats"));
+        spec.insert(
+            "cell_size".into(),
+            toml::Value::try_from(g.cell_size()).expect("two floats"),
+        );
+        let cells = g.cells();
+        spec.insert(
+            "cells".into(),
+            toml::Value::Array(cells.iter().map(|&c| toml::Value::Integer(c as i64)).collect()),
+        );
+        table.insert("grid".into(), toml::Value::Table(spec));
+        // Each body as a scene body whose geometry stands for its particles: the scene's checks
+        // of the material then run, naming `bodies[k].material.…`.
+        let mut specs = Vec::new();
+        for (k, b) in bodies.iter().enumerate() {
+            let key = format!("bodies[{k}]");
+            let toml::Value::Table(mut t) = to_toml(&b, &key)? else {
+                return Err(mpm_msg(format!("{key}: expected a dict with `name` and `material`")));
+            };
+            if let Some(other) = t.keys().find(|k| !["name", "material"].contains(&k.as_str())) {
+                return Err(mpm_msg(format!(
+                    "{key}.{other}: not a key of a body given with arrays (`name`, `material`); masses, \
+                     velocities, body forces and stresses are particle arrays"
+                )));
+            }
+            // The reference density the simulation uses (the largest m_p / V_p of the body), for
+            // the scene's checks of the material (its wave speed).
+            let density = (0..p.len())
+                .filter(|&i| p.body[i] == k)
+                .map(|i| p.mass[i] / p.volume[i])
+                .fold(f64::NAN, f64::max);
+            t.insert(
+                "density".into(),
+                toml::Value::Float(if density.is_nan() { 1.0 } else { density }),
+            );
+            let rectangle = toml::Value::try_from(std::collections::BTreeMap::from([(
+                "rectangle",
+                std::collections::BTreeMap::from([("min", [x0, y0]), ("max", [x1, y1])]),
+            )]))
+            .expect("a table of floats");
+            t.insert("geometry".into(), rectangle);
+            specs.push(toml::Value::Table(t));
+        }
+        if let Some(i) = p.body.iter().position(|&b| b >= specs.len()) {
+            return Err(mpm_msg(format!(
+                "body[{i}] = {}: particle {i} names a body that does not exist ({} given in `bodies`)",
+                p.body[i],
+                specs.len()
+            )));
+        }
+        table.insert("bodies".into(), toml::Value::Array(specs));
+        if !table.contains_key("time") {
+            return Err(mpm_msg("options.time: missing; give at least {\"end\": …}"));
+        }
+        let scene = scene_from_value(&toml::Value::Table(table))?;
+        let sim = Simulation::new(g.clone(), p.clone(), scene.bodies(), scene.options()).map_err(mpm_err)?;
+        Ok(Self::wrap(sim, scene, true))
+    }
+
+    /// The simulation saved in a checkpoint file (`write_checkpoint`, `mpm run --checkpoint`);
+    /// its steps continue the saved run bit for bit. `end_time` is the default end of `run`;
+    /// steps land on multiples of `land_every` when given.
+    #[staticmethod]
+    #[pyo3(signature = (path, end_time = None, land_every = None))]
+    fn from_checkpoint(path: PathBuf, end_time: Option<f64>, land_every: Option<f64>) -> PyResult<Self> {
+        let sim = Simulation::read_checkpoint(&path).map_err(mpm_err)?;
+        if let Some(t) = end_time {
+            if !t.is_finite() {
+                return Err(mpm_msg(format!("end_time = {t}: must be a finite time")));
+            }
+        }
+        let mut me = PySimulation {
+            sim,
+            scene: None,
+            from_arrays: false,
+            end_time,
+            land_every: None,
+            next_landing: f64::INFINITY,
+            version: 0,
+        };
+        me.set_land_every(land_every)?;
+        Ok(me)
+    }
+
+    /// Writes the simulation to a checkpoint file (`Simulation::write_checkpoint`).
+    fn write_checkpoint(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let sim = &self.sim;
+        py.detach(|| sim.write_checkpoint(&path)).map_err(mpm_err)
+    }
+
+    /// Writes the particles to a `.vtp` snapshot as `mpm run` does (`run::write_snapshot`).
+    fn write_snapshot(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let sim = &self.sim;
+        py.detach(|| sparse_mpm::run::write_snapshot(sim, &path))
+            .map_err(mpm_err)
+    }
+
+    /// Changes with every change of the state (a step, particle state set from Python).
+    #[getter]
+    fn version(&self) -> u64 {
+        self.version
+    }
+
+    /// Sets particle fields (`vx`, `vy`, `sxx`, `syy`, `sxy`, `bx`, `by`), each an array in the
+    /// current particle order. Body forces may be set at any time; the others before the first
+    /// step only (the simulation is then rebuilt with them). Errors name the field and particle.
+    fn set_particle_state(&mut self, fields: &Bound<'_, PyDict>) -> PyResult<()> {
+        let n = self.sim.particles().len();
+        let mut given: Vec<(&'static str, Vec<f64>)> = Vec::new();
+        for (k, v) in fields.iter() {
+            let name: String = k.extract()?;
+            let Some(&field) = SETTABLE.iter().find(|f| **f == name) else {
+                return Err(mpm_msg(format!(
+                    "{name}: not a particle field that can be set (settable: {})",
+                    SETTABLE.join(", ")
+                )));
+            };
+            let a: PyArrayLike1<'_, f64, AllowTypeChange> = v
+                .extract()
+                .map_err(|e| mpm_msg(format!("{field}: expected a 1-D array of floats ({e})")))?;
+            let values = to_vec(&a);
+            if values.len() != n {
+                return Err(mpm_err(sparse_mpm::MpmError::LengthMismatch {
+                    field,
+                    expected: n,
+                    found: values.len(),
+                }));
+            }
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                return Err(mpm_msg(format!(
+                    "{field}[{i}] = {}: particle {i} (id {}) must have a finite {field}",
+                    values[i],
+                    self.sim.particles().id[i]
+                )));
+            }
+            given.push((field, values));
+        }
+        let only_body_force = given.iter().all(|(f, _)| *f == "bx" || *f == "by");
+        if !only_body_force && self.sim.steps() > 0 {
+            let names: Vec<&str> = given
+                .iter()
+                .map(|(f, _)| *f)
+                .filter(|f| *f != "bx" && *f != "by")
+                .collect();
+            return Err(mpm_msg(format!(
+                "{}: velocities and stresses can be set before the first step only ({} steps taken); \
+                 body forces (bx, by) at any time",
+                names.join(", "),
+                self.sim.steps()
+            )));
+        }
+        if given.is_empty() {
+            return Ok(());
+        }
+        if only_body_force {
+            let p = self.sim.particles();
+            let mut b: Vec<[f64; 2]> = (0..n).map(|i| [p.bx[i], p.by[i]]).collect();
+            for (f, v) in &given {
+                let c = usize::from(*f == "by");
+                for (i, x) in v.iter().enumerate() {
+                    b[i][c] = *x;
+                }
+            }
+            // The library sets body forces by permanent id.
+            let mut by_id = std::collections::HashMap::with_capacity(n);
+            for (i, &id) in p.id.iter().enumerate() {
+                by_id.insert(id, b[i]);
+            }
+            self.sim.set_body_force(|id, _| by_id[&id]);
+        } else {
+            let mut p: Particles = self.sim.particles().clone();
+            for (f, v) in given {
+                let slot = match f {
+                    "vx" => &mut p.vx,
+                    "vy" => &mut p.vy,
+                    "sxx" => &mut p.sxx,
+                    "syy" => &mut p.syy,
+                    "sxy" => &mut p.sxy,
+                    "bx" => &mut p.bx,
+                    _ => &mut p.by,
+                };
+                *slot = v;
+            }
+            let s = &self.sim;
+            self.sim =
+                Simulation::new(s.grid().clone(), p, s.bodies().to_vec(), s.options().clone()).map_err(mpm_err)?;
+        }
+        self.version += 1;
+        Ok(())
+    }
+
+    /// The updated grid velocity `w` of the last step, `(vx, vy)` per node (copies).
+    fn grid_velocity<'py>(&self, py: Python<'py>) -> (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>) {
+        let w = self.sim.grid_velocity();
+        (f64_array(py, &w.x), f64_array(py, &w.y))
+    }
+
+    /// The active nodes of the last step (nodes with mass), ascending (a copy).
+    fn active_nodes<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        index_array(py, &self.sim.grid_mass().active_nodes())
     }
 
     /// Time reached.
@@ -106,10 +373,10 @@ impl PySimulation {
     fn steps(&self) -> usize {
         self.sim.steps()
     }
-    /// The scene's end time (`[time] end`).
+    /// The default end of `run`: the scene's `[time] end` (None for a checkpoint read without one).
     #[getter]
-    fn end_time(&self) -> f64 {
-        self.scene.time.end
+    fn end_time(&self) -> Option<f64> {
+        self.end_time
     }
     /// The interval steps land on (the scene's snapshot interval), or None.
     #[getter]
@@ -124,14 +391,19 @@ impl PySimulation {
                     "land_every = {e}: must be a positive finite number or None"
                 )));
             }
-            self.next_landing = ((self.sim.time() / e).floor() + 1.0) * e;
+            self.next_landing = next_landing_after(self.sim.time(), e);
         }
         self.land_every = every;
         Ok(())
     }
     /// The scene as TOML text.
     fn scene_toml(&self) -> PyResult<String> {
-        self.scene.to_toml_string().map_err(mpm_err)
+        match &self.scene {
+            Some(scene) if !self.from_arrays => scene.to_toml_string().map_err(mpm_err),
+            _ => Err(mpm_msg(
+                "scene_toml: this simulation was built from arrays or a checkpoint, not from a scene",
+            )),
+        }
     }
     /// The stable time step for the current state (see `Simulation::stable_time_step`).
     fn stable_time_step(&self) -> f64 {

@@ -242,6 +242,6 @@ pub(crate) fn explicit_step<'py>(
     let ops = record.operators;
     ops.col_offsets();
     d.set_item("operators", PyOperators { inner: ops })?;
-    d.set_item("particles", PyParticles { inner: after })?;
+    d.set_item("particles", PyParticles::wrap(after))?;
     Ok(d)
 }
