@@ -363,6 +363,39 @@ struct RunState {
 
 const RUN_STATE_FORMAT: &str = "sparse-mpm run state 1";
 
+impl RunState {
+    /// Whether a state read from a `run.json` holds together: times finite and ordered, and
+    /// every snapshot a plain file name (`particles_NNNNNN.vtp`, in the run folder: no folder,
+    /// no `..`, not absolute), in time order.
+    fn validate(&self) -> std::result::Result<(), String> {
+        if !(self.end_time.is_finite() && self.end_time > 0.0) {
+            return Err(format!("end_time = {} is not a positive number", self.end_time));
+        }
+        if !(self.snapshot_interval.is_finite() && self.snapshot_interval > 0.0) {
+            return Err(format!(
+                "snapshot_interval = {} is not a positive number",
+                self.snapshot_interval
+            ));
+        }
+        if !(self.next_snapshot.is_finite() && self.next_snapshot >= 0.0) {
+            return Err(format!("next_snapshot = {} is not a time", self.next_snapshot));
+        }
+        for (k, (time, file)) in self.snapshots.iter().enumerate() {
+            let expected = format!("particles_{k:06}.vtp");
+            if file.as_os_str() != expected.as_str() {
+                return Err(format!(
+                    "snapshot {k} is `{}`, not `{expected}`: a run's snapshots are files of its own folder",
+                    file.display()
+                ));
+            }
+            if !time.is_finite() || (k > 0 && *time <= self.snapshots[k - 1].0) {
+                return Err(format!("snapshot {k}'s time {time} does not follow the one before"));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Runs `scene` into `out` under `options`: the estimated cost against the limits and the
 /// whole build first ([`crate::limits::prepare_run`], what `mpm check` runs), then the output
 /// folder ([`prepare_output`]), then the steps.
@@ -449,6 +482,7 @@ pub fn resume_run(
     if state.format != RUN_STATE_FORMAT {
         return Err(bad(format!("run.json is `{}`, not `{RUN_STATE_FORMAT}`", state.format)));
     }
+    state.validate().map_err(|reason| bad(format!("run.json: {reason}")))?;
     let mut sim = Simulation::read_checkpoint(&checkpoint.join("simulation.ckpt"))?;
     if let Some(threads) = options.threads {
         sim.set_threads(threads)?;
@@ -466,8 +500,13 @@ pub fn resume_run(
     let run_dir = checkpoint
         .parent()
         .and_then(Path::parent)
-        .ok_or_else(|| bad("the checkpoint folder is not inside a run folder's `checkpoints/`".into()))?
-        .to_path_buf();
+        .ok_or_else(|| bad("the checkpoint folder is not inside a run folder's `checkpoints/`".into()))?;
+    // `checkpoints/step_N` given from inside the run folder: the run folder is `.`.
+    let run_dir = if run_dir.as_os_str().is_empty() {
+        PathBuf::from(".")
+    } else {
+        run_dir.to_path_buf()
+    };
     let out = out.map_or(run_dir.clone(), Path::to_path_buf);
     if out != run_dir {
         prepare_output(&out, OutputPolicy::RefuseNonEmpty)?;

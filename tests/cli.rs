@@ -381,3 +381,36 @@ fn threads_from_the_command_line_or_the_scene_change_no_bit_of_the_output() {
     );
     assert!(!dir.join("many").exists(), "a refused run writes nothing");
 }
+
+#[test]
+fn a_run_json_naming_files_outside_its_run_is_refused_and_a_run_resumes_from_inside_its_folder() {
+    let dir = scratch("resume_paths");
+    let cut = mpm(
+        &["run", "--out", "cut", "--steps", "60", "--checkpoint-every", "40", "-q"],
+        &dir,
+    );
+    assert!(cut.status.success(), "{}", text(&cut));
+    let state = dir.join("cut/checkpoints/step_00000040/run.json");
+    let original = std::fs::read_to_string(&state).unwrap();
+    assert!(original.contains("\"particles_000000.vtp\""), "{original}");
+    let victim = dir.join("victim.vtp");
+    for name in ["../../victim.vtp", victim.to_str().unwrap(), "sub/particles_000000.vtp"] {
+        std::fs::write(&victim, "not to be touched").unwrap();
+        let edited = original.replace("\"particles_000000.vtp\"", &serde_json_string(name));
+        std::fs::write(&state, edited).unwrap();
+        let o = mpm(&["resume", "cut/checkpoints/step_00000040", "--out", "new", "-q"], &dir);
+        assert!(!o.status.success(), "{name}: resumed");
+        assert!(text(&o).contains("not `particles_000000.vtp`"), "{name}: {}", text(&o));
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "not to be touched");
+        assert!(!dir.join("new").exists(), "{name}: an output folder was made");
+    }
+    std::fs::write(&state, original).unwrap();
+    // From inside the run folder, the checkpoint's path has an empty run folder: `.`.
+    let o = mpm(&["resume", "checkpoints/step_00000040", "-q"], &dir.join("cut"));
+    assert!(o.status.success(), "{}", text(&o));
+}
+
+/// `s` as a JSON string literal (quotes and backslashes escaped).
+fn serde_json_string(s: &str) -> String {
+    format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""))
+}
