@@ -26,6 +26,7 @@ import os as _os
 import typing as _t
 
 import numpy as _np
+import numpy.typing as _npt
 import scipy.sparse as _sp
 
 from . import _core
@@ -197,7 +198,8 @@ def _core_ops(ops: _t.Union[Operators, "_core.Operators"]) -> "_core.Operators":
     return ops._core if isinstance(ops, Operators) else ops
 
 
-ArrayLike = _t.Any  # anything numpy.asarray turns into a 1-D float64 array
+#: Anything NumPy turns into a 1-D float64 array (a list, a NumPy array …).
+ArrayLike = _npt.ArrayLike
 
 
 def lumped_mass(ops: Operators, m: ArrayLike) -> "_np.ndarray":

@@ -1,14 +1,28 @@
 """Type stubs of the Rust extension ``sparse_mpm._core``. Every array argument is copied into
-Rust; every array returned is a new NumPy array (no memory is shared)."""
+Rust. Arrays returned are new NumPy arrays, except the attributes of ``Particles``: read-only
+arrays made on first access and returned again after (no memory is shared with Rust)."""
 
 from os import PathLike
-from typing import Any, Dict, List, Mapping, Optional, Tuple, Union
+from typing import Any, Dict, List, Literal, Mapping, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
+__version__: str
+
 ArrayLike = npt.ArrayLike
-ShapeSpec = Union[str, Mapping[str, Any], None]
+F64 = F64
+I64 = I64
+ShapeName = Literal["linear", "quadratic_bspline", "cubic_bspline"]
+#: A shape name or ``{"gimp": {"half_width": l}}``; None is linear.
+ShapeSpec = Union[ShapeName, Mapping[str, Mapping[str, float]], None]
+#: ``"lumped"``, ``"consistent"``, ``"cg"`` or a parametrised ``"blended:γ"``, ``"series:k"``, ``"cg:tol"``.
+MassScheme = Union[Literal["lumped", "consistent", "cg"], str]
+OperatorName = Literal["N", "Gx", "Gy"]
+Plane = Literal["stress", "strain"]
+NodeOrder = Literal["x_fastest", "y_fastest"]
+PositionUpdate = Literal["grid_velocity", "trapezoidal"]
+Path = Union[str, PathLike[str]]
 
 class MpmError(ValueError):
     """An error of the library, with its message (naming the particle, node or key at fault)."""
@@ -22,7 +36,7 @@ class Grid:
         origin: Tuple[float, float],
         cell_size: Tuple[float, float],
         cells: Tuple[int, int],
-        node_order: str = "x_fastest",
+        node_order: NodeOrder = "x_fastest",
     ) -> None: ...
     @staticmethod
     def from_node_coordinates(x_g: ArrayLike, y_g: ArrayLike) -> Grid:
@@ -36,12 +50,14 @@ class Grid:
     @property
     def num_nodes(self) -> int: ...
     @property
-    def node_order(self) -> str: ...
-    def node_x(self) -> npt.NDArray[np.float64]: ...
-    def node_y(self) -> npt.NDArray[np.float64]: ...
+    def node_order(self) -> NodeOrder: ...
+    def node_x(self) -> F64: ...
+    def node_y(self) -> F64: ...
 
 class Particles:
-    """Particle positions ``x, y``, masses ``m_p > 0``, volumes ``V_p > 0``, velocities (default 0)."""
+    """Particle positions ``x, y``, masses ``m_p > 0``, volumes ``V_p > 0``, velocities, stresses,
+    body forces (default 0) and bodies (default 0). Immutable; every attribute is a read-only
+    array made on first access and returned again after."""
 
     def __init__(
         self,
@@ -57,31 +73,47 @@ class Particles:
         sxy: Optional[ArrayLike] = None,
         bx: Optional[ArrayLike] = None,
         by: Optional[ArrayLike] = None,
+        body: Optional[ArrayLike] = None,
     ) -> None: ...
     def __len__(self) -> int: ...
-    def to_dict(self) -> Dict[str, np.ndarray]: ...
+    def to_dict(self) -> Dict[str, np.ndarray]:
+        """Every field as a new writeable array (float64; ``body``, ``id`` int64)."""
     @property
-    def x(self) -> npt.NDArray[np.float64]: ...
+    def x(self) -> F64:
+        """x coordinates."""
     @property
-    def y(self) -> npt.NDArray[np.float64]: ...
+    def y(self) -> F64:
+        """y coordinates."""
     @property
-    def mass(self) -> npt.NDArray[np.float64]: ...
+    def mass(self) -> F64:
+        """Masses m_p > 0."""
     @property
-    def volume(self) -> npt.NDArray[np.float64]: ...
+    def volume(self) -> F64:
+        """Volumes V_p > 0."""
     @property
-    def vx(self) -> npt.NDArray[np.float64]: ...
+    def vx(self) -> F64:
+        """x velocities."""
     @property
-    def vy(self) -> npt.NDArray[np.float64]: ...
+    def vy(self) -> F64:
+        """y velocities."""
     @property
-    def sxx(self) -> npt.NDArray[np.float64]: ...
+    def sxx(self) -> F64:
+        """Cauchy stress σxx."""
     @property
-    def syy(self) -> npt.NDArray[np.float64]: ...
+    def syy(self) -> F64:
+        """Cauchy stress σyy."""
     @property
-    def sxy(self) -> npt.NDArray[np.float64]: ...
+    def sxy(self) -> F64:
+        """Cauchy stress σxy."""
     @property
-    def bx(self) -> npt.NDArray[np.float64]: ...
+    def bx(self) -> F64:
+        """Body force per unit mass, x."""
     @property
-    def by(self) -> npt.NDArray[np.float64]: ...
+    def by(self) -> F64:
+        """Body force per unit mass, y."""
+    @property
+    def body(self) -> I64:
+        """Index of each particle's body."""
 
 class Operators:
     """``N_Ip = S_I(x_p)``, ``Gx_Ip = dS_I/dx (x_p)``, ``Gy_Ip = dS_I/dy (x_p)`` in CSC form."""
@@ -96,19 +128,19 @@ class Operators:
     def nnz(self) -> int: ...
     @property
     def shape_function(self) -> str: ...
-    def col_offsets(self) -> npt.NDArray[np.int64]: ...
-    def row_indices(self) -> npt.NDArray[np.int64]: ...
-    def values(self, op: str) -> npt.NDArray[np.float64]: ...
+    def col_offsets(self) -> I64: ...
+    def row_indices(self) -> I64: ...
+    def values(self, op: OperatorName) -> F64: ...
 
-def lumped_mass(ops: Operators, m: ArrayLike) -> npt.NDArray[np.float64]:
+def lumped_mass(ops: Operators, m: ArrayLike) -> F64:
     """``m_L = N m``."""
 
 def consistent_mass_csc(
     ops: Operators, m: ArrayLike
-) -> Tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64], int]:
+) -> Tuple[I64, I64, F64, int]:
     """``M = N diag(m) N^T`` as ``(indptr, indices, data, num_nodes)``."""
 
-Pair = Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]
+Pair = Tuple[F64, F64]
 
 def momentum(ops: Operators, m: ArrayLike, vx: ArrayLike, vy: ArrayLike) -> Pair:
     """``q = N (m ∘ v)`` as ``(qx, qy)``."""
@@ -120,14 +152,14 @@ def internal_force(ops: Operators, volume: ArrayLike, sxx: ArrayLike, syy: Array
     """``f_int,x = −(Gx (V ∘ σxx) + Gy (V ∘ σxy))``, ``f_int,y = −(Gx (V ∘ σxy) + Gy (V ∘ σyy))``."""
 
 def dispersion(
-    shape: Union[str, Mapping[str, Any]],
-    mass: str,
-    acceleration_mass: Optional[str] = None,
+    shape: ShapeSpec,
+    mass: MassScheme,
+    acceleration_mass: Optional[MassScheme] = None,
     particles_per_cell: int = 2,
     samples: int = 64,
     cells: Optional[int] = None,
-) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-def mass_diagnostics(ops: Operators, m: ArrayLike, mass: str = "lumped") -> Dict[str, Union[int, float]]:
+) -> Tuple[F64, F64]: ...
+def mass_diagnostics(ops: Operators, m: ArrayLike, mass: MassScheme = "lumped") -> Dict[str, Union[int, float]]:
     """``MassDiagnostics::compute`` as a dict of its fields."""
 
 def critical_time_step(
@@ -136,8 +168,8 @@ def critical_time_step(
     volume: ArrayLike,
     youngs_modulus: float,
     poisson_ratio: float,
-    plane: str = "stress",
-    mass: str = "lumped",
+    plane: Plane = "stress",
+    mass: MassScheme = "lumped",
 ) -> float:
     """``Δt_crit = 2 / ω_max``, ``ω²_max = λ_max(M⁻¹ K)``."""
 
@@ -147,10 +179,10 @@ def explicit_step(
     youngs_modulus: float,
     poisson_ratio: float,
     dt: float,
-    plane: str = "stress",
+    plane: Plane = "stress",
     shape: ShapeSpec = None,
-    mass: str = "lumped",
-    position_update: str = "grid_velocity",
+    mass: MassScheme = "lumped",
+    position_update: PositionUpdate = "grid_velocity",
 ) -> Dict[str, Any]:
     """``step::explicit_step`` on a copy of ``particles``: every intermediate of its ``StepRecord``."""
 
@@ -159,23 +191,39 @@ def scene_operators(path: Union[str, PathLike[str]]) -> Tuple[Grid, Particles, O
 
 class Simulation:
     @staticmethod
-    def from_scene(path: Union[str, PathLike[str]], allow_large: bool = False) -> Simulation: ...
+    def from_scene(path: Path, allow_large: bool = False) -> Simulation: ...
     @staticmethod
     def from_toml(text: str, base_dir: Optional[str] = None, allow_large: bool = False) -> Simulation: ...
     @staticmethod
     def from_dict(scene: Dict[str, Any], base_dir: Optional[str] = None, allow_large: bool = False) -> Simulation: ...
+    @staticmethod
+    def from_arrays(
+        grid: Grid, particles: Particles, bodies: List[Dict[str, Any]], options: Optional[Dict[str, Any]] = None
+    ) -> Simulation: ...
+    @staticmethod
+    def from_checkpoint(path: Path, end_time: Optional[float] = None, land_every: Optional[float] = None) -> Simulation: ...
+    def write_checkpoint(self, path: Path) -> None: ...
+    def write_snapshot(self, path: Path) -> None: ...
     @property
     def time(self) -> float: ...
     @property
     def steps(self) -> int: ...
     @property
-    def end_time(self) -> float: ...
+    def end_time(self) -> Optional[float]: ...
+    @property
+    def version(self) -> int:
+        """Changes with every change of the state."""
     land_every: Optional[float]
     def scene_toml(self) -> str: ...
     def stable_time_step(self) -> float: ...
     def step(self, max_dt: Optional[float] = None) -> Dict[str, float]: ...
-    def run_rows(self, until: float) -> Tuple[npt.NDArray[np.float64], int]: ...
+    def run_rows(self, until: float) -> Tuple[F64, int]: ...
     def particles(self) -> Dict[str, np.ndarray]: ...
+    def set_particle_state(
+        self, fields: Mapping[Literal["vx", "vy", "sxx", "syy", "sxy", "bx", "by"], ArrayLike]
+    ) -> None: ...
     def grid(self) -> Grid: ...
     def operators(self) -> Operators: ...
-    def lumped_mass(self) -> npt.NDArray[np.float64]: ...
+    def lumped_mass(self) -> F64: ...
+    def grid_velocity(self) -> Tuple[F64, F64]: ...
+    def active_nodes(self) -> I64: ...

@@ -108,7 +108,7 @@ pub(crate) fn dispersion<'py>(
     particles_per_cell: usize,
     samples: usize,
     cells: Option<usize>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+) -> PyResult<Pair<'py>> {
     let shape = parse_shape(shape)?;
     let velocity = mass_scheme(mass)?;
     let acceleration = match acceleration_mass {

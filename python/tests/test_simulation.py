@@ -134,3 +134,9 @@ def test_example_script_runs(root, tmp_path):
     assert done.returncode == 0, done.stderr
     assert "m_L = N m: [0.    0.    0.927 1.073 1.013 0.987]" in done.stdout
     assert "consistent" in done.stdout
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        assert "no plot" in done.stdout
+    else:  # the two panels: velocities, and the error on a log scale
+        assert out.stat().st_size > 10_000 and f"plot saved to {out}" in done.stdout
