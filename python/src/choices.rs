@@ -108,7 +108,8 @@ impl PathText {
             return out;
         };
         for (k, v) in table {
-            if !(is_table(v) || is_table_array(v)) {
+            let empty_table = v.as_table().is_some_and(|t| t.is_empty());
+            if empty_table || !(v.is_table() || is_table_array(v)) {
                 out.line(format!("{} = {}", key_text(k), v), k.clone());
             }
         }
@@ -124,8 +125,6 @@ impl PathText {
                         out.dotted(t, "", &path);
                     }
                 }
-            } else if is_table(v) {
-                out.line(format!("{} = {{}}", key_text(k)), k.clone());
             }
         }
         out
@@ -157,10 +156,6 @@ impl PathText {
             .get(line.min(self.paths.len().saturating_sub(1)))
             .map_or("scene", String::as_str)
     }
-}
-
-fn is_table(v: &toml::Value) -> bool {
-    v.is_table()
 }
 
 /// A non-empty array whose items are all tables (written as `[[key]]` sections).

@@ -332,9 +332,21 @@ def test_from_dict_errors_name_the_key_path(change, path):
                 "geometry": {"rectangle": {"min": [0.3, 0.3], "max": [0.7, 0.7]}},
             }
         ],
+        "execution": {},  # an empty table after the arrays of tables
     }
     mpm.Simulation.from_dict(scene)  # the scene itself is good
     change(scene)
     with pytest.raises(mpm.MpmError, match=path) as err:
         mpm.Simulation.from_dict(scene)
     assert "line" not in str(err.value)
+
+
+@pytest.mark.parametrize("name", ["seed_problem", "vibrating_bar", "two_disks", "block_in_box", "cantilever"])
+def test_from_dict_of_each_shipped_scene_equals_the_file(root, name):
+    tomllib = pytest.importorskip("tomllib")
+    path = root / "scenes" / f"{name}.toml"
+    scene = tomllib.loads(path.read_text())
+    from_file = mpm.Simulation.from_scene(path, allow_large=True)
+    from_dict = mpm.Simulation.from_dict(scene, base_dir=root / "scenes", allow_large=True)
+    assert from_dict.scene_toml() == from_file.scene_toml()
+    assert_same_state(from_file, from_dict)
