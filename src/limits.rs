@@ -13,7 +13,9 @@
 //! particles   = Σ_bodies  (area of the body ∩ grid) / (hx hy) · ppc²       (rectangles, disks)
 //!             + Σ_files   file bytes / 24                                   (CSV rows of about 24 bytes)
 //! memory      = 800 B · particles + 200 B · nodes  (+ 600 B · nodes for a non-lumped mass)
-//! steps       = end time / Δt    (Δt fixed, or the CFL number × the stable step at t = 0)
+//! steps       = steps of at most Δt (fixed, or the CFL number × the stable step at t = 0)
+//!               from 0 to the end time, each snapshot interval ending on its snapshot time:
+//!               about end time / Δt + one shortened step per snapshot interval
 //! output      = snapshots · 490 B · particles + steps · 600 B (report rows)
 //! snapshots   = end time / snapshot interval + 2
 //! ```
@@ -26,7 +28,7 @@ use std::fmt;
 
 use crate::error::{MpmError, Result};
 use crate::mass::MassScheme;
-use crate::scene::{Geometry, Scene};
+use crate::scene::{Geometry, Scene, SceneWarning};
 use crate::simulation::Simulation;
 
 /// Peak bytes per particle of a run (measured, quadratic B-splines, with the stable-step
@@ -93,8 +95,11 @@ pub struct Estimate {
     pub memory_bytes: f64,
     /// Snapshots.
     pub snapshots: f64,
-    /// Time steps, when the step is known.
+    /// Time steps, when the step is known: as `mpm run` takes them, each snapshot interval
+    /// ending with a step shortened to land on its snapshot time ([`run_steps`]).
     pub steps: Option<f64>,
+    /// Of `steps`, those shortened to land on a snapshot time or on the end.
+    pub shortened_steps: Option<f64>,
     /// Output bytes (snapshots, and the report when the steps are known).
     pub output_bytes: f64,
 }
@@ -111,6 +116,9 @@ impl fmt::Display for Estimate {
         )?;
         if let Some(steps) = self.steps {
             write!(f, ", {} steps", count(steps))?;
+            if let Some(shortened) = self.shortened_steps.filter(|&s| s > 0.0) {
+                write!(f, " ({} of them shortened to land on snapshot times)", count(shortened))?;
+            }
         }
         write!(f, ", output {}", bytes(self.output_bytes))
     }
@@ -189,15 +197,54 @@ pub fn estimate_scene(scene: &Scene) -> Estimate {
         };
     let end = scene.time.end;
     let snapshots = end / scene.snapshot_interval() + 2.0;
-    let steps = scene.time.dt.map(|dt| end / dt);
+    let counted = scene.time.dt.map(|dt| run_steps(end, dt, scene.snapshot_interval()));
+    let steps = counted.map(|c| c.0);
     Estimate {
         particles,
         nodes,
         memory_bytes,
         snapshots,
         steps,
+        shortened_steps: counted.map(|c| c.1),
         output_bytes: output_bytes(particles, snapshots, steps),
     }
+}
+
+/// Most steps [`run_steps`] counts one by one; above, it gives the upper bound.
+const MAX_COUNTED_STEPS: f64 = 1e7;
+
+/// The steps of a run from 0 to `end` at a step of at most `dt` that lands on every snapshot
+/// time (multiples of `interval`) and on `end`, as `mpm run` takes them, and how many of them
+/// are shortened to land. Each snapshot interval ends with a shortened step unless `dt`
+/// divides it, so a run takes up to one step per snapshot more than `end / dt`.
+///
+/// Counted with the run's own arithmetic (the same sums, the same tolerance of 10⁻¹² for
+/// having reached a time) up to [`MAX_COUNTED_STEPS`]; above, the upper bound
+/// `⌈end / dt⌉ + ⌈end / interval⌉` with every interval's last step counted as shortened.
+pub fn run_steps(end: f64, dt: f64, interval: f64) -> (f64, f64) {
+    if !(dt > 0.0 && interval > 0.0 && end.is_finite()) {
+        return (f64::INFINITY, 0.0);
+    }
+    let intervals = (end / interval).ceil();
+    if end / dt + intervals > MAX_COUNTED_STEPS {
+        return ((end / dt).ceil() + intervals, intervals);
+    }
+    let (mut time, mut next) = (0.0_f64, interval);
+    let (mut steps, mut shortened) = (0.0, 0.0);
+    while time < end * (1.0 - 1e-12) {
+        let target = next.min(end);
+        let room = target - time;
+        // (Not a step short of `dt` by rounding only.)
+        if room < dt * (1.0 - 1e-9) {
+            shortened += 1.0;
+        }
+        time += dt.min(room);
+        steps += 1.0;
+        if time >= next * (1.0 - 1e-12) {
+            next += interval;
+        }
+    }
+    (steps, shortened)
 }
 
 fn output_bytes(particles: f64, snapshots: f64, steps: Option<f64>) -> f64 {
@@ -269,16 +316,26 @@ pub fn check(estimate: &Estimate, limits: &Limits, scene: &Scene) -> Result<()> 
     Ok(())
 }
 
+/// The scene's warnings ([`Scene::warnings`], which builds its particles) when its estimate
+/// is within `limits`; none above them, where the run is refused before any particle is made.
+pub fn scene_warnings(scene: &Scene, limits: &Limits) -> Vec<SceneWarning> {
+    if check(&estimate_scene(scene), limits, scene).is_err() {
+        return Vec::new();
+    }
+    scene.warnings()
+}
+
 /// Everything `mpm run` checks before its first step, in the order it checks them, and the
 /// simulation it would run: the scene estimate against `limits`, the build (particles, options,
 /// the stable time step), then the steps and output with the particle count and stable step of
 /// the built simulation. `mpm check` calls exactly this.
 ///
 /// # Errors
-/// The errors of [`check`] and [`Scene::build`].
+/// The errors of [`check`] and [`Scene::build`], with the scene file and line of their key
+/// ([`Scene::locate`]).
 pub fn prepare_run(scene: &Scene, limits: &Limits) -> Result<(Simulation, Estimate)> {
     let mut estimate = estimate_scene(scene);
-    check(&estimate, limits, scene)?;
+    check(&estimate, limits, scene).map_err(|e| scene.locate(e))?;
     let sim = scene.build()?;
     estimate.particles = sim.particles().len() as f64;
     let end = scene.time.end;
@@ -286,8 +343,10 @@ pub fn prepare_run(scene: &Scene, limits: &Limits) -> Result<(Simulation, Estima
         (Some(dt), _) => dt,
         (None, cfl) => cfl.unwrap_or(0.5) * sim.stable_time_step(),
     };
-    estimate.steps = (dt > 0.0).then(|| end / dt);
+    let counted = (dt > 0.0).then(|| run_steps(end, dt, scene.snapshot_interval()));
+    estimate.steps = counted.map(|c| c.0);
+    estimate.shortened_steps = counted.map(|c| c.1);
     estimate.output_bytes = output_bytes(estimate.particles, estimate.snapshots, estimate.steps);
-    check(&estimate, limits, scene)?;
+    check(&estimate, limits, scene).map_err(|e| scene.locate(e))?;
     Ok((sim, estimate))
 }

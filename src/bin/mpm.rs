@@ -285,7 +285,8 @@ struct StudyArgs {
     /// Output folder [default: out/study].
     #[arg(long, short = 'o', value_name = "DIR")]
     out: Option<PathBuf>,
-    /// A TOML file setting any of the study's keys (docs/verification.md).
+    /// A TOML file setting any of the study's keys: each key, its type, range and default in
+    /// docs/verification.md, "Study spec keys".
     #[arg(long, value_name = "STUDY.toml")]
     spec: Option<PathBuf>,
     /// Comma-separated parts to run [default: all].
@@ -508,6 +509,14 @@ fn failure(error: sparse_mpm::MpmError, out: &Path) -> String {
 
 fn run(args: &RunArgs) -> Result<(), String> {
     let (scene, name) = load_scene(args.scene.as_deref())?;
+    let limits = if args.run.allow_large {
+        limits::Limits::raised()
+    } else {
+        limits::Limits::default()
+    };
+    for warning in limits::scene_warnings(&scene, &limits) {
+        eprintln!("warning: {warning}");
+    }
     let out = args.output.out.clone().unwrap_or_else(|| Path::new("out").join(&name));
     let title = scene.title.clone().unwrap_or_else(|| name.clone());
     if !args.run.quiet {
@@ -582,6 +591,16 @@ fn check(args: &CheckArgs) -> Result<(), String> {
     );
     println!("stable time step at t = 0: {}", human(sim.stable_time_step()));
     println!("{estimate}");
+    if scene.time.dt.is_none() && estimate.steps.is_some() {
+        println!(
+            "(steps counted with the CFL step of t = 0, {}, held to the end; the run's step follows the stable \
+             step as it is re-estimated, so its count may differ)",
+            human(scene.time.cfl.unwrap_or(0.5) * sim.stable_time_step())
+        );
+    }
+    for warning in scene.warnings_for(sim.particles()) {
+        eprintln!("warning: {warning}");
+    }
     Ok(())
 }
 

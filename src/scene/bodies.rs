@@ -12,10 +12,15 @@ impl Scene {
     ///
     /// # Errors
     /// [`MpmError::InvalidScene`] for a body that yields no particles or an unreadable particle
-    /// file (naming the file, the row and the column).
+    /// file (naming the file, the row and the column), located by [`Scene::locate`].
     ///
     /// [`MpmError::InvalidScene`]: crate::error::MpmError::InvalidScene
     pub fn particles(&self) -> Result<Particles> {
+        self.body_particles_all().map_err(|e| self.locate(e))
+    }
+
+    /// [`Scene::particles`] with errors at their keys only.
+    pub(super) fn body_particles_all(&self) -> Result<Particles> {
         let grid = self.grid()?;
         let mut all = Particles::default();
         for (k, body) in self.bodies.iter().enumerate() {
@@ -38,25 +43,7 @@ impl Scene {
                     .map_err(|reason| invalid(key("geometry.file"), reason))?
             }
             geometry => {
-                let [x0, x1, y0, y1] = grid.bounds();
-                let (lo, hi) = match geometry {
-                    Geometry::Rectangle { min, max } => (*min, *max),
-                    Geometry::Disk { center, radius } => (
-                        [center[0] - radius, center[1] - radius],
-                        [center[0] + radius, center[1] + radius],
-                    ),
-                    Geometry::File(_) => unreachable!("handled above"),
-                };
-                let tol = 1e-9 * (x1 - x0).max(y1 - y0);
-                if lo[0] < x0 - tol || lo[1] < y0 - tol || hi[0] > x1 + tol || hi[1] > y1 + tol {
-                    return Err(invalid(
-                        key("geometry"),
-                        format!(
-                            "spans [{}, {}] x [{}, {}], which is not inside the grid [{x0}, {x1}] x [{y0}, {y1}]",
-                            lo[0], hi[0], lo[1], hi[1]
-                        ),
-                    ));
-                }
+                inside_grid(k, geometry, grid)?;
                 let inside = |px: f64, py: f64| match geometry {
                     Geometry::Rectangle { min, max } => px > min[0] && px < max[0] && py > min[1] && py < max[1],
                     Geometry::Disk { center, radius } => (px - center[0]).hypot(py - center[1]) < *radius,
@@ -89,4 +76,46 @@ impl Scene {
             .and_then(|p| p.with_body_force(vec![body.body_force[0]; count], vec![body.body_force[1]; count]))
             .map_err(|e| invalid(key("geometry"), e.to_string()))
     }
+}
+
+/// The bounding box `[lo, hi]` of a rectangle or a disk; `None` for a particle file.
+pub(super) fn bounding_box(geometry: &Geometry) -> Option<([f64; 2], [f64; 2])> {
+    match geometry {
+        Geometry::Rectangle { min, max } => Some((*min, *max)),
+        Geometry::Disk { center, radius } => Some((
+            [center[0] - radius, center[1] - radius],
+            [center[0] + radius, center[1] + radius],
+        )),
+        Geometry::File(_) => None,
+    }
+}
+
+/// The rectangle or disk of body `k` inside the grid (to a relative 10⁻⁹ of the grid's size).
+///
+/// # Errors
+/// [`MpmError::InvalidScene`] at `bodies[k].geometry.rectangle` or `.disk`, with the span of
+/// the shape and the grid's.
+///
+/// [`MpmError::InvalidScene`]: crate::error::MpmError::InvalidScene
+pub(super) fn inside_grid(k: usize, geometry: &Geometry, grid: &Grid) -> Result<()> {
+    let Some((lo, hi)) = bounding_box(geometry) else {
+        return Ok(());
+    };
+    let [x0, x1, y0, y1] = grid.bounds();
+    let tol = 1e-9 * (x1 - x0).max(y1 - y0);
+    if lo[0] < x0 - tol || lo[1] < y0 - tol || hi[0] > x1 + tol || hi[1] > y1 + tol {
+        let shape = if matches!(geometry, Geometry::Disk { .. }) {
+            "disk"
+        } else {
+            "rectangle"
+        };
+        return Err(invalid(
+            format!("bodies[{k}].geometry.{shape}"),
+            format!(
+                "spans [{}, {}] x [{}, {}], which is not inside the grid [{x0}, {x1}] x [{y0}, {y1}]",
+                lo[0], hi[0], lo[1], hi[1]
+            ),
+        ));
+    }
+    Ok(())
 }

@@ -72,8 +72,12 @@
 //! - A boundary's `nodes` list names each node once and is no longer than the grid's node count.
 
 mod bodies;
+mod locate;
+mod overlap;
 mod particle_file;
 mod validate;
+
+pub use overlap::{overlaps, Overlap, SceneWarning};
 
 use std::path::{Path, PathBuf};
 
@@ -88,8 +92,9 @@ use crate::schemes::PositionUpdate;
 use crate::shape::ShapeFunction;
 use crate::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
 
-/// A complete simulation description.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// A complete simulation description. Two scenes are equal when they describe the same
+/// simulation: [`Scene::file`], where a scene was read from, is not compared.
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// A line describing the scene.
@@ -120,6 +125,10 @@ pub struct Scene {
     /// `None`, the current directory.
     #[serde(skip)]
     pub base_dir: Option<PathBuf>,
+    /// The scene file the scene was read from; set by [`Scene::load`]. Errors found after
+    /// reading ([`Scene::build`], the cost limits) name it and the line of their key.
+    #[serde(skip)]
+    pub file: Option<PathBuf>,
     /// Read particle files wherever their paths lead (absolute paths, `..` out of
     /// [`Scene::base_dir`], symbolic links out of it). `false` (the default, and what a scene
     /// read from TOML gets; it is not a key of the file): a particle file must lie inside the
@@ -127,6 +136,37 @@ pub struct Scene {
     /// on, files it was not meant to. Only a program that trusts its scenes should set it.
     #[serde(skip)]
     pub allow_outside_files: bool,
+}
+
+impl PartialEq for Scene {
+    fn eq(&self, other: &Scene) -> bool {
+        // Every field but `file`, named so that a new field cannot be forgotten here.
+        let Scene {
+            title,
+            grid,
+            schemes,
+            time,
+            loads,
+            bodies,
+            boundaries,
+            output,
+            execution,
+            base_dir,
+            allow_outside_files,
+            file: _,
+        } = self;
+        *title == other.title
+            && *grid == other.grid
+            && *schemes == other.schemes
+            && *time == other.time
+            && *loads == other.loads
+            && *bodies == other.bodies
+            && *boundaries == other.boundaries
+            && *output == other.output
+            && *execution == other.execution
+            && *base_dir == other.base_dir
+            && *allow_outside_files == other.allow_outside_files
+    }
 }
 
 /// The uniform background grid.
@@ -308,6 +348,28 @@ pub struct OutputSpec {
     pub snapshot_interval: Option<f64>,
 }
 
+/// `table` when `message` is the parser's "missing field `table`" for a table of the scene.
+fn missing_table(message: &str) -> Option<&'static str> {
+    ["grid", "time", "bodies"]
+        .into_iter()
+        .find(|t| message == format!("missing field `{t}`"))
+}
+
+/// `e` (an [`MpmError::InvalidScene`]) with its key preceded by `path` and the line of the key
+/// in `text` when it is found there.
+fn located(e: MpmError, path: &Path, text: &str) -> MpmError {
+    match e {
+        MpmError::InvalidScene { key, reason } => {
+            let place = match locate::line_of(text, &key) {
+                Some(line) => format!("{}: line {line}, {key}", path.display()),
+                None => format!("{}: {key}", path.display()),
+            };
+            invalid(place, reason)
+        }
+        e => e,
+    }
+}
+
 /// An [`MpmError::InvalidScene`] at `key`.
 fn invalid(key: impl Into<String>, reason: impl Into<String>) -> MpmError {
     MpmError::InvalidScene {
@@ -323,7 +385,37 @@ impl Scene {
     /// [`MpmError::InvalidScene`] with the parser's message (line, column, the key and what is
     /// wrong: unknown key, missing key, wrong type), then the checks of [`Scene::validate`].
     pub fn from_toml_str(text: &str) -> Result<Scene> {
-        let scene: Scene = toml::from_str(text).map_err(|e| {
+        let scene = Scene::parse(text)?;
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// The scene in `text`, unchecked beyond what the file format says; a parser's error at
+    /// the line and key it names.
+    fn parse(text: &str) -> Result<Scene> {
+        toml::from_str(text).map_err(|e| {
+            let message = e.message().trim();
+            // A required table of the scene itself (`grid`, `time`, `bodies`) is missing: the
+            // parser points at the start of the text (a missing key of a table points at the
+            // table's header), whose first line has nothing to do with it.
+            if let Some(table) = missing_table(message) {
+                if e.span()
+                    .is_none_or(|s| s.start == 0 && (s.end == 0 || s.end >= text.trim_end().len()))
+                {
+                    return invalid(
+                        table,
+                        format!(
+                            "missing table {}: a scene needs [grid], [time] and at least one [[bodies]] \
+                             (docs/simulation.md, \"Scene files\")",
+                            if table == "bodies" {
+                                "[[bodies]]".to_string()
+                            } else {
+                                format!("[{table}]")
+                            }
+                        ),
+                    );
+                }
+            }
             let place = e.span().map(|s| {
                 let start = s.start.min(text.len());
                 let line = text[..start].matches('\n').count() + 1;
@@ -339,10 +431,8 @@ impl Scene {
                     format!("line {line}, {key}")
                 }
             });
-            invalid(place.unwrap_or_else(|| "scene".into()), e.message().trim().to_string())
-        })?;
-        scene.validate()?;
-        Ok(scene)
+            invalid(place.unwrap_or_else(|| "scene".into()), message.to_string())
+        })
     }
 
     /// Reads a scene file; relative particle-file paths are taken from its folder.
@@ -354,12 +444,28 @@ impl Scene {
             path: path.to_path_buf(),
             source,
         })?;
-        let mut scene = Scene::from_toml_str(&text).map_err(|e| match e {
+        // The parser's errors name their line already; the checks' errors get it here.
+        let mut scene = Scene::parse(&text).map_err(|e| match e {
             MpmError::InvalidScene { key, reason } => invalid(format!("{}: {key}", path.display()), reason),
             e => e,
         })?;
         scene.base_dir = path.parent().map(Path::to_path_buf);
+        scene.file = Some(path.to_path_buf());
+        scene.validate().map_err(|e| located(e, path, &text))?;
         Ok(scene)
+    }
+
+    /// An [`MpmError::InvalidScene`] about this scene, with its key preceded by the scene
+    /// file and the line the key is written on (`scenes/disks.toml: line 27,
+    /// bodies[1].geometry.disk`) when the scene was read from a file ([`Scene::file`]); other
+    /// errors unchanged.
+    pub fn locate(&self, e: MpmError) -> MpmError {
+        let Some(path) = &self.file else {
+            return e;
+        };
+        // The text as it is now: read again only for an error.
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        located(e, path, &text)
     }
 
     /// The scene as TOML text; [`Scene::from_toml_str`] reads it back to an equal scene.
@@ -421,7 +527,11 @@ impl Scene {
     /// # Errors
     /// The errors of [`Scene::grid`], [`Scene::particles`] and [`Simulation::new`].
     pub fn build(&self) -> Result<Simulation> {
-        Simulation::new(self.grid()?, self.particles()?, self.bodies(), self.options()).map_err(|e| self.scene_error(e))
+        let build = || {
+            Simulation::new(self.grid()?, self.body_particles_all()?, self.bodies(), self.options())
+                .map_err(|e| self.scene_error(e))
+        };
+        build().map_err(|e| self.locate(e))
     }
 
     /// An [`MpmError::InvalidOption`] of the library restated as [`MpmError::InvalidScene`] at

@@ -307,7 +307,7 @@ impl Scene {
             }
             Geometry::File(_) => {}
         }
-        Ok(())
+        super::bodies::inside_grid(k, &b.geometry, &self.grid()?)
     }
 
     /// A vector of the scene at `key` (an acceleration or a velocity): finite, of magnitude at

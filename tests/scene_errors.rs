@@ -1,0 +1,234 @@
+//! What a scene file gets told: errors that name the file, the key and its line (a missing
+//! table, a body outside the grid, a run over the limits), a warning for bodies whose
+//! particles lie in the same place, and a step count that includes the steps shortened to
+//! land on snapshot times.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use sparse_mpm::limits::{prepare_run, run_steps, Limits};
+use sparse_mpm::run::{run_scene_with, OutputPolicy, RunOptions};
+use sparse_mpm::scene::{overlaps, Scene};
+
+const TWO_DISKS: &str = include_str!("../scenes/two_disks.toml");
+
+/// A fresh folder for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sparse_mpm_scene_errors_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// `text` written to `dir/scene.toml`.
+fn write_scene(dir: &Path, text: &str) -> PathBuf {
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The 1-based line of `text` holding the `n`-th (0-based) occurrence of `needle`.
+fn line_of(text: &str, needle: &str, n: usize) -> usize {
+    let (at, _) = text.match_indices(needle).nth(n).expect("the needle is in the text");
+    text[..at].matches('\n').count() + 1
+}
+
+/// The two-disk scene with its upper disk moved to `center`.
+fn disks_with_upper_at(center: &str) -> String {
+    let moved = TWO_DISKS.replace("center = [0.8, 0.8]", &format!("center = {center}"));
+    assert_ne!(moved, TWO_DISKS);
+    moved
+}
+
+#[test]
+fn a_missing_table_is_named_with_the_file_not_the_first_line() {
+    let dir = scratch("missing_table");
+    for (table, header) in [("time", "[time]"), ("grid", "[grid]")] {
+        // The table and its keys gone (up to the blank line that ends it).
+        let start = TWO_DISKS.find(&format!("{header}\n")).unwrap();
+        let end = start + TWO_DISKS[start..].find("\n\n").unwrap();
+        let text = format!("{}{}", &TWO_DISKS[..start], &TWO_DISKS[end..]);
+        let path = write_scene(&dir, &text);
+        let message = Scene::load(&path).unwrap_err().to_string();
+        assert!(
+            message.starts_with(&format!("`{}: {table}`", path.display())),
+            "{message}"
+        );
+        assert!(message.contains(&format!("missing table {header}")), "{message}");
+        assert!(!message.contains("line 1") && !message.contains("title"), "{message}");
+    }
+    // A missing key of a table still points at the table's header.
+    let text = TWO_DISKS.replace("cells = [20, 20]\n", "");
+    let path = write_scene(&dir, &text);
+    let message = Scene::load(&path).unwrap_err().to_string();
+    assert!(
+        message.contains(&format!("line {}, [grid]", line_of(&text, "[grid]", 0))),
+        "{message}"
+    );
+    assert!(message.contains("missing field `cells`"), "{message}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_body_outside_the_grid_is_named_with_the_file_key_and_line() {
+    let dir = scratch("outside");
+    let text = disks_with_upper_at("[0.9, 0.8]");
+    let path = write_scene(&dir, &text);
+    let message = Scene::load(&path).unwrap_err().to_string();
+    let line = line_of(&text, "geometry = { disk", 1);
+    assert!(
+        message.starts_with(&format!("`{}: line {line}, bodies[1].geometry.disk`", path.display())),
+        "{message}"
+    );
+    assert!(message.contains("not inside the grid [0, 1] x [0, 1]"), "{message}");
+    // The same check in the build of a scene made in a program: the key, no file.
+    let mut scene = Scene::from_toml_str(TWO_DISKS).unwrap();
+    scene.bodies[0].geometry = sparse_mpm::scene::Geometry::Rectangle {
+        min: [-0.5, 0.1],
+        max: [0.3, 0.3],
+    };
+    let Err(e) = scene.build() else {
+        panic!("a body outside the grid accepted")
+    };
+    let message = e.to_string();
+    assert!(
+        message.starts_with("`bodies[0].geometry.rectangle`: spans [-0.5, 0.3]"),
+        "{message}"
+    );
+    // Any other check of a loaded scene names its line as well.
+    let text = TWO_DISKS.replace(
+        "density = 1000.0\nparticles_per_cell = 2\nvelocity = [-0.1",
+        "density = -1.0\nparticles_per_cell = 2\nvelocity = [-0.1",
+    );
+    let path = write_scene(&dir, &text);
+    let message = Scene::load(&path).unwrap_err().to_string();
+    let line = line_of(&text, "density = -1.0", 0);
+    assert!(
+        message.starts_with(&format!("`{}: line {line}, bodies[1].density`", path.display())),
+        "{message}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_run_over_the_limits_names_the_file_and_line_of_the_key() {
+    let dir = scratch("limits");
+    let text = TWO_DISKS.replace("snapshot_interval = 0.05", "snapshot_interval = 1e-6");
+    let path = write_scene(&dir, &text);
+    let scene = Scene::load(&path).unwrap();
+    let Err(e) = prepare_run(&scene, &Limits::default()) else {
+        panic!("a run over the limits accepted")
+    };
+    let message = e.to_string();
+    let line = line_of(&text, "snapshot_interval", 0);
+    assert!(
+        message.starts_with(&format!("`{}: line {line}, output.snapshot_interval`", path.display())),
+        "{message}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn overlapping_bodies_are_warned_about_and_touching_ones_are_not() {
+    // The shipped disks and two blocks that share an edge: no warning.
+    let disks = Scene::from_toml_str(TWO_DISKS).unwrap();
+    assert!(disks.warnings().is_empty());
+    let blocks = TWO_DISKS
+        .replace(
+            "geometry = { disk = { center = [0.2, 0.2], radius = 0.2 } }",
+            "geometry = { rectangle = { min = [0.2, 0.2], max = [0.5, 0.6] } }",
+        )
+        .replace(
+            "geometry = { disk = { center = [0.8, 0.8], radius = 0.2 } }",
+            "geometry = { rectangle = { min = [0.5, 0.2], max = [0.8, 0.6] } }",
+        );
+    let blocks = Scene::from_toml_str(&blocks).unwrap();
+    assert_eq!(blocks.bodies.len(), 2);
+    assert!(blocks.warnings().is_empty(), "{:?}", blocks.warnings());
+
+    // The upper disk moved onto the lower one: every particle in the lens is counted.
+    let dir = scratch("overlap");
+    let text = disks_with_upper_at("[0.45, 0.45]");
+    let path = write_scene(&dir, &text);
+    let scene = Scene::load(&path).unwrap();
+    let particles = scene.particles().unwrap();
+    let list = overlaps(&particles);
+    assert_eq!(list.len(), 1, "{list:?}");
+    let o = &list[0];
+    assert_eq!((o.first, o.second), (0, 1));
+    // The same lattice fills both disks: the shared particles are those in both.
+    let inside = |x: f64, y: f64, c: [f64; 2]| (x - c[0]).hypot(y - c[1]) < 0.2;
+    let shared = (0..particles.len())
+        .filter(|&i| particles.body[i] == 1 && inside(particles.x[i], particles.y[i], [0.2, 0.2]))
+        .count();
+    assert!(shared > 0);
+    assert_eq!(o.particles, shared);
+    let warnings = scene.warnings();
+    assert_eq!(warnings.len(), 1);
+    let line = line_of(&text, "geometry = { disk", 1);
+    assert_eq!(
+        warnings[0].key,
+        format!("{}: line {line}, bodies[1].geometry", path.display())
+    );
+    assert!(
+        warnings[0].message.starts_with(&format!(
+            "{shared} particles of body `upper right disk` lie on particles of bodies[0]"
+        )),
+        "{}",
+        warnings[0].message
+    );
+    // Still a valid scene: `mpm check` and `mpm run` go on, and both print the warning.
+    for args in [vec!["check"], vec!["run", "--steps", "2", "--out", "out"]] {
+        let output = Command::new(env!("CARGO_BIN_EXE_mpm"))
+            .args(&args)
+            .arg(&path)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains(&format!(
+                "warning: `{}: line {line}, bodies[1].geometry`",
+                path.display()
+            )),
+            "{args:?}: {stderr}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_step_count_includes_the_steps_shortened_to_land_on_snapshot_times() {
+    // dt = 0.03 against snapshots every 0.05: two steps per interval, the second shortened.
+    assert_eq!(run_steps(3.5, 0.03, 0.05), (140.0, 70.0));
+    // A step that divides the interval (to rounding) is never shortened.
+    assert_eq!(run_steps(1.0, 0.01, 0.05), (100.0, 0.0));
+    // The last interval, cut by the end: 3 snapshot intervals of 0.4 in 1.0, the last 0.2.
+    assert_eq!(run_steps(1.0, 0.3, 0.4), (5.0, 3.0));
+    // Beyond the counted range, the upper bound.
+    assert_eq!(run_steps(1e3, 1e-5, 0.3), (1e8 + 3334.0, 3334.0));
+
+    // The prediction of `mpm check` is the count of `mpm run` for a fixed step.
+    let dir = scratch("steps");
+    for (dt, interval) in [("0.02", "0.05"), ("0.013", "0.05"), ("0.01", "0.1"), ("0.015", "0.07")] {
+        let text = TWO_DISKS
+            .replace("cfl = 0.5", &format!("dt = {dt}"))
+            .replace("snapshot_interval = 0.05", &format!("snapshot_interval = {interval}"));
+        let scene = Scene::from_toml_str(&text).unwrap();
+        let (_, estimate) = prepare_run(&scene, &Limits::default()).unwrap();
+        let options = RunOptions {
+            output: OutputPolicy::Overwrite,
+            ..RunOptions::default()
+        };
+        let summary = run_scene_with(&scene, &dir.join("out"), &options, |_| {}).unwrap();
+        assert_eq!(
+            estimate.steps,
+            Some(summary.steps as f64),
+            "dt {dt}, interval {interval}"
+        );
+        let expected = format!("{} steps", summary.steps);
+        assert!(estimate.to_string().contains(&expected), "{estimate}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
