@@ -63,3 +63,34 @@ fn a_study_spec_is_read_strictly_and_defaults_what_it_omits() {
         .to_string();
     assert!(err.contains("nonsense"), "{err}");
 }
+
+/// docs/verification.md, "Study spec keys": its example spec reads, and its table has a row
+/// for every key of a spec and for no other.
+#[test]
+fn the_documented_spec_keys_are_the_spec_keys() {
+    let docs = include_str!("../docs/verification.md");
+    let section = docs
+        .split("## Study spec keys")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("the section");
+    let example = section
+        .split("```toml\n")
+        .nth(1)
+        .and_then(|s| s.split("```").next())
+        .expect("an example spec");
+    let spec = StudySpec::from_toml_str(example).unwrap_or_else(|e| panic!("{e}\n{example}"));
+    assert_ne!(spec, StudySpec::default());
+    let mut documented: Vec<&str> = section
+        .lines()
+        .filter_map(|l| l.strip_prefix("| `"))
+        .filter_map(|l| l.split('`').next())
+        .collect();
+    let toml::Value::Table(keys) = toml::Value::try_from(StudySpec::default()).unwrap() else {
+        panic!("a spec is a table")
+    };
+    let mut keys: Vec<&str> = keys.keys().map(String::as_str).collect();
+    documented.sort_unstable();
+    keys.sort_unstable();
+    assert_eq!(documented, keys);
+}
