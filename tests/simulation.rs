@@ -188,6 +188,83 @@ fn a_rigid_translation_stays_rigid() {
     }
 }
 
+#[test]
+fn velocities_and_stresses_set_between_steps_take_effect_by_id_and_bad_values_change_nothing() {
+    let grid = grid(16, 0.1);
+    let particles = block(&grid, 5, 8, 5, 8, 100.0);
+    let options = Options {
+        time_step: TimeStep::Fixed { dt: 0.004 },
+        ..Options::default()
+    };
+    let mut sim = Simulation::new(grid, particles, bodies(), options).unwrap();
+    for _ in 0..3 {
+        sim.step().unwrap();
+    }
+    // A rigid velocity by id, then steps: the block translates with it.
+    sim.set_velocity(|id, _| [0.5 + 0.0 * id as f64, -0.25]).unwrap();
+    let (x0, y0, t0) = (sim.particles().x.clone(), sim.particles().y.clone(), sim.time());
+    let ids0 = sim.particles().id.clone();
+    for _ in 0..10 {
+        sim.step().unwrap();
+    }
+    let dt = sim.time() - t0;
+    let p = sim.particles();
+    for k in 0..p.len() {
+        let k0 = ids0.iter().position(|&i| i == p.id[k]).unwrap();
+        assert!(
+            (p.x[k] - (x0[k0] + 0.5 * dt)).abs() < 1e-9,
+            "{} {}",
+            p.x[k],
+            x0[k0] + 0.5 * dt
+        );
+        assert!((p.y[k] - (y0[k0] - 0.25 * dt)).abs() < 1e-9);
+    }
+    // A stress by id; a refused call changes nothing and names the particle and field.
+    sim.set_stress(|id, _| [id as f64, 2.0, 3.0]).unwrap();
+    let p = sim.particles();
+    assert!((0..p.len()).all(|k| p.sxx[k] == p.id[k] as f64 && p.syy[k] == 2.0 && p.sxy[k] == 3.0));
+    let before = sim.particles().clone();
+    let mut count = 0;
+    let err = sim
+        .set_velocity(|_, v| {
+            count += 1;
+            if count == 7 {
+                [0.0, f64::NAN]
+            } else {
+                [v[0] + 1.0, v[1]]
+            }
+        })
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            MpmError::InvalidParticleValue {
+                particle: 6,
+                field: "vy",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let err = sim.set_stress(|_, _| [f64::INFINITY, 0.0, 0.0]).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            MpmError::InvalidParticleValue {
+                particle: 0,
+                field: "sxx",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert_eq!(sim.particles(), &before);
+    // The next CFL term sees a speed set: the stable step falls as the speed rises.
+    let calm = sim.stable_time_step();
+    sim.set_velocity(|_, _| [50.0, 0.0]).unwrap();
+    assert!(sim.stable_time_step() < calm, "{} {calm}", sim.stable_time_step());
+}
+
 /// Two disks of 2 × 2 particles per cell moving towards each other.
 fn two_disks(shape: ShapeFunction) -> (Grid, Particles) {
     let grid = Grid::new([0.0, 0.0], [0.05, 0.05], [24, 24]).unwrap();

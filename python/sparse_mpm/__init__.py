@@ -493,9 +493,10 @@ class Simulation:
         """Sets particle fields, each an array in the order of ``particles()``: ``vx``, ``vy``
         (velocity), ``sxx``, ``syy``, ``sxy`` (stress), ``bx``, ``by`` (body force per unit
         mass, besides gravity). Each array needs one finite value per particle; an error names
-        the field and the particle. Body forces can be set at any time; velocities and stresses
-        before the first step only (the simulation is then rebuilt with them, as if built from
-        them)."""
+        the field and the particle. Before the first step the simulation is rebuilt with them (as
+        if built from them: its first stable step sees them); between steps they are set in place
+        (``Simulation::set_velocity``, ``set_stress``, ``set_body_force``), and the next step's CFL
+        term sees the new speeds."""
         self._core.set_particle_state(fields)
 
     def grid(self) -> Grid:

@@ -299,19 +299,6 @@ impl PySimulation {
             given.push((field, values));
         }
         let only_body_force = given.iter().all(|(f, _)| *f == "bx" || *f == "by");
-        if !only_body_force && self.sim.steps() > 0 {
-            let names: Vec<&str> = given
-                .iter()
-                .map(|(f, _)| *f)
-                .filter(|f| *f != "bx" && *f != "by")
-                .collect();
-            return Err(mpm_msg(format!(
-                "{}: velocities and stresses can be set before the first step only ({} steps taken); \
-                 body forces (bx, by) at any time",
-                names.join(", "),
-                self.sim.steps()
-            )));
-        }
         if given.is_empty() {
             return Ok(());
         }
@@ -330,6 +317,37 @@ impl PySimulation {
                 by_id.insert(id, b[i]);
             }
             self.sim.set_body_force(|id, _| by_id[&id]);
+        } else if self.sim.steps() > 0 {
+            // Between steps: the library's setters, in the current particle order.
+            let p = self.sim.particles();
+            let pick = |name: &str, now: &[f64]| -> Vec<f64> {
+                given
+                    .iter()
+                    .find(|(f, _)| *f == name)
+                    .map_or_else(|| now.to_vec(), |(_, v)| v.clone())
+            };
+            let (vx, vy) = (pick("vx", &p.vx), pick("vy", &p.vy));
+            let (sxx, syy, sxy) = (pick("sxx", &p.sxx), pick("syy", &p.syy), pick("sxy", &p.sxy));
+            let (bx, by) = (pick("bx", &p.bx), pick("by", &p.by));
+            let mut k = 0;
+            self.sim
+                .set_velocity(|_, _| {
+                    k += 1;
+                    [vx[k - 1], vy[k - 1]]
+                })
+                .map_err(mpm_err)?;
+            let mut k = 0;
+            self.sim
+                .set_stress(|_, _| {
+                    k += 1;
+                    [sxx[k - 1], syy[k - 1], sxy[k - 1]]
+                })
+                .map_err(mpm_err)?;
+            let mut k = 0;
+            self.sim.set_body_force(|_, _| {
+                k += 1;
+                [bx[k - 1], by[k - 1]]
+            });
         } else {
             let mut p: Particles = self.sim.particles().clone();
             for (f, v) in given {

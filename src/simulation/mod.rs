@@ -245,6 +245,77 @@ impl Simulation {
         }
     }
 
+    /// Sets every particle's velocity to `v(id, v_p)` between steps, with `id` the particle's
+    /// permanent id and `v_p` its velocity now (an impulse, a restart with other initial
+    /// conditions). The next step's CFL term sees the new speeds.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidParticleValue`] (`vx` or `vy`) naming the first particle given a
+    /// value that is not finite; nothing is changed then.
+    pub fn set_velocity(&mut self, v: impl FnMut(usize, [f64; 2]) -> [f64; 2]) -> Result<()> {
+        let new = self.particle_pairs(v, ["vx", "vy"], |p, k| [p.vx[k], p.vy[k]])?;
+        let p = &mut self.state.particles;
+        for (k, [vx, vy]) in new.into_iter().enumerate() {
+            (p.vx[k], p.vy[k]) = (vx, vy);
+        }
+        self.state.speeds.particle = (0..p.len()).map(|k| p.vx[k].hypot(p.vy[k])).fold(0.0, f64::max);
+        Ok(())
+    }
+
+    /// Sets every particle's Cauchy stress to `s(id, [σxx, σyy, σxy])` between steps (a
+    /// prestress, a geostatic state), with `id` the particle's permanent id. The deformation
+    /// gradient is left as it is: for the neo-Hookean model, whose stress follows from `F`, the
+    /// next stress update replaces the stress set here.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidParticleValue`] (`sxx`, `syy` or `sxy`) naming the first particle
+    /// given a value that is not finite; nothing is changed then.
+    pub fn set_stress(&mut self, mut s: impl FnMut(usize, [f64; 3]) -> [f64; 3]) -> Result<()> {
+        let p = &self.state.particles;
+        let mut new = Vec::with_capacity(p.len());
+        for k in 0..p.len() {
+            let value = s(p.id[k], [p.sxx[k], p.syy[k], p.sxy[k]]);
+            if let Some(c) = value.iter().position(|v| !v.is_finite()) {
+                return Err(MpmError::InvalidParticleValue {
+                    particle: k,
+                    field: ["sxx", "syy", "sxy"][c],
+                    value: value[c],
+                    reason: "a stress must be finite",
+                });
+            }
+            new.push(value);
+        }
+        let p = &mut self.state.particles;
+        for (k, [sxx, syy, sxy]) in new.into_iter().enumerate() {
+            (p.sxx[k], p.syy[k], p.sxy[k]) = (sxx, syy, sxy);
+        }
+        Ok(())
+    }
+
+    /// `f(id, now)` for every particle, checked finite.
+    fn particle_pairs(
+        &self,
+        mut f: impl FnMut(usize, [f64; 2]) -> [f64; 2],
+        fields: [&'static str; 2],
+        now: impl Fn(&Particles, usize) -> [f64; 2],
+    ) -> Result<Vec<[f64; 2]>> {
+        let p = &self.state.particles;
+        let mut out = Vec::with_capacity(p.len());
+        for k in 0..p.len() {
+            let value = f(p.id[k], now(p, k));
+            if let Some(c) = value.iter().position(|v| !v.is_finite()) {
+                return Err(MpmError::InvalidParticleValue {
+                    particle: k,
+                    field: fields[c],
+                    value: value[c],
+                    reason: "a velocity must be finite",
+                });
+            }
+            out.push(value);
+        }
+        Ok(out)
+    }
+
     /// Reference density of each body (largest `m_p / V₀_p` of its particles).
     pub fn body_densities(&self) -> &[f64] {
         &self.setup.density
