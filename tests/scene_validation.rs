@@ -514,3 +514,51 @@ fn a_node_list_longer_than_the_grid_is_refused_before_it_is_looked_at() {
         &["`boundaries[0].nodes`", "lists 10000000 nodes", "the 121 nodes"],
     );
 }
+
+#[test]
+fn every_pair_takes_exactly_two_finite_elements_of_its_type() {
+    let cases: [(&str, &str, &[&str]); 8] = [
+        (
+            "cell_size = [0.1, 0.1]",
+            "cell_size = [0.1, 0.1, \"junk\", nan]",
+            &["cell_size", "invalid type"],
+        ),
+        (
+            "cell_size = [0.1, 0.1]",
+            "cell_size = [0.1, 0.1, 0.1]",
+            &["cell_size", "exactly 2 elements", "found 3"],
+        ),
+        ("cells = [10, 10]", "cells = [10]", &["cells", "found 1"]),
+        ("cells = [10, 10]", "cells = [10, 10, -1]", &["cells"]),
+        (
+            "min = [0.2, 0.2]",
+            "min = [0.2, nan]",
+            &["geometry", "element 1 is not a finite number"],
+        ),
+        ("max = [0.6, 0.6]", "max = [0.6, 0.6, 0.6]", &["geometry", "found 3"]),
+        (
+            "[time]",
+            "[loads]\ngravity = [0, -9.81, nan]\n\n[time]",
+            &["gravity", "found 3"],
+        ),
+        (
+            "density = 100.0",
+            "density = 100.0\nvelocity = [1.0, inf]",
+            &["velocity", "not a finite number"],
+        ),
+    ];
+    for (from, to, needles) in cases {
+        assert!(BASE.contains(from), "{from}");
+        assert_names(&validation_error(&BASE.replacen(from, to, 1)), needles);
+    }
+    let boundary =
+        with_table("[[boundaries]]\nrectangle = [[0.0, 0.0], [0.1, 0.1], [0.2, 0.2]]\ncondition = \"fixed\"");
+    assert_names(&validation_error(&boundary), &["rectangle", "found 3"]);
+    let boundary = with_table("[[boundaries]]\nrectangle = [[0.0, 0.0], [0.1, 0.1, 9]]\ncondition = \"fixed\"");
+    assert_names(&validation_error(&boundary), &["rectangle", "found 3"]);
+    // The valid forms still read.
+    Scene::from_toml_str(&with_table(
+        "[[boundaries]]\nrectangle = [[0.0, 0.0], [0.1, 0.1]]\ncondition = \"fixed\"",
+    ))
+    .unwrap();
+}

@@ -127,7 +127,11 @@ pub struct BoundaryCondition {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub layers: Option<usize>,
     /// Or every node inside the rectangle `[[x_min, y_min], [x_max, y_max]]` (closed).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::scene::optional_two_pairs"
+    )]
     pub rectangle: Option<[[f64; 2]; 2]>,
     /// Or these nodes (grid numbering).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -169,16 +169,77 @@ impl PartialEq for Scene {
     }
 }
 
+/// A two-element array read strictly: exactly two elements of the element type (serde's
+/// fixed-size arrays take the first two of a longer TOML array and drop the rest), each finite
+/// for numbers. Every `[x, y]` pair of a scene goes through it.
+pub(crate) fn exactly_two<'de, D, T>(d: D) -> std::result::Result<[T; 2], D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de> + Finite,
+{
+    let values: Vec<T> = Vec::deserialize(d)?;
+    let n = values.len();
+    let pair = <[T; 2]>::try_from(values)
+        .map_err(|_| serde::de::Error::custom(format!("expected exactly 2 elements `[x, y]`, found {n}")))?;
+    if let Some(k) = pair.iter().position(|v| !v.finite()) {
+        return Err(serde::de::Error::custom(format!("element {k} is not a finite number")));
+    }
+    Ok(pair)
+}
+
+/// Whether a scene value is finite (numbers; whole pairs of numbers; counts always are).
+pub(crate) trait Finite {
+    /// Whether the value holds no NaN or infinity.
+    fn finite(&self) -> bool;
+}
+
+impl Finite for f64 {
+    fn finite(&self) -> bool {
+        self.is_finite()
+    }
+}
+
+impl Finite for usize {
+    fn finite(&self) -> bool {
+        true
+    }
+}
+
+impl Finite for [f64; 2] {
+    fn finite(&self) -> bool {
+        self.iter().all(|v| v.is_finite())
+    }
+}
+
+/// [`exactly_two`] of pairs (`[[x0, y0], [x1, y1]]`), optional.
+pub(crate) fn optional_two_pairs<'de, D>(d: D) -> std::result::Result<Option<[[f64; 2]; 2]>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    #[derive(Deserialize)]
+    struct Pair(#[serde(deserialize_with = "exactly_two")] [f64; 2]);
+    impl Finite for Pair {
+        fn finite(&self) -> bool {
+            self.0.finite()
+        }
+    }
+    let [a, b]: [Pair; 2] = exactly_two(d)?;
+    Ok(Some([a.0, b.0]))
+}
+
 /// The uniform background grid.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridSpec {
     /// Lower-left corner.
     #[serde(default)]
+    #[serde(deserialize_with = "exactly_two")]
     pub origin: [f64; 2],
     /// Cell size `[hx, hy]`.
+    #[serde(deserialize_with = "exactly_two")]
     pub cell_size: [f64; 2],
     /// Cells along x and y.
+    #[serde(deserialize_with = "exactly_two")]
     pub cells: [usize; 2],
 }
 
@@ -260,6 +321,7 @@ pub struct TimeSpec {
 #[serde(default, deny_unknown_fields)]
 pub struct Loads {
     /// Gravitational acceleration.
+    #[serde(deserialize_with = "exactly_two")]
     pub gravity: [f64; 2],
 }
 
@@ -270,13 +332,16 @@ pub enum Geometry {
     /// The axis-aligned rectangle `[min, max]`.
     Rectangle {
         /// Lower-left corner.
+        #[serde(deserialize_with = "exactly_two")]
         min: [f64; 2],
         /// Upper-right corner.
+        #[serde(deserialize_with = "exactly_two")]
         max: [f64; 2],
     },
     /// The disk `|x − center| < radius`.
     Disk {
         /// Centre.
+        #[serde(deserialize_with = "exactly_two")]
         center: [f64; 2],
         /// Radius.
         radius: f64,
@@ -301,9 +366,11 @@ pub struct BodySpec {
     pub particles_per_cell: usize,
     /// Initial velocity of every particle (added to a file's `vx`, `vy`).
     #[serde(default)]
+    #[serde(deserialize_with = "exactly_two")]
     pub velocity: [f64; 2],
     /// Body force per unit mass besides gravity.
     #[serde(default)]
+    #[serde(deserialize_with = "exactly_two")]
     pub body_force: [f64; 2],
     /// Where the particles are.
     pub geometry: Geometry,
