@@ -434,7 +434,30 @@ pub fn run_scene_with(
         }
         None => scene,
     };
-    let (sim, _) = crate::limits::prepare_run(scene, &limits)?;
+    // An --end-time goes through the same checks and limits as the scene's own `time.end`
+    // (with the scene's snapshot interval, which a default would otherwise stretch with it).
+    let ended;
+    let scene = match options.limits.end_time {
+        Some(end) if end != scene.time.end => {
+            let mut copy = scene.clone();
+            copy.output.snapshot_interval = Some(scene.snapshot_interval());
+            copy.time.end = end;
+            ended = copy;
+            &ended
+        }
+        _ => scene,
+    };
+    let (sim, _) = crate::limits::prepare_run(scene, &limits).map_err(|e| match (options.limits.end_time, &e) {
+        (Some(end), MpmError::InvalidScene { key, .. })
+            if key.ends_with("time.end") || key.ends_with("output.snapshot_interval") =>
+        {
+            MpmError::InvalidOption {
+                option: "end_time (--end-time)",
+                reason: format!("{end}: {e}"),
+            }
+        }
+        _ => e,
+    })?;
     prepare_output(out, options.output)?;
     write_scene_copy(scene, out)?;
     let state = RunState {

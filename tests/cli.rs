@@ -414,3 +414,22 @@ fn a_run_json_naming_files_outside_its_run_is_refused_and_a_run_resumes_from_ins
 fn serde_json_string(s: &str) -> String {
     format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""))
 }
+
+#[test]
+fn an_end_time_option_meets_the_limits_of_the_scenes_time_end() {
+    let dir = scratch("end_time");
+    for end in ["1e12", "inf", "0"] {
+        let o = mpm(&["run", "--out", "far", "--end-time", end, "-q"], &dir);
+        assert!(!o.status.success(), "--end-time {end} ran");
+        assert!(text(&o).contains("--end-time"), "{}", text(&o));
+        assert!(!dir.join("far").exists(), "--end-time {end}: output written");
+    }
+    // Within the limits it runs, with the scene's own snapshot interval (0.05): 21 snapshots to 1.
+    let o = mpm(&["run", "--out", "near", "--end-time", "1", "-q"], &dir);
+    assert!(o.status.success(), "{}", text(&o));
+    let snapshots = std::fs::read_dir(dir.join("near"))
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().ends_with(".vtp"))
+        .count();
+    assert_eq!(snapshots, 21);
+}
