@@ -519,7 +519,12 @@ pub fn resume_run(
     }
     if let Some(end) = options.limits.end_time {
         state.end_time = end;
+        state.validate().map_err(|reason| MpmError::InvalidOption {
+            option: "end_time (--end-time)",
+            reason,
+        })?;
     }
+    check_resume_limits(&state, &sim, options.allow_large, checkpoint)?;
     let run_dir = checkpoint
         .parent()
         .and_then(Path::parent)
@@ -561,6 +566,48 @@ pub fn resume_run(
     let csv = CsvWriter::append_after(&out.join("report.csv"), &StepReport::COLUMNS, state.report_rows)?;
     let summary = drive(sim, state, &out, options, pvd, csv, start, progress)?;
     Ok((summary, out))
+}
+
+/// The limits of a run ([`crate::limits::Limits`]) on what is left of a resumed one: its
+/// snapshots (those written and those to come), its steps at a fixed step, its output; the
+/// same bounds as `mpm run` and `mpm check` apply to a scene.
+fn check_resume_limits(state: &RunState, sim: &Simulation, allow_large: bool, checkpoint: &Path) -> Result<()> {
+    let limits = if allow_large {
+        crate::limits::Limits::raised()
+    } else {
+        crate::limits::Limits::default()
+    };
+    let left = (state.end_time - sim.time()).max(0.0);
+    let snapshots = state.snapshots.len() as f64 + (left / state.snapshot_interval).ceil() + 1.0;
+    let steps = match sim.options().time_step {
+        crate::simulation::TimeStep::Fixed { dt } => Some(left / dt),
+        crate::simulation::TimeStep::Cfl { .. } => None,
+    };
+    let output = snapshots * crate::limits::SNAPSHOT_BYTES_PER_PARTICLE * sim.particles().len() as f64
+        + steps.unwrap_or(0.0) * crate::limits::REPORT_BYTES_PER_STEP;
+    let over = |what: String| MpmError::Checkpoint {
+        path: Some(checkpoint.to_path_buf()),
+        reason: format!("{what}; raise the limits with --allow-large (docs/reliability.md)"),
+    };
+    if snapshots > limits.snapshots {
+        return Err(over(format!(
+            "a snapshot every {} to t = {} makes {snapshots:.3e} snapshots, more than the limit of {}",
+            state.snapshot_interval, state.end_time, limits.snapshots
+        )));
+    }
+    if let Some(steps) = steps.filter(|&s| s > limits.steps) {
+        return Err(over(format!(
+            "the fixed step to t = {} takes {steps:.3e} more steps, more than the limit of {:.0e}",
+            state.end_time, limits.steps
+        )));
+    }
+    if output > limits.output_bytes {
+        return Err(over(format!(
+            "the rest of the run writes about {output:.3e} bytes, more than the limit of {:.3e}",
+            limits.output_bytes
+        )));
+    }
+    Ok(())
 }
 
 fn copy(from: &Path, to: &Path) -> Result<()> {

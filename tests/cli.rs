@@ -433,3 +433,41 @@ fn an_end_time_option_meets_the_limits_of_the_scenes_time_end() {
         .count();
     assert_eq!(snapshots, 21);
 }
+
+#[test]
+fn a_resumed_run_meets_the_limits_of_a_new_one() {
+    let dir = scratch("resume_limits");
+    let cut = mpm(
+        &["run", "--out", "cut", "--steps", "50", "--checkpoint-every", "40", "-q"],
+        &dir,
+    );
+    assert!(cut.status.success(), "{}", text(&cut));
+    let state = dir.join("cut/checkpoints/step_00000040/run.json");
+    let original = std::fs::read_to_string(&state).unwrap();
+    let tiny = original.replace("\"snapshot_interval\": 0.05", "\"snapshot_interval\": 1e-9");
+    assert_ne!(tiny, original, "{original}");
+    std::fs::write(&state, tiny).unwrap();
+    let o = mpm(&["resume", "cut/checkpoints/step_00000040", "--out", "new", "-q"], &dir);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("more than the limit of 2000"), "{}", text(&o));
+    assert!(!dir.join("new").exists());
+    std::fs::write(&state, &original).unwrap();
+    for end in ["1e12", "inf"] {
+        let o = mpm(
+            &[
+                "resume",
+                "cut/checkpoints/step_00000040",
+                "--out",
+                "new",
+                "--end-time",
+                end,
+                "-q",
+            ],
+            &dir,
+        );
+        assert!(!o.status.success(), "--end-time {end} resumed");
+        assert!(!dir.join("new").exists());
+    }
+    let o = mpm(&["resume", "cut/checkpoints/step_00000040", "--out", "new", "-q"], &dir);
+    assert!(o.status.success(), "{}", text(&o));
+}
