@@ -562,3 +562,38 @@ fn every_pair_takes_exactly_two_finite_elements_of_its_type() {
     ))
     .unwrap();
 }
+
+#[test]
+fn series_and_iteration_counts_are_bounded_where_they_are_read() {
+    let cases: [(&str, &str, &[&str]); 4] = [
+        (
+            "[time]",
+            "[schemes]\nmass = { velocity = \"series:1000000\" }\n\n[time]",
+            &["series", "at most 1000"],
+        ),
+        (
+            "[time]",
+            "[schemes]\ntransfer = \"fmpm:1000000000\"\n\n[time]",
+            &["fmpm", "at most 1000"],
+        ),
+        (
+            "[time]",
+            "[schemes]\ntransfer = \"xpic:1001\"\n\n[time]",
+            &["xpic", "at most 1000"],
+        ),
+        (
+            "[time]",
+            "[schemes]\nmass = { acceleration = \"cg:1e-8:1000000000\" }\n\n[time]",
+            &["max_iterations", "100000"],
+        ),
+    ];
+    for (from, to, needles) in cases {
+        assert_names(&validation_error(&BASE.replacen(from, to, 1)), needles);
+    }
+    Scene::from_toml_str(&BASE.replacen(
+        "[time]",
+        "[schemes]\nmass = { velocity = \"series:1000\" }\n\n[time]",
+        1,
+    ))
+    .unwrap();
+}

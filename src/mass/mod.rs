@@ -42,7 +42,10 @@ pub(crate) use cholesky::SparseCholesky;
 pub use diagnostics::{solve_condition_number, MassDiagnostics, TINY_MASS_FRACTION};
 pub use grid_mass::{GridMass, Role};
 pub(crate) use matrices::csc_times;
-pub use options::{Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome, SolveReport};
+pub use options::{
+    Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome, SolveReport, MAX_CG_ITERATIONS,
+    MAX_SERIES_TERMS,
+};
 pub use series::{series_velocity_into, SeriesScratch};
 pub use stabilization::Stabilization;
 pub use stencil::StencilMass;

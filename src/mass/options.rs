@@ -50,6 +50,12 @@ pub enum MassScheme {
     },
 }
 
+/// The most terms of a truncated series (`series:k`) accepted: 1000.
+pub const MAX_SERIES_TERMS: usize = 1000;
+
+/// The most CG iterations per solve accepted (`cg:tolerance:max_iterations`): 10⁵.
+pub const MAX_CG_ITERATIONS: usize = 100_000;
+
 impl MassScheme {
     /// Whether the scheme needs the assembled consistent mass matrix.
     pub fn needs_consistent_matrix(&self) -> bool {
@@ -74,6 +80,18 @@ impl MassScheme {
                 value: 0.0,
                 reason: "the truncated series needs at least one term",
             }),
+            MassScheme::TruncatedSeries { k } if k > MAX_SERIES_TERMS => Err(MpmError::InvalidParameter {
+                name: "k",
+                value: k as f64,
+                reason: "more terms than accepted (at most 1000: each term costs a product with the mass per solve)",
+            }),
+            MassScheme::Iterative { max_iterations, .. } if max_iterations > MAX_CG_ITERATIONS => {
+                Err(MpmError::InvalidParameter {
+                    name: "max_iterations",
+                    value: max_iterations as f64,
+                    reason: "more than 100000 iterations",
+                })
+            }
             MassScheme::Iterative {
                 tolerance,
                 max_iterations,

@@ -139,6 +139,15 @@ impl Options {
                     reason: format!("{name}(0): the series needs at least one term (k = 1 is PIC)"),
                 });
             }
+            if k > crate::mass::MAX_SERIES_TERMS {
+                return Err(MpmError::InvalidOption {
+                    option: "transfer.k",
+                    reason: format!(
+                        "{name}({k}): at most {} terms (each costs a product with the mass per step)",
+                        crate::mass::MAX_SERIES_TERMS
+                    ),
+                });
+            }
             if self.mass.velocity != MassScheme::Lumped || self.mass.acceleration != MassScheme::Lumped {
                 return Err(MpmError::InvalidOption {
                     option: "transfer",
