@@ -495,7 +495,7 @@ pub fn resume_run(
         reason,
     };
     let state_path = checkpoint.join("run.json");
-    let text = std::fs::read_to_string(&state_path).map_err(|e| {
+    let text = crate::io::read_bounded_text(&state_path, 64 << 20, "run.json").map_err(|e| {
         bad(format!(
             "cannot read {} ({e}): give the checkpoint folder `checkpoints/step_NNNNNNNN` a run wrote",
             state_path.display()

@@ -471,3 +471,41 @@ fn a_resumed_run_meets_the_limits_of_a_new_one() {
     let o = mpm(&["resume", "cut/checkpoints/step_00000040", "--out", "new", "-q"], &dir);
     assert!(o.status.success(), "{}", text(&o));
 }
+
+#[test]
+fn scene_checkpoint_and_run_files_are_read_only_when_regular_and_bounded() {
+    let dir = scratch("bounded_reads");
+    // A device, a pipe and a folder are refused before anything is read (nothing hangs).
+    let fifo = dir.join("pipe.toml");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    std::fs::create_dir_all(dir.join("folder.toml")).unwrap();
+    for scene in ["/dev/zero", fifo.to_str().unwrap(), "folder.toml"] {
+        for args in [vec!["check", scene], vec!["run", scene, "--out", "o"]] {
+            let command = args[0];
+            let o = mpm(&args, &dir);
+            assert!(!o.status.success());
+            assert!(
+                text(&o).contains("not a regular file"),
+                "{command} {scene}: {}",
+                text(&o)
+            );
+        }
+    }
+    // A scene over 16 MiB is refused before it is parsed.
+    let big = dir.join("big.toml");
+    std::fs::write(&big, "#".repeat((16 << 20) + 1)).unwrap();
+    let o = mpm(&["check", big.to_str().unwrap()], &dir);
+    assert!(text(&o).contains("more than 16777216 bytes"), "{}", text(&o));
+    // A checkpoint folder whose files are pipes.
+    let checkpoint = dir.join("run/checkpoints/step_00000001");
+    std::fs::create_dir_all(&checkpoint).unwrap();
+    assert!(Command::new("mkfifo")
+        .arg(checkpoint.join("run.json"))
+        .status()
+        .unwrap()
+        .success());
+    let o = mpm(&["resume", checkpoint.to_str().unwrap()], &dir);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("not a regular file"), "{}", text(&o));
+    assert!(!dir.join("o").exists());
+}

@@ -139,3 +139,67 @@ pub(crate) fn invalid_data(path: &Path, message: impl Into<String>) -> MpmError 
         std::io::Error::new(std::io::ErrorKind::InvalidData, message.into()),
     )
 }
+
+/// The bytes of the regular file `path`, at most `max_bytes` of them: a FIFO, a device or a
+/// folder is refused before anything is read (nothing hangs on a pipe or reads `/dev/zero` for
+/// ever), and so is a file larger than `max_bytes` (checked on the open file, then again while
+/// reading, so a file that grows meanwhile cannot exceed it). `what` names the file's role in
+/// the messages ("scene", "checkpoint").
+///
+/// # Errors
+/// [`MpmError::Io`] naming `path`: of kind `InvalidInput` for what is not a regular file,
+/// `InvalidData` for a file over the bound, or the error of opening or reading it.
+pub fn read_bounded(path: &Path, max_bytes: u64, what: &str) -> crate::error::Result<Vec<u8>> {
+    use std::io::Read;
+    let not_regular = || {
+        io_error(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("not a regular file (a folder, pipe or device): give a {what} file"),
+            ),
+        )
+    };
+    // Before opening (opening a FIFO waits for a writer), and again on the open file.
+    if !std::fs::metadata(path).map_err(|e| io_error(path, e))?.is_file() {
+        return Err(not_regular());
+    }
+    let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
+    let meta = file.metadata().map_err(|e| io_error(path, e))?;
+    if !meta.is_file() {
+        return Err(not_regular());
+    }
+    let too_large = || {
+        invalid_data(
+            path,
+            format!("a {what} file of more than {max_bytes} bytes is not read"),
+        )
+    };
+    if meta.len() > max_bytes {
+        return Err(too_large());
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(max_bytes + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| io_error(path, e))?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_large());
+    }
+    Ok(bytes)
+}
+
+/// [`read_bounded`] as UTF-8 text.
+///
+/// # Errors
+/// As [`read_bounded`]; `InvalidData` naming the first byte that is not UTF-8.
+pub fn read_bounded_text(path: &Path, max_bytes: u64, what: &str) -> crate::error::Result<String> {
+    String::from_utf8(read_bounded(path, max_bytes, what)?).map_err(|e| {
+        invalid_data(
+            path,
+            format!(
+                "not a text {what} file: byte {} is not UTF-8",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
+}

@@ -376,6 +376,10 @@ pub struct BodySpec {
     pub geometry: Geometry,
 }
 
+/// Largest scene file read (bytes): 16 MiB, room for node lists of a million nodes; a larger
+/// file, or one that is not a regular file, is refused before it is parsed.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
 /// Largest grid accepted from a scene file (nodes).
 pub const MAX_NODES: f64 = 1e8;
 
@@ -507,10 +511,7 @@ impl Scene {
     /// # Errors
     /// [`MpmError::Io`] naming the file, and the errors of [`Scene::from_toml_str`].
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|source| MpmError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::io::read_bounded_text(path, MAX_SCENE_BYTES, "scene")?;
         // The parser's errors name their line already; the checks' errors get it here.
         let mut scene = Scene::parse(&text).map_err(|e| match e {
             MpmError::InvalidScene { key, reason } => invalid(format!("{}: {key}", path.display()), reason),
@@ -531,7 +532,7 @@ impl Scene {
             return e;
         };
         // The text as it is now: read again only for an error.
-        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let text = crate::io::read_bounded_text(path, MAX_SCENE_BYTES, "scene").unwrap_or_default();
         located(e, path, &text)
     }
 

@@ -59,7 +59,7 @@ mod report;
 mod series;
 mod stability;
 
-pub use checkpoint::CHECKPOINT_FORMAT_VERSION;
+pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, MAX_CHECKPOINT_BYTES};
 pub use options::{Body, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
 pub use profile::{Phase, Profile};
 pub use report::StepReport;

@@ -134,27 +134,7 @@ pub fn read_pvd(path: &Path) -> Result<Vec<(f64, PathBuf)>> {
 }
 
 fn read_bounded(path: &Path) -> Result<String> {
-    use std::io::Read;
-    let io = |source| MpmError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let file = std::fs::File::open(path).map_err(io)?;
-    let mut bytes = Vec::new();
-    file.take(MAX_SNAPSHOT_BYTES + 1).read_to_end(&mut bytes).map_err(io)?;
-    if bytes.len() as u64 > MAX_SNAPSHOT_BYTES {
-        return Err(MpmError::Snapshot {
-            path: path.to_path_buf(),
-            reason: format!("larger than {} bytes, the most this reader takes", MAX_SNAPSHOT_BYTES),
-        });
-    }
-    String::from_utf8(bytes).map_err(|e| MpmError::Snapshot {
-        path: path.to_path_buf(),
-        reason: format!(
-            "not text (byte {} is not UTF-8): raw appended data is not read",
-            e.utf8_error().valid_up_to()
-        ),
-    })
+    crate::io::read_bounded_text(path, MAX_SNAPSHOT_BYTES, "snapshot")
 }
 
 /// One XML element: its attribute text and its content (empty for `<…/>`).

@@ -36,7 +36,6 @@
 //! text, [`crate::names`]) changes the format and must increase [`CHECKPOINT_FORMAT_VERSION`].
 
 use std::borrow::Cow;
-use std::fs;
 use std::io::{self, Write};
 use std::path::Path;
 
@@ -65,6 +64,11 @@ const CRATE_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// Bytes of the trailing checksum.
 const CHECKSUM_BYTES: usize = 4;
+
+/// Largest checkpoint file read (bytes): 8 GiB, the default memory limit of a run
+/// ([`crate::limits::Limits`]); a larger file, or one that is not a regular file, is refused
+/// before it is read.
+pub const MAX_CHECKPOINT_BYTES: u64 = 8 << 30;
 
 impl Simulation {
     /// Writes the whole simulation to `path`: everything the next step reads, so that
@@ -122,10 +126,7 @@ impl Simulation {
     /// corrupted (checksum mismatch), or holds a state that does not hold together (which a
     /// file with a good checksum only does when it was made by other means).
     pub fn read_checkpoint(path: &Path) -> Result<Simulation> {
-        let bytes = fs::read(path).map_err(|source| MpmError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let bytes = crate::io::read_bounded(path, MAX_CHECKPOINT_BYTES, "checkpoint")?;
         decode(&bytes).map_err(|reason| MpmError::Checkpoint {
             path: Some(path.to_path_buf()),
             reason,
