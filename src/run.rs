@@ -541,6 +541,19 @@ pub fn resume_run(
         for name in ["report.csv", "scene.toml"] {
             copy(&run_dir.join(name), &out.join(name))?;
         }
+        // The particle files the scene copy names (plain names beside it), so that
+        // NEW/scene.toml reruns the scene as RUN/scene.toml does.
+        if let Ok(scene) = Scene::load(&run_dir.join("scene.toml")) {
+            for body in &scene.bodies {
+                if let crate::scene::Geometry::File(file) = &body.geometry {
+                    let plain = file.components().count() == 1
+                        && matches!(file.components().next(), Some(std::path::Component::Normal(_)));
+                    if plain && run_dir.join(file).is_file() {
+                        copy(&run_dir.join(file), &out.join(file))?;
+                    }
+                }
+            }
+        }
         for (_, file) in &state.snapshots {
             copy(&run_dir.join(file), &out.join(file))?;
         }

@@ -181,6 +181,33 @@ geometry = { file = "block.csv" }
         std::fs::read(dir.join("first/report.csv")).unwrap(),
         std::fs::read(dir.join("again/report.csv")).unwrap()
     );
+    // A run resumed into another folder takes the particle file along: its scene.toml reruns.
+    let cut = mpm(
+        &[
+            "run",
+            "scene/scene.toml",
+            "--out",
+            "cut",
+            "--steps",
+            "60",
+            "--checkpoint-every",
+            "50",
+            "-q",
+        ],
+        &dir,
+    );
+    assert!(cut.status.success(), "{}", text(&cut));
+    let resumed = mpm(
+        &["resume", "cut/checkpoints/step_00000050", "--out", "moved", "-q"],
+        &dir,
+    );
+    assert!(resumed.status.success(), "{}", text(&resumed));
+    let third = mpm(&["run", "scene.toml", "--out", "../third", "-q"], &dir.join("moved"));
+    assert!(third.status.success(), "{}", text(&third));
+    assert_eq!(
+        std::fs::read(dir.join("first/report.csv")).unwrap(),
+        std::fs::read(dir.join("third/report.csv")).unwrap()
+    );
 }
 
 #[test]
