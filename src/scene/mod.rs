@@ -170,45 +170,18 @@ impl PartialEq for Scene {
 }
 
 /// A two-element array read strictly: exactly two elements of the element type (serde's
-/// fixed-size arrays take the first two of a longer TOML array and drop the rest), each finite
-/// for numbers. Every `[x, y]` pair of a scene goes through it.
+/// fixed-size arrays take the first two of a longer TOML array and drop the rest). Every
+/// `[x, y]` pair of a scene goes through it; [`Scene::validate`] then checks that numbers are
+/// finite, naming the element (`grid.origin[0]`).
 pub(crate) fn exactly_two<'de, D, T>(d: D) -> std::result::Result<[T; 2], D::Error>
 where
     D: serde::Deserializer<'de>,
-    T: Deserialize<'de> + Finite,
+    T: Deserialize<'de>,
 {
     let values: Vec<T> = Vec::deserialize(d)?;
     let n = values.len();
-    let pair = <[T; 2]>::try_from(values)
-        .map_err(|_| serde::de::Error::custom(format!("expected exactly 2 elements `[x, y]`, found {n}")))?;
-    if let Some(k) = pair.iter().position(|v| !v.finite()) {
-        return Err(serde::de::Error::custom(format!("element {k} is not a finite number")));
-    }
-    Ok(pair)
-}
-
-/// Whether a scene value is finite (numbers; whole pairs of numbers; counts always are).
-pub(crate) trait Finite {
-    /// Whether the value holds no NaN or infinity.
-    fn finite(&self) -> bool;
-}
-
-impl Finite for f64 {
-    fn finite(&self) -> bool {
-        self.is_finite()
-    }
-}
-
-impl Finite for usize {
-    fn finite(&self) -> bool {
-        true
-    }
-}
-
-impl Finite for [f64; 2] {
-    fn finite(&self) -> bool {
-        self.iter().all(|v| v.is_finite())
-    }
+    <[T; 2]>::try_from(values)
+        .map_err(|_| serde::de::Error::custom(format!("expected exactly 2 elements `[x, y]`, found {n}")))
 }
 
 /// [`exactly_two`] of pairs (`[[x0, y0], [x1, y1]]`), optional.
@@ -218,11 +191,6 @@ where
 {
     #[derive(Deserialize)]
     struct Pair(#[serde(deserialize_with = "exactly_two")] [f64; 2]);
-    impl Finite for Pair {
-        fn finite(&self) -> bool {
-            self.0.finite()
-        }
-    }
     let [a, b]: [Pair; 2] = exactly_two(d)?;
     Ok(Some([a.0, b.0]))
 }
