@@ -178,10 +178,33 @@ where
     D: serde::Deserializer<'de>,
     T: Deserialize<'de>,
 {
-    let values: Vec<T> = Vec::deserialize(d)?;
-    let n = values.len();
-    <[T; 2]>::try_from(values)
-        .map_err(|_| serde::de::Error::custom(format!("expected exactly 2 elements `[x, y]`, found {n}")))
+    struct Two<T>(std::marker::PhantomData<T>);
+    impl<'de, T: Deserialize<'de>> serde::de::Visitor<'de> for Two<T> {
+        type Value = [T; 2];
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("an array of length 2")
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<[T; 2], A::Error> {
+            let mut values = Vec::with_capacity(2);
+            while let Some(v) = seq.next_element::<T>()? {
+                values.push(v);
+                if values.len() > 2 {
+                    // Count the rest for the message without keeping them.
+                    let mut n = values.len();
+                    while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                        n += 1;
+                    }
+                    return Err(serde::de::Error::custom(format!(
+                        "expected exactly 2 elements `[x, y]`, found {n}"
+                    )));
+                }
+            }
+            let n = values.len();
+            <[T; 2]>::try_from(values)
+                .map_err(|_| serde::de::Error::custom(format!("expected exactly 2 elements `[x, y]`, found {n}")))
+        }
+    }
+    d.deserialize_seq(Two(std::marker::PhantomData))
 }
 
 /// [`exactly_two`] of pairs (`[[x0, y0], [x1, y1]]`), optional.
