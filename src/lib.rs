@@ -123,6 +123,7 @@ pub mod material;
 pub mod names;
 pub mod numbers;
 pub mod operators;
+mod pairs;
 pub mod parallel;
 pub mod particles;
 pub mod render;

@@ -130,7 +130,7 @@ pub struct BoundaryCondition {
     #[serde(
         default,
         skip_serializing_if = "Option::is_none",
-        deserialize_with = "crate::scene::optional_two_pairs"
+        deserialize_with = "crate::pairs::optional_two_pairs"
     )]
     pub rectangle: Option<[[f64; 2]; 2]>,
     /// Or these nodes (grid numbering).

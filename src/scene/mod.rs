@@ -169,68 +169,19 @@ impl PartialEq for Scene {
     }
 }
 
-/// A two-element array read strictly: exactly two elements of the element type (serde's
-/// fixed-size arrays take the first two of a longer TOML array and drop the rest). Every
-/// `[x, y]` pair of a scene goes through it; [`Scene::validate`] then checks that numbers are
-/// finite, naming the element (`grid.origin[0]`).
-pub(crate) fn exactly_two<'de, D, T>(d: D) -> std::result::Result<[T; 2], D::Error>
-where
-    D: serde::Deserializer<'de>,
-    T: Deserialize<'de>,
-{
-    struct Two<T>(std::marker::PhantomData<T>);
-    impl<'de, T: Deserialize<'de>> serde::de::Visitor<'de> for Two<T> {
-        type Value = [T; 2];
-        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-            f.write_str("an array of length 2")
-        }
-        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<[T; 2], A::Error> {
-            let mut values = Vec::with_capacity(2);
-            while let Some(v) = seq.next_element::<T>()? {
-                values.push(v);
-                if values.len() > 2 {
-                    // Count the rest for the message without keeping them.
-                    let mut n = values.len();
-                    while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
-                        n += 1;
-                    }
-                    return Err(serde::de::Error::custom(format!(
-                        "expected exactly 2 elements `[x, y]`, found {n}"
-                    )));
-                }
-            }
-            let n = values.len();
-            <[T; 2]>::try_from(values)
-                .map_err(|_| serde::de::Error::custom(format!("expected exactly 2 elements `[x, y]`, found {n}")))
-        }
-    }
-    d.deserialize_seq(Two(std::marker::PhantomData))
-}
-
-/// [`exactly_two`] of pairs (`[[x0, y0], [x1, y1]]`), optional.
-pub(crate) fn optional_two_pairs<'de, D>(d: D) -> std::result::Result<Option<[[f64; 2]; 2]>, D::Error>
-where
-    D: serde::Deserializer<'de>,
-{
-    #[derive(Deserialize)]
-    struct Pair(#[serde(deserialize_with = "exactly_two")] [f64; 2]);
-    let [a, b]: [Pair; 2] = exactly_two(d)?;
-    Ok(Some([a.0, b.0]))
-}
-
 /// The uniform background grid.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridSpec {
     /// Lower-left corner.
     #[serde(default)]
-    #[serde(deserialize_with = "exactly_two")]
+    #[serde(deserialize_with = "crate::pairs::exactly_two")]
     pub origin: [f64; 2],
     /// Cell size `[hx, hy]`.
-    #[serde(deserialize_with = "exactly_two")]
+    #[serde(deserialize_with = "crate::pairs::exactly_two")]
     pub cell_size: [f64; 2],
     /// Cells along x and y.
-    #[serde(deserialize_with = "exactly_two")]
+    #[serde(deserialize_with = "crate::pairs::exactly_two")]
     pub cells: [usize; 2],
 }
 
@@ -312,7 +263,7 @@ pub struct TimeSpec {
 #[serde(default, deny_unknown_fields)]
 pub struct Loads {
     /// Gravitational acceleration.
-    #[serde(deserialize_with = "exactly_two")]
+    #[serde(deserialize_with = "crate::pairs::exactly_two")]
     pub gravity: [f64; 2],
 }
 
@@ -323,16 +274,16 @@ pub enum Geometry {
     /// The axis-aligned rectangle `[min, max]`.
     Rectangle {
         /// Lower-left corner.
-        #[serde(deserialize_with = "exactly_two")]
+        #[serde(deserialize_with = "crate::pairs::exactly_two")]
         min: [f64; 2],
         /// Upper-right corner.
-        #[serde(deserialize_with = "exactly_two")]
+        #[serde(deserialize_with = "crate::pairs::exactly_two")]
         max: [f64; 2],
     },
     /// The disk `|x − center| < radius`.
     Disk {
         /// Centre.
-        #[serde(deserialize_with = "exactly_two")]
+        #[serde(deserialize_with = "crate::pairs::exactly_two")]
         center: [f64; 2],
         /// Radius.
         radius: f64,
@@ -357,11 +308,11 @@ pub struct BodySpec {
     pub particles_per_cell: usize,
     /// Initial velocity of every particle (added to a file's `vx`, `vy`).
     #[serde(default)]
-    #[serde(deserialize_with = "exactly_two")]
+    #[serde(deserialize_with = "crate::pairs::exactly_two")]
     pub velocity: [f64; 2],
     /// Body force per unit mass besides gravity.
     #[serde(default)]
-    #[serde(deserialize_with = "exactly_two")]
+    #[serde(deserialize_with = "crate::pairs::exactly_two")]
     pub body_force: [f64; 2],
     /// Where the particles are.
     pub geometry: Geometry,
