@@ -824,6 +824,17 @@ fn write_run_checkpoint(sim: &Simulation, state: &RunState, out: &Path) -> Resul
     sim.write_checkpoint(&dir.join("simulation.ckpt"))?;
     let json = serde_json::to_string_pretty(state).expect("the run state always serializes");
     crate::io::write_atomically(&dir.join("run.json"), |w| std::io::Write::write_all(w, json.as_bytes()))?;
+    // Temporary files of an earlier, interrupted write of this checkpoint (`.NAME.PID-N.tmp`).
+    if let Ok(entries) = std::fs::read_dir(&dir) {
+        for entry in entries.filter_map(|e| e.ok()) {
+            let name = entry.file_name();
+            let name = name.to_string_lossy();
+            if name.starts_with('.') && name.ends_with(".tmp") {
+                let path = entry.path();
+                std::fs::remove_file(&path).map_err(|source| MpmError::Io { path, source })?;
+            }
+        }
+    }
     Ok(dir)
 }
 

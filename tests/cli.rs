@@ -432,9 +432,40 @@ fn a_run_json_naming_files_outside_its_run_is_refused_and_a_run_resumes_from_ins
         assert!(!dir.join("new").exists(), "{name}: an output folder was made");
     }
     std::fs::write(&state, original).unwrap();
+    // A temporary file of an interrupted write of a later checkpoint goes when it is rewritten.
+    let stale = dir.join("cut/checkpoints/step_00000040/.simulation.ckpt.4242-0.tmp");
+    std::fs::write(&stale, "half a checkpoint").unwrap();
     // From inside the run folder, the checkpoint's path has an empty run folder: `.`.
     let o = mpm(&["resume", "checkpoints/step_00000040", "-q"], &dir.join("cut"));
     assert!(o.status.success(), "{}", text(&o));
+    assert!(stale.exists(), "the checkpoint resumed from is not rewritten");
+    let o = mpm(
+        &[
+            "resume",
+            "checkpoints/step_00000040",
+            "--out",
+            "../again",
+            "--checkpoint-every",
+            "40",
+            "-q",
+        ],
+        &dir.join("cut"),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let rewritten = dir.join("again/checkpoints/step_00000120");
+    assert!(rewritten.join("run.json").exists());
+    std::fs::write(rewritten.join(".run.json.4242-1.tmp"), "stale").unwrap();
+    let o = mpm(
+        &["resume", "checkpoints/step_00000080", "--checkpoint-every", "40", "-q"],
+        &dir.join("again"),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let left: Vec<_> = std::fs::read_dir(&rewritten)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
 }
 
 /// `s` as a JSON string literal (quotes and backslashes escaped).
