@@ -219,7 +219,7 @@ const MAX_COUNTED_STEPS: f64 = 1e7;
 /// divides it, so a run takes up to one step per snapshot more than `end / dt`.
 ///
 /// Counted with the run's own arithmetic (the same sums, the same tolerance of 10⁻¹² for
-/// having reached a time) up to [`MAX_COUNTED_STEPS`]; above, the upper bound
+/// having reached a time) up to `MAX_COUNTED_STEPS`; above, the upper bound
 /// `⌈end / dt⌉ + ⌈end / interval⌉` with every interval's last step counted as shortened.
 pub fn run_steps(end: f64, dt: f64, interval: f64) -> (f64, f64) {
     if !(dt > 0.0 && interval > 0.0 && end.is_finite()) {

@@ -44,7 +44,7 @@ impl fmt::Display for SceneWarning {
     }
 }
 
-/// Every pair of bodies whose particles lie in the same place (the [module docs](self)), in
+/// Every pair of bodies whose particles lie in the same place (closer than half the smaller particle spacing), in
 /// the order of the later body, then the earlier. Particles are binned in squares of the
 /// largest half-spacing, so each is compared with the particles of its own and the eight
 /// neighbouring squares: linear in the particle count for particles of similar sizes.
