@@ -361,6 +361,8 @@ struct Layout {
     height: u32,
     /// The plot's box `[left, top, right, bottom]`.
     plot: [i32; 4],
+    /// The colour bar's `[top, bottom]`.
+    bar: [i32; 2],
     view: [f64; 4],
     scale: f64,
 }
@@ -369,6 +371,7 @@ impl Layout {
     const TOP: i32 = 44;
     const MARGIN: i32 = 16;
     const BAR: i32 = 120;
+    const MIN_BAR: i32 = 160;
 
     fn new(width: u32, view: [f64; 4]) -> Layout {
         let (w, h) = ((view[1] - view[0]).max(1e-300), (view[3] - view[2]).max(1e-300));
@@ -376,7 +379,9 @@ impl Layout {
         let scale = f64::from(plot_width) / w;
         let plot_height = ((h * scale).round() as i32).clamp(16, MAX_IMAGE_SIDE as i32 - Self::TOP - Self::MARGIN);
         let scale = scale.min(f64::from(plot_height) / h);
-        let height = (Self::TOP + plot_height + Self::MARGIN).max(200) as u32;
+        // The colour bar keeps a readable height beside a flat domain (a bar, a beam).
+        let bar_height = plot_height.max(Self::MIN_BAR);
+        let height = (Self::TOP + bar_height + Self::MARGIN) as u32;
         let plot = [
             Self::MARGIN,
             Self::TOP,
@@ -387,6 +392,7 @@ impl Layout {
             width,
             height,
             plot,
+            bar: [Self::TOP, Self::TOP + bar_height],
             view,
             scale,
         }
@@ -458,7 +464,7 @@ impl Frame<'_> {
         )?;
         // Colour bar.
         let (bx, bw) = (r + 24, 22);
-        let (bt, bb) = (t, b);
+        let [bt, bb] = layout.bar;
         let steps = (bb - bt).max(1);
         for s in 0..steps {
             let c = viridis(1.0 - f64::from(s) / f64::from(steps - 1).max(1.0));
