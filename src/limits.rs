@@ -13,9 +13,10 @@
 //! particles   = Σ_bodies  (area of the body ∩ grid) / (hx hy) · ppc²       (rectangles, disks)
 //!             + Σ_files   file bytes / 24                                   (CSV rows of about 24 bytes)
 //! memory      = 800 B · particles + 200 B · nodes  (+ 600 B · nodes for a non-lumped mass)
-//! steps       = steps of at most Δt (fixed, or the CFL number × the stable step at t = 0)
-//!               from 0 to the end time, each snapshot interval ending on its snapshot time:
-//!               about end time / Δt + one shortened step per snapshot interval
+//! steps       = ⌈end time / Δt⌉ for a fixed Δt (it stays fixed; only the last step may be
+//!               shorter); for a CFL step (the CFL number × the stable step at t = 0), steps
+//!               that also land on every snapshot time: about end time / Δt + one shortened
+//!               step per snapshot interval
 //! output      = snapshots · 490 B · particles + steps · 600 B (report rows)
 //! snapshots   = end time / snapshot interval + 2
 //! ```
@@ -95,10 +96,9 @@ pub struct Estimate {
     pub memory_bytes: f64,
     /// Snapshots.
     pub snapshots: f64,
-    /// Time steps, when the step is known: as `mpm run` takes them, each snapshot interval
-    /// ending with a step shortened to land on its snapshot time ([`run_steps`]).
+    /// Time steps, when the step is known: as `mpm run` takes them ([`run_steps`]).
     pub steps: Option<f64>,
-    /// Of `steps`, those shortened to land on a snapshot time or on the end.
+    /// Of `steps`, those shorter than Δt (to land on a snapshot time or on the end).
     pub shortened_steps: Option<f64>,
     /// Output bytes (snapshots, and the report when the steps are known).
     pub output_bytes: f64,
@@ -117,7 +117,11 @@ impl fmt::Display for Estimate {
         if let Some(steps) = self.steps {
             write!(f, ", {} steps", count(steps))?;
             if let Some(shortened) = self.shortened_steps.filter(|&s| s > 0.0) {
-                write!(f, " ({} of them shortened to land on snapshot times)", count(shortened))?;
+                write!(
+                    f,
+                    " ({} of them shortened to land on snapshot times or the end)",
+                    count(shortened)
+                )?;
             }
         }
         write!(f, ", output {}", bytes(self.output_bytes))
@@ -197,7 +201,8 @@ pub fn estimate_scene(scene: &Scene) -> Estimate {
         };
     let end = scene.time.end;
     let snapshots = end / scene.snapshot_interval() + 2.0;
-    let counted = scene.time.dt.map(|dt| run_steps(end, dt, scene.snapshot_interval()));
+    // A fixed step stays fixed: no landing on snapshot times (crate::run::SnapshotClock).
+    let counted = scene.time.dt.map(|dt| run_steps(end, dt, None));
     let steps = counted.map(|c| c.0);
     Estimate {
         particles,
@@ -213,23 +218,27 @@ pub fn estimate_scene(scene: &Scene) -> Estimate {
 /// Most steps [`run_steps`] counts one by one; above, it gives the upper bound.
 const MAX_COUNTED_STEPS: f64 = 1e7;
 
-/// The steps of a run from 0 to `end` at a step of at most `dt` that lands on every snapshot
-/// time (multiples of `interval`) and on `end`, as `mpm run` takes them, and how many of them
-/// are shortened to land. Each snapshot interval ends with a shortened step unless `dt`
-/// divides it, so a run takes up to one step per snapshot more than `end / dt`.
+/// The steps of a run from 0 to `end` at a step of at most `dt`, as `mpm run` takes them, and
+/// how many of them are shorter than `dt`.
+///
+/// With `landing = None` (a fixed step, which stays fixed) every step is `dt` but the last,
+/// which may be shortened to end at `end`: ⌈end / Δt⌉ steps. With `landing = Some(interval)`
+/// (a CFL step) the steps also land on every snapshot time (multiples of `interval`), so each
+/// interval ends with a shortened step unless `dt` divides it, and a run takes up to one step
+/// per snapshot more than `end / dt`.
 ///
 /// Counted with the run's own arithmetic (the same sums, the same tolerance of 10⁻¹² for
 /// having reached a time) up to `MAX_COUNTED_STEPS`; above, the upper bound
-/// `⌈end / dt⌉ + ⌈end / interval⌉` with every interval's last step counted as shortened.
-pub fn run_steps(end: f64, dt: f64, interval: f64) -> (f64, f64) {
-    if !(dt > 0.0 && interval > 0.0 && end.is_finite()) {
+/// (`⌈end / Δt⌉ + ⌈end / interval⌉` when landing).
+pub fn run_steps(end: f64, dt: f64, landing: Option<f64>) -> (f64, f64) {
+    if !(dt > 0.0 && end.is_finite() && landing.is_none_or(|i| i > 0.0)) {
         return (f64::INFINITY, 0.0);
     }
-    let intervals = (end / interval).ceil();
+    let intervals = landing.map_or(0.0, |interval| (end / interval).ceil());
     if end / dt + intervals > MAX_COUNTED_STEPS {
-        return ((end / dt).ceil() + intervals, intervals);
+        return ((end / dt).ceil() + intervals, intervals.max(1.0));
     }
-    let (mut time, mut next) = (0.0_f64, interval);
+    let (mut time, mut next) = (0.0_f64, landing.unwrap_or(f64::INFINITY));
     let (mut steps, mut shortened) = (0.0, 0.0);
     while time < end * (1.0 - 1e-12) {
         let target = next.min(end);
@@ -240,8 +249,10 @@ pub fn run_steps(end: f64, dt: f64, interval: f64) -> (f64, f64) {
         }
         time += dt.min(room);
         steps += 1.0;
-        if time >= next * (1.0 - 1e-12) {
-            next += interval;
+        if let Some(interval) = landing {
+            if time >= next * (1.0 - 1e-12) {
+                next += interval;
+            }
         }
     }
     (steps, shortened)
@@ -339,11 +350,14 @@ pub fn prepare_run(scene: &Scene, limits: &Limits) -> Result<(Simulation, Estima
     let sim = scene.build()?;
     estimate.particles = sim.particles().len() as f64;
     let end = scene.time.end;
-    let dt = match (scene.time.dt, scene.time.cfl) {
-        (Some(dt), _) => dt,
-        (None, cfl) => cfl.unwrap_or(0.5) * sim.stable_time_step(),
+    let (dt, landing) = match (scene.time.dt, scene.time.cfl) {
+        (Some(dt), _) => (dt, None),
+        (None, cfl) => (
+            cfl.unwrap_or(0.5) * sim.stable_time_step(),
+            Some(scene.snapshot_interval()),
+        ),
     };
-    let counted = (dt > 0.0).then(|| run_steps(end, dt, scene.snapshot_interval()));
+    let counted = (dt > 0.0).then(|| run_steps(end, dt, landing));
     estimate.steps = counted.map(|c| c.0);
     estimate.shortened_steps = counted.map(|c| c.1);
     estimate.output_bytes = output_bytes(estimate.particles, estimate.snapshots, estimate.steps);

@@ -1,7 +1,7 @@
 //! What a scene file gets told: errors that name the file, the key and its line (a missing
 //! table, a body outside the grid, a run over the limits), a warning for bodies whose
-//! particles lie in the same place, and a step count that includes the steps shortened to
-//! land on snapshot times.
+//! particles lie in the same place, a step count that is the count the run takes, and a
+//! fixed time step that stays fixed.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -199,21 +199,34 @@ fn overlapping_bodies_are_warned_about_and_touching_ones_are_not() {
 }
 
 #[test]
-fn the_step_count_includes_the_steps_shortened_to_land_on_snapshot_times() {
-    // dt = 0.03 against snapshots every 0.05: two steps per interval, the second shortened.
-    assert_eq!(run_steps(3.5, 0.03, 0.05), (140.0, 70.0));
+fn the_step_count_of_check_is_the_count_the_run_takes() {
+    // A fixed step stays fixed: ⌈end / dt⌉ steps, only the last shortened (to the end).
+    assert_eq!(run_steps(3.5, 0.03, None), (117.0, 1.0));
+    assert_eq!(run_steps(1.0, 0.01, None), (100.0, 0.0));
+    assert_eq!(run_steps(1.0, 0.3, None), (4.0, 1.0));
+    // A CFL step lands on the snapshot times too. dt = 0.03 against snapshots every 0.05: two
+    // steps per interval, the second shortened.
+    assert_eq!(run_steps(3.5, 0.03, Some(0.05)), (140.0, 70.0));
     // A step that divides the interval (to rounding) is never shortened.
-    assert_eq!(run_steps(1.0, 0.01, 0.05), (100.0, 0.0));
+    assert_eq!(run_steps(1.0, 0.01, Some(0.05)), (100.0, 0.0));
     // The last interval, cut by the end: 3 snapshot intervals of 0.4 in 1.0, the last 0.2.
-    assert_eq!(run_steps(1.0, 0.3, 0.4), (5.0, 3.0));
+    assert_eq!(run_steps(1.0, 0.3, Some(0.4)), (5.0, 3.0));
     // Beyond the counted range, the upper bound.
-    assert_eq!(run_steps(1e3, 1e-5, 0.3), (1e8 + 3334.0, 3334.0));
+    assert_eq!(run_steps(1e3, 1e-5, Some(0.3)), (1e8 + 3334.0, 3334.0));
+    assert_eq!(run_steps(1e3, 1e-5, None), (1e8, 1.0));
 
-    // The prediction of `mpm check` is the count of `mpm run` for a fixed step.
+    // The prediction of `mpm check` is the count of `mpm run`, for fixed steps and CFL steps.
     let dir = scratch("steps");
-    for (dt, interval) in [("0.02", "0.05"), ("0.013", "0.05"), ("0.01", "0.1"), ("0.015", "0.07")] {
+    for (step, interval) in [
+        ("dt = 0.02", "0.05"),
+        ("dt = 0.013", "0.05"),
+        ("dt = 0.01", "0.1"),
+        ("dt = 0.015", "0.07"),
+        ("cfl = 0.5", "0.05"),
+        ("cfl = 0.3", "0.07"),
+    ] {
         let text = TWO_DISKS
-            .replace("cfl = 0.5", &format!("dt = {dt}"))
+            .replace("cfl = 0.5", step)
             .replace("snapshot_interval = 0.05", &format!("snapshot_interval = {interval}"));
         let scene = Scene::from_toml_str(&text).unwrap();
         let (_, estimate) = prepare_run(&scene, &Limits::default()).unwrap();
@@ -222,13 +235,75 @@ fn the_step_count_includes_the_steps_shortened_to_land_on_snapshot_times() {
             ..RunOptions::default()
         };
         let summary = run_scene_with(&scene, &dir.join("out"), &options, |_| {}).unwrap();
-        assert_eq!(
-            estimate.steps,
-            Some(summary.steps as f64),
-            "dt {dt}, interval {interval}"
-        );
-        let expected = format!("{} steps", summary.steps);
-        assert!(estimate.to_string().contains(&expected), "{estimate}");
+        if step.starts_with("dt") {
+            assert_eq!(
+                estimate.steps,
+                Some(summary.steps as f64),
+                "{step}, interval {interval}"
+            );
+            let expected = format!("{} steps", summary.steps);
+            assert!(estimate.to_string().contains(&expected), "{estimate}");
+        } else {
+            // The CFL prediction holds the step of t = 0; the run's step follows the state.
+            let predicted = estimate.steps.unwrap();
+            assert!(predicted > 0.0 && (predicted - summary.steps as f64).abs() < 0.2 * predicted);
+        }
     }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The `dt` column and the times of `report.csv` in `out`.
+fn report_steps(out: &Path) -> Vec<(f64, f64)> {
+    let text = std::fs::read_to_string(out.join("report.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (t, dt) = (col("time"), col("dt"));
+    lines
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            (v[t], v[dt])
+        })
+        .collect()
+}
+
+#[test]
+fn a_fixed_time_step_stays_fixed_and_snapshots_record_the_time_reached() {
+    let dir = scratch("fixed_dt");
+    let out = dir.join("out");
+    // 0.013 does not divide the snapshot interval 0.05, nor the end 3.5.
+    let scene = Scene::from_toml_str(&TWO_DISKS.replace("cfl = 0.5", "dt = 0.013")).unwrap();
+    let options = RunOptions {
+        output: OutputPolicy::Overwrite,
+        ..RunOptions::default()
+    };
+    let summary = run_scene_with(&scene, &out, &options, |_| {}).unwrap();
+    let steps = report_steps(&out);
+    assert_eq!(steps.len(), (3.5f64 / 0.013).ceil() as usize);
+    assert_eq!(summary.steps, steps.len());
+    let (last, rest) = steps.split_last().unwrap();
+    assert!(rest.iter().all(|&(_, dt)| dt == 0.013), "every step but the last is dt");
+    assert!(last.1 > 0.0 && last.1 <= 0.013);
+    assert!(
+        (last.0 - 3.5).abs() < 1e-12,
+        "the last step ends at time.end: {}",
+        last.0
+    );
+
+    // Every snapshot is at the time of a step: the first step to reach or pass its multiple of
+    // the interval, and the time written is the time reached.
+    let series = sparse_mpm::io::vtk::read_pvd(&out.join("particles.pvd")).unwrap();
+    assert_eq!(series[0].0, 0.0);
+    let times: Vec<f64> = steps.iter().map(|s| s.0).collect();
+    for (k, &(t, _)) in series.iter().enumerate().skip(1) {
+        let at = times.iter().position(|&s| s == t).expect("a snapshot at a step's time");
+        let due = 0.05 * k as f64;
+        assert!(t >= due * (1.0 - 1e-12) || at == times.len() - 1, "snapshot {k} at {t}");
+        assert!(
+            at == 0 || times[at - 1] < due * (1.0 - 1e-12),
+            "snapshot {k} one step late"
+        );
+    }
+    assert_eq!(series.last().unwrap().0, last.0, "a snapshot at the end");
     std::fs::remove_dir_all(&dir).unwrap();
 }

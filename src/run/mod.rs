@@ -18,9 +18,11 @@ use crate::operators::Operators;
 use crate::scene::Scene;
 use crate::simulation::{Simulation, StepReport};
 
+mod clock;
 mod resume;
 mod snapshot;
 
+pub use clock::SnapshotClock;
 pub use resume::resume_run;
 pub use snapshot::{write_snapshot, write_snapshot_with_reference, ReferencePositions};
 
@@ -384,15 +386,16 @@ fn drive(
         files.snapshot(&sim, &mut state)?;
         state.next_snapshot = state.snapshot_interval;
     }
+    let mut clock = SnapshotClock::for_options(sim.options(), state.snapshot_interval, state.next_snapshot);
     let mut stepping = Duration::ZERO;
     let mut last = None;
     let max_steps = options.limits.max_steps.unwrap_or(usize::MAX);
     let steps_before = sim.steps();
     while sim.time() < end_time * (1.0 - 1e-12) && sim.steps() < max_steps {
         let t0 = Instant::now();
-        // Land exactly on snapshot times and on the end.
-        let target = state.next_snapshot.min(end_time);
-        let result = sim.step_capped(target - sim.time());
+        // A fixed step stays fixed (only the last is shortened, to end at the end time); a CFL
+        // step lands on the snapshot times too.
+        let result = sim.step_capped(clock.max_step(sim.time(), end_time));
         stepping += t0.elapsed();
         let report = match result {
             Ok(r) => r,
@@ -401,7 +404,7 @@ fn drive(
                 return Err(e);
             }
         };
-        files.record_step(&sim, &mut state, &report, options.checkpoint_every)?;
+        files.record_step(&sim, &mut state, &mut clock, &report, options.checkpoint_every)?;
         progress(&Progress {
             time: sim.time(),
             end_time,
@@ -448,20 +451,21 @@ impl RunFiles<'_> {
     }
 
     /// Records the step `sim` has just taken: its row of the report (flushed), a snapshot
-    /// when one is due, and a checkpoint every `checkpoint_every` steps.
+    /// when one is due by `clock`, and a checkpoint every `checkpoint_every` steps.
     fn record_step(
         &mut self,
         sim: &Simulation,
         state: &mut RunState,
+        clock: &mut SnapshotClock,
         report: &StepReport,
         checkpoint_every: Option<usize>,
     ) -> Result<()> {
         self.csv.write_row(&report.values())?;
         self.csv.flush()?;
         state.report_rows += 1;
-        if sim.time() >= state.next_snapshot * (1.0 - 1e-12) {
+        if clock.due(sim.time()) {
             self.snapshot(sim, state)?;
-            state.next_snapshot += state.snapshot_interval;
+            state.next_snapshot = clock.next();
         }
         if checkpoint_every.is_some_and(|k| k > 0 && sim.steps().is_multiple_of(k)) {
             self.checkpoints.push(write_run_checkpoint(sim, state, self.out)?);
