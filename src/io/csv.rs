@@ -47,10 +47,18 @@ use crate::numbers::push_round_trip;
 /// operating system, so after it returns the rows are in the file even if the process stops
 /// (the data is not `fsync`ed). Dropping the writer flushes too, ignoring errors: call `flush`
 /// to see them.
+///
+/// The file holds whole rows only: it appears with its header (written to a temporary file and
+/// renamed into place), and a flush that fails part-way (a full disk) cuts the file back to the
+/// rows it held before, so a reader never meets a row cut short.
 #[derive(Debug)]
 pub struct CsvWriter {
     path: PathBuf,
-    out: csv::Writer<File>,
+    file: File,
+    /// Bytes of the file that are whole lines (header and rows).
+    committed: u64,
+    /// Rows written since the last flush, as text.
+    out: csv::Writer<Vec<u8>>,
     columns: usize,
     /// The text of one value, reused from value to value.
     field: String,
@@ -85,7 +93,8 @@ fn csv_error(path: &Path, e: csv::Error) -> MpmError {
 }
 
 impl CsvWriter {
-    /// Creates (or truncates) `path` and writes the header line.
+    /// Creates (or replaces) `path` holding the header line; the file appears with its header
+    /// whole or not at all.
     ///
     /// # Errors
     /// * [`MpmError::LengthMismatch`] with field `"header"` when `header` is empty (a CSV file
@@ -99,13 +108,25 @@ impl CsvWriter {
                 found: 0,
             });
         }
-        let file = File::create(path).map_err(|e| io_error(path, e))?;
-        let mut out = writer_builder().from_writer(file);
-        out.write_record(header).map_err(|e| csv_error(path, e))?;
+        let head = header_bytes(header);
+        super::write_atomically(path, |w| std::io::Write::write_all(w, &head))?;
+        Self::open_at(path, header.len(), head.len() as u64)
+    }
+
+    /// The writer appending to `path` after its first `committed` bytes (whole lines).
+    fn open_at(path: &Path, columns: usize, committed: u64) -> Result<Self> {
+        let mut file = fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(|e| io_error(path, e))?;
+        file.set_len(committed).map_err(|e| io_error(path, e))?;
+        file.seek(SeekFrom::End(0)).map_err(|e| io_error(path, e))?;
         Ok(CsvWriter {
             path: path.to_path_buf(),
-            out,
-            columns: header.len(),
+            file,
+            committed,
+            out: writer_builder().from_writer(Vec::new()),
+            columns,
             field: String::new(),
         })
     }
@@ -141,19 +162,7 @@ impl CsvWriter {
             }
             keep = end;
         }
-        let mut file = fs::OpenOptions::new()
-            .write(true)
-            .open(path)
-            .map_err(|e| io_error(path, e))?;
-        file.set_len((head.len() + keep) as u64)
-            .map_err(|e| io_error(path, e))?;
-        file.seek(SeekFrom::End(0)).map_err(|e| io_error(path, e))?;
-        Ok(CsvWriter {
-            path: path.to_path_buf(),
-            out: writer_builder().from_writer(file),
-            columns: header.len(),
-            field: String::new(),
-        })
+        Self::open_at(path, header.len(), (head.len() + keep) as u64)
     }
 
     /// Appends one row; it reaches the file at the latest at the next [`flush`](Self::flush).
@@ -187,8 +196,31 @@ impl CsvWriter {
     ///
     /// # Errors
     /// [`MpmError::Io`] naming the file when writing fails.
+    ///
+    /// The rows reach the file whole or not at all: when writing fails part-way (a full disk),
+    /// the file is cut back to the rows it held before, and the rows not written are dropped.
     pub fn flush(&mut self) -> Result<()> {
-        self.out.flush().map_err(|e| io_error(&self.path, e))
+        use std::io::Write;
+        let buffered = std::mem::replace(&mut self.out, writer_builder().from_writer(Vec::new()));
+        // Into memory: cannot fail.
+        let rows = buffered
+            .into_inner()
+            .map_err(|e| io_error(&self.path, e.into_error()))?;
+        if rows.is_empty() {
+            return Ok(());
+        }
+        match self.file.write_all(&rows) {
+            Ok(()) => {
+                self.committed += rows.len() as u64;
+                Ok(())
+            }
+            Err(e) => {
+                // Best effort: a cut-back that fails too leaves the file as the system left it.
+                let _ = self.file.set_len(self.committed);
+                let _ = self.file.seek(SeekFrom::Start(self.committed));
+                Err(io_error(&self.path, e))
+            }
+        }
     }
 
     /// The file being written.
@@ -199,6 +231,12 @@ impl CsvWriter {
     /// The number of columns, i.e. of values per row.
     pub fn columns(&self) -> usize {
         self.columns
+    }
+}
+
+impl Drop for CsvWriter {
+    fn drop(&mut self) {
+        let _ = self.flush();
     }
 }
 

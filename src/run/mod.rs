@@ -310,11 +310,17 @@ pub fn run_scene_with(
     drive(sim, state, out, options, pvd, csv, start, progress)
 }
 
+/// Copies `from` to `to` through the atomic writer: `to` holds the whole copy or does not exist
+/// (a full disk leaves no truncated copy under the final name).
+///
+/// # Errors
+/// [`MpmError::Io`] naming `from` when it cannot be opened, `to` when the copy cannot be written.
 fn copy(from: &Path, to: &Path) -> Result<()> {
-    std::fs::copy(from, to).map(|_| ()).map_err(|source| MpmError::Io {
+    let mut source = std::fs::File::open(from).map_err(|source| MpmError::Io {
         path: from.to_path_buf(),
         source,
-    })
+    })?;
+    crate::io::write_atomically(to, |w| std::io::copy(&mut source, w).map(|_| ()))
 }
 
 /// Writes `out/scene.toml`, copying particle files beside it and naming the copies, so that
@@ -342,10 +348,9 @@ fn write_scene_copy(scene: &Scene, out: &Path) -> Result<()> {
             body.geometry = crate::scene::Geometry::File(PathBuf::from(name));
         }
     }
-    let scene_copy = out.join("scene.toml");
-    std::fs::write(&scene_copy, copy_scene.to_toml_string()?).map_err(|source| MpmError::Io {
-        path: scene_copy.clone(),
-        source,
+    let text = copy_scene.to_toml_string()?;
+    crate::io::write_atomically(&out.join("scene.toml"), |w| {
+        std::io::Write::write_all(w, text.as_bytes())
     })
 }
 
