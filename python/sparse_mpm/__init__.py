@@ -20,6 +20,18 @@ cached **read-only** array (``Particles`` attributes, ``Operators.N``/``Gx``/``G
 into, so it cannot drift from the Rust state it was copied from; ``.copy()`` gives a writeable
 one. Errors of the library are raised as ``MpmError`` (a ``ValueError``) with the library's
 message, which names the particle, node or key at fault.
+
+Inputs are checked before they are used. An array argument must hold real numbers: float
+arrays are taken as they are, integer arrays (and lists of ints) are converted to float64, and
+a complex array (even with a zero imaginary part), a boolean, string or object array is a
+``TypeError`` naming the argument. It must be 1-D and as long as there are particles (checked
+before it is copied; ``MpmError`` naming both lengths), and every value finite, masses and
+volumes positive (``MpmError`` naming the argument, the particle and the value). A scene or
+shape given as a dict is read at most 64 levels deep and with at most 2·10⁶ values and 16 MiB
+of strings (a scene file's size); a dict or list that contains itself, and a boundary's
+``nodes`` list longer than the grid's node count, are refused with an ``MpmError`` naming the
+key path, before anything beyond the bound is read. ``Simulation.run`` stops at Ctrl-C
+(``KeyboardInterrupt``) between two steps.
 """
 
 import os as _os
@@ -118,8 +130,9 @@ class Operators:
         """Assembles N, Gx, Gy for ``particles`` on ``grid``.
 
         ``shape``: ``"linear"``, ``"quadratic_bspline"``, ``"cubic_bspline"`` or
-        ``{"gimp": {"half_width": l}}`` with ``0 < l <= 0.5``. A particle outside the region the
-        shape function allows raises ``MpmError`` naming the particle.
+        ``{"gimp": {"half_width": l}}`` with ``0 < l <= 0.5`` (a dict is read as ``from_dict``
+        reads a scene: bounded, no self-reference). A particle outside the region the shape
+        function allows raises ``MpmError`` naming the particle.
         """
         return cls(_core.Operators.assemble(grid, particles, shape))
 
@@ -198,27 +211,30 @@ def _core_ops(ops: _t.Union[Operators, "_core.Operators"]) -> "_core.Operators":
     return ops._core if isinstance(ops, Operators) else ops
 
 
-#: Anything NumPy turns into a 1-D float64 array (a list, a NumPy array …).
+#: A 1-D array of real numbers (a list, a NumPy array …): float, or integers taken as floats;
+#: complex, boolean, string and object arrays are refused (``TypeError`` naming the argument).
 ArrayLike = _npt.ArrayLike
 
 
 def lumped_mass(ops: Operators, m: ArrayLike) -> "_np.ndarray":
     """``m_L = N m``: the lumped (nodal) mass, one entry per node (the row sums of ``M``), a new
-    array."""
+    array. ``m``: one finite positive mass per particle (integers are taken as floats; complex
+    is a ``TypeError``, NaN, inf, zero or a negative mass an ``MpmError`` naming the particle)."""
     return _core.lumped_mass(_core_ops(ops), m)
 
 
 def consistent_mass(ops: Operators, m: ArrayLike) -> "_sp.csc_array":
     """``M = N diag(m) N^T``: the consistent mass matrix, nodes × nodes, symmetric positive
     semi-definite, a 9-point stencil for linear shape functions; ``M @ ones = m_L``. A new
-    (writeable) matrix."""
+    (writeable) matrix. ``m`` is checked as in ``lumped_mass``."""
     indptr, indices, data, n = _core.consistent_mass_csc(_core_ops(ops), m)
     return _sp.csc_array((data, indices, indptr), shape=(n, n))
 
 
 def momentum(ops: Operators, m: ArrayLike, vx: ArrayLike, vy: ArrayLike) -> _t.Tuple["_np.ndarray", "_np.ndarray"]:
     """Grid momentum ``q = N (m ∘ v)``: ``(qx, qy)`` with ``qx = N (m ∘ vx)``, ``qy = N (m ∘ vy)``,
-    one entry per node (``transfer::momentum``)."""
+    one entry per node (``transfer::momentum``). One value per particle each, finite (integers
+    taken as floats, complex refused), ``m`` positive."""
     return _core.momentum(_core_ops(ops), m, vx, vy)
 
 
@@ -226,7 +242,8 @@ def external_force(
     ops: Operators, m: ArrayLike, bx: ArrayLike, by: ArrayLike
 ) -> _t.Tuple["_np.ndarray", "_np.ndarray"]:
     """External grid force from body forces per unit mass ``b``: ``f_ext = N (m ∘ b)``, as
-    ``(fx, fy)`` (``transfer::external_force``)."""
+    ``(fx, fy)`` (``transfer::external_force``). One value per particle each, finite (integers
+    taken as floats, complex refused), ``m`` positive."""
     return _core.external_force(_core_ops(ops), m, bx, by)
 
 
@@ -238,7 +255,9 @@ def internal_force(
         f_int,x = −( Gx (V ∘ σxx) + Gy (V ∘ σxy) )
         f_int,y = −( Gx (V ∘ σxy) + Gy (V ∘ σyy) )
 
-    returned as ``(fx, fy)``, one entry per node; ``V``, ``σ`` have one entry per particle."""
+    returned as ``(fx, fy)``, one entry per node; ``V``, ``σ`` have one entry per particle,
+    finite (integers taken as floats, complex refused), ``V`` positive: a NaN, infinite or
+    non-positive value is an ``MpmError`` naming the argument and the particle."""
     return _core.internal_force(_core_ops(ops), volume, sxx, syy, sxy)
 
 
@@ -247,7 +266,8 @@ def mass_diagnostics(ops: Operators, m: ArrayLike, mass: _t.Union[MassName, str]
     as a dict: ``active_nodes``, ``min_nodal_mass``, ``max_nodal_mass``, ``tiny_mass_nodes``
     (``m_L < 1e-3 max m_L``), ``nullity_estimate`` (small Cholesky pivots of the Jacobi-scaled
     ``M_AA``), ``lambda_min_estimate`` (smallest eigenvalue of ``M_L⁻¹ M`` on the active nodes,
-    Lanczos) and ``condition_number`` (of the matrix the scheme solves with; inf if singular)."""
+    Lanczos) and ``condition_number`` (of the matrix the scheme solves with; inf if singular).
+    ``m`` is checked as in ``lumped_mass``."""
     return _core.mass_diagnostics(_core_ops(ops), m, mass)
 
 
@@ -281,7 +301,8 @@ def critical_time_step(
     """``Δt_crit = 2 / ω_max`` with ``ω²_max = λ_max(M⁻¹ K)`` (``stiffness::critical_time_step``):
     ``K`` the stiffness of linear elasticity (``plane`` ``"stress"`` or ``"strain"``) on the
     particle volumes, ``M`` the grid mass of scheme ``mass`` (see ``MASS_SCHEMES``, acceleration
-    role, no constraints); ``inf`` when there is no stiffness."""
+    role, no constraints); ``inf`` when there is no stiffness. ``m`` and ``volume``: one finite
+    positive value per particle (integers taken as floats, complex refused)."""
     return _core.critical_time_step(_core_ops(ops), m, volume, youngs_modulus, poisson_ratio, plane, mass)
 
 
@@ -377,7 +398,11 @@ class Simulation:
     ) -> "Simulation":
         """The simulation of a scene given as a dict with the tables and keys of a scene file
         (NumPy scalars and arrays are taken as numbers and lists). An error names the key path
-        at fault, e.g. ``bodies[0].material.youngs_modulus``."""
+        at fault, e.g. ``bodies[0].material.youngs_modulus``. The dict is read at most 64 levels
+        deep, with at most 2·10⁶ values and 16 MiB of strings (a scene file's size); a dict or
+        list that contains itself, and a boundary's ``nodes`` list longer than the grid's node
+        count, are refused (``MpmError`` naming the key path) before anything beyond the bound
+        is read."""
         base = None if base_dir is None else _os.fspath(base_dir)
         return cls(_core.Simulation.from_dict(dict(scene), base, allow_large))
 
@@ -403,6 +428,8 @@ class Simulation:
         builds, bit for bit. Errors name the key path (``bodies[0].material.poisson_ratio``,
         ``options.time``) or the field and particle. No resource limits are applied (the
         arrays are already in memory; nothing is written); ``scene_toml()`` is not available.
+        ``bodies`` and ``options`` are read as ``from_dict`` reads a scene (depth, size,
+        self-reference, node lists within ``grid``).
         """
         if options is not None and not isinstance(options, _t.Mapping):
             raise MpmError(f"options: expected a dict of scene tables, found {type(options).__name__}")
@@ -466,7 +493,9 @@ class Simulation:
         """Steps until time ``until`` (default: ``end_time``; the last step is shortened to land
         on it) and returns the per-step report as a dict of float64 arrays, one per column of
         ``REPORT_COLUMNS``. A library error raises ``MpmError``; the steps taken before it stay
-        taken."""
+        taken. Ctrl-C (SIGINT) stops the run between two whole steps with ``KeyboardInterrupt``
+        (within about 50 ms or one step): the steps taken stay taken, the simulation can go on,
+        and their reports are not returned."""
         if until is None:
             until = self.end_time
             if until is None:
@@ -492,8 +521,9 @@ class Simulation:
     def set_particle_state(self, **fields: ArrayLike) -> None:
         """Sets particle fields, each an array in the order of ``particles()``: ``vx``, ``vy``
         (velocity), ``sxx``, ``syy``, ``sxy`` (stress), ``bx``, ``by`` (body force per unit
-        mass, besides gravity). Each array needs one finite value per particle; an error names
-        the field and the particle. Before the first step the simulation is rebuilt with them (as
+        mass, besides gravity). Each array needs one finite value per particle (integers are
+        taken as floats; a complex array is a ``TypeError``); an error names the field and the
+        particle. Before the first step the simulation is rebuilt with them (as
         if built from them: its first stable step sees them); between steps they are set in place
         (``Simulation::set_velocity``, ``set_stress``, ``set_body_force``), and the next step's CFL
         term sees the new speeds."""

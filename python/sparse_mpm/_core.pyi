@@ -1,6 +1,15 @@
 """Type stubs of the Rust extension ``sparse_mpm._core``. Every array argument is copied into
 Rust. Arrays returned are new NumPy arrays, except the attributes of ``Particles``: read-only
-arrays made on first access and returned again after (no memory is shared with Rust)."""
+arrays made on first access and returned again after (no memory is shared with Rust).
+
+Array arguments are checked before they are copied: real numbers only (float; integer arrays
+are converted to float64; complex, boolean, string and object arrays raise ``TypeError``
+naming the argument), 1-D (``MpmError`` otherwise), one entry per particle (``MpmError``
+naming both lengths). Per-particle values must be finite, masses and volumes positive
+(``MpmError`` naming the argument, the particle and the value). Dicts (scenes, options,
+bodies, shapes) are read at most 64 levels deep, with at most 2·10⁶ values and 16 MiB of
+strings; one that contains itself, or a boundary's ``nodes`` list longer than the grid's node
+count, raises ``MpmError`` naming the key path."""
 
 from os import PathLike
 from typing import Any, Dict, List, Literal, Mapping, Optional, Tuple, Union
@@ -11,8 +20,8 @@ import numpy.typing as npt
 __version__: str
 
 ArrayLike = npt.ArrayLike
-F64 = F64
-I64 = I64
+F64 = npt.NDArray[np.float64]
+I64 = npt.NDArray[np.int64]
 ShapeName = Literal["linear", "quadratic_bspline", "cubic_bspline"]
 #: A shape name or ``{"gimp": {"half_width": l}}``; None is linear.
 ShapeSpec = Union[ShapeName, Mapping[str, Mapping[str, float]], None]
@@ -40,7 +49,8 @@ class Grid:
     ) -> None: ...
     @staticmethod
     def from_node_coordinates(x_g: ArrayLike, y_g: ArrayLike) -> Grid:
-        """The grid whose node k is at ``(x_g[k], y_g[k])``, node order recovered from the lists."""
+        """The grid whose node k is at ``(x_g[k], y_g[k])``, node order recovered from the lists
+        (real, finite, at most 2²⁸ entries, checked before they are copied)."""
     @property
     def origin(self) -> Tuple[float, float]: ...
     @property
@@ -57,7 +67,11 @@ class Grid:
 class Particles:
     """Particle positions ``x, y``, masses ``m_p > 0``, volumes ``V_p > 0``, velocities, stresses,
     body forces (default 0) and bodies (default 0). Immutable; every attribute is a read-only
-    array made on first access and returned again after."""
+    array made on first access and returned again after.
+
+    Every array as long as ``x`` (checked before it is copied), real (integers taken as floats,
+    complex a ``TypeError``), finite, masses and volumes positive (``MpmError`` naming the
+    particle, field and value); ``body`` whole numbers from 0."""
 
     def __init__(
         self,
@@ -133,23 +147,25 @@ class Operators:
     def values(self, op: OperatorName) -> F64: ...
 
 def lumped_mass(ops: Operators, m: ArrayLike) -> F64:
-    """``m_L = N m``."""
+    """``m_L = N m``; ``m`` one finite positive mass per particle."""
 
 def consistent_mass_csc(
     ops: Operators, m: ArrayLike
 ) -> Tuple[I64, I64, F64, int]:
-    """``M = N diag(m) N^T`` as ``(indptr, indices, data, num_nodes)``."""
+    """``M = N diag(m) N^T`` as ``(indptr, indices, data, num_nodes)``; ``m`` one finite positive
+    mass per particle."""
 
 Pair = Tuple[F64, F64]
 
 def momentum(ops: Operators, m: ArrayLike, vx: ArrayLike, vy: ArrayLike) -> Pair:
-    """``q = N (m ∘ v)`` as ``(qx, qy)``."""
+    """``q = N (m ∘ v)`` as ``(qx, qy)``; finite values, ``m`` positive."""
 
 def external_force(ops: Operators, m: ArrayLike, bx: ArrayLike, by: ArrayLike) -> Pair:
-    """``f_ext = N (m ∘ b)`` as ``(fx, fy)``."""
+    """``f_ext = N (m ∘ b)`` as ``(fx, fy)``; finite values, ``m`` positive."""
 
 def internal_force(ops: Operators, volume: ArrayLike, sxx: ArrayLike, syy: ArrayLike, sxy: ArrayLike) -> Pair:
-    """``f_int,x = −(Gx (V ∘ σxx) + Gy (V ∘ σxy))``, ``f_int,y = −(Gx (V ∘ σxy) + Gy (V ∘ σyy))``."""
+    """``f_int,x = −(Gx (V ∘ σxx) + Gy (V ∘ σxy))``, ``f_int,y = −(Gx (V ∘ σxy) + Gy (V ∘ σyy))``;
+    finite values, ``volume`` positive."""
 
 def dispersion(
     shape: ShapeSpec,
@@ -160,7 +176,7 @@ def dispersion(
     cells: Optional[int] = None,
 ) -> Tuple[F64, F64]: ...
 def mass_diagnostics(ops: Operators, m: ArrayLike, mass: MassScheme = "lumped") -> Dict[str, Union[int, float]]:
-    """``MassDiagnostics::compute`` as a dict of its fields."""
+    """``MassDiagnostics::compute`` as a dict of its fields; ``m`` finite and positive."""
 
 def critical_time_step(
     ops: Operators,
@@ -171,7 +187,7 @@ def critical_time_step(
     plane: Plane = "stress",
     mass: MassScheme = "lumped",
 ) -> float:
-    """``Δt_crit = 2 / ω_max``, ``ω²_max = λ_max(M⁻¹ K)``."""
+    """``Δt_crit = 2 / ω_max``, ``ω²_max = λ_max(M⁻¹ K)``; ``m``, ``volume`` finite and positive."""
 
 def explicit_step(
     grid: Grid,
@@ -195,7 +211,9 @@ class Simulation:
     @staticmethod
     def from_toml(text: str, base_dir: Optional[str] = None, allow_large: bool = False) -> Simulation: ...
     @staticmethod
-    def from_dict(scene: Dict[str, Any], base_dir: Optional[str] = None, allow_large: bool = False) -> Simulation: ...
+    def from_dict(scene: Dict[str, Any], base_dir: Optional[str] = None, allow_large: bool = False) -> Simulation:
+        """Bounded: 64 levels, 2·10⁶ values, 16 MiB of strings, no self-reference, node lists
+        no longer than the grid; errors name the key path."""
     @staticmethod
     def from_arrays(
         grid: Grid, particles: Particles, bodies: List[Dict[str, Any]], options: Optional[Dict[str, Any]] = None
@@ -217,11 +235,14 @@ class Simulation:
     def scene_toml(self) -> str: ...
     def stable_time_step(self) -> float: ...
     def step(self, max_dt: Optional[float] = None) -> Dict[str, float]: ...
-    def run_rows(self, until: float) -> Tuple[F64, int]: ...
+    def run_rows(self, until: float) -> Tuple[F64, int]:
+        """Steps until ``until``: the reports as flat rows and their count. Ctrl-C raises
+        ``KeyboardInterrupt`` between two steps (the steps taken stay taken)."""
     def particles(self) -> Dict[str, np.ndarray]: ...
     def set_particle_state(
         self, fields: Mapping[Literal["vx", "vy", "sxx", "syy", "sxy", "bx", "by"], ArrayLike]
-    ) -> None: ...
+    ) -> None:
+        """One finite real value per particle in each array (complex: ``TypeError``)."""
     def grid(self) -> Grid: ...
     def operators(self) -> Operators: ...
     def lumped_mass(self) -> F64: ...

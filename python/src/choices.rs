@@ -1,5 +1,6 @@
 //! Python values read as the library's choices: any value as a TOML value (scenes given as
-//! dicts, shape functions given as dicts or strings), the shape function, the mass scheme and
+//! dicts, shape functions given as dicts or strings; bounded in depth and size, self-references
+//! refused, node lists no longer than the grid), the shape function, the mass scheme and
 //! the plane condition, each error naming the argument.
 
 use crate::{mpm_err, mpm_msg};
@@ -8,54 +9,199 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use sparse_mpm::material::PlaneCondition;
 use sparse_mpm::{mass, ShapeFunction};
 
-/// A Python value (dict, list, tuple, str, bool, int, float) as a TOML value.
+/// Most levels of nesting of a Python value read as TOML (a scene is some six levels deep).
+pub(crate) const MAX_DEPTH: usize = 64;
+
+/// Most values (numbers, strings, booleans, lists and dicts, each counted once) in one Python
+/// value read as TOML: 2·10⁶. A scene file is at most `MAX_SCENE_BYTES` (16 MiB), room for node
+/// lists of a million nodes; 2·10⁶ values leave room for those and the rest of a scene (such a
+/// scene peaks at about 0.5 GB while it is converted, written as TOML and parsed).
+pub(crate) const MAX_VALUES: usize = 2_000_000;
+
+/// Most bytes of the strings and keys of one Python value read as TOML: a scene file's size.
+const MAX_TEXT_BYTES: usize = sparse_mpm::scene::MAX_SCENE_BYTES as usize;
+
+/// A Python value (dict, list, tuple, str, bool, int, float) as a TOML value, with no grid to
+/// bound node lists by (see [`ToToml`]).
 pub(crate) fn to_toml(obj: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
-    if obj.is_instance_of::<PyBool>() {
-        return Ok(toml::Value::Boolean(obj.extract()?));
+    ToToml::new(None).convert(obj, key)
+}
+
+/// Python values read as TOML values, within bounds: at most [`MAX_DEPTH`] levels, at most
+/// [`MAX_VALUES`] values and [`MAX_TEXT_BYTES`] of strings over every value converted by it, no
+/// dict or list that contains itself, and a boundary's `nodes` list no longer than the grid's
+/// node count. Each bound is checked before the values beyond it are read (a list's length
+/// before its items), and its error names the key path.
+pub(crate) struct ToToml {
+    /// The containers being converted, outermost first: their address and key path.
+    open: Vec<(usize, String)>,
+    /// Values converted so far.
+    values: usize,
+    /// Bytes of strings and keys converted so far.
+    text: usize,
+    /// The grid's node count, when known: the longest a boundary's `nodes` list may be.
+    max_nodes: Option<usize>,
+}
+
+impl ToToml {
+    /// A converter with nothing converted yet; `max_nodes` bounds the boundaries' node lists.
+    pub(crate) fn new(max_nodes: Option<usize>) -> Self {
+        ToToml {
+            open: Vec::new(),
+            values: 0,
+            text: 0,
+            max_nodes,
+        }
     }
-    if obj.is_instance_of::<PyInt>() {
-        let i: i64 = obj
-            .extract()
-            .map_err(|_| mpm_msg(format!("{key}: integer {obj} does not fit in 64 bits")))?;
-        return Ok(toml::Value::Integer(i));
-    }
-    if obj.is_instance_of::<PyFloat>() {
-        return Ok(toml::Value::Float(obj.extract()?));
-    }
-    if obj.is_instance_of::<PyString>() {
-        return Ok(toml::Value::String(obj.extract()?));
-    }
-    if let Ok(d) = obj.cast::<PyDict>() {
-        let mut table = toml::map::Map::new();
-        for (k, v) in d.iter() {
-            let k: String = k
+
+    /// `obj` as a TOML value; `key` is its key path (empty for a whole scene).
+    pub(crate) fn convert(&mut self, obj: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
+        let shown = if key.is_empty() { "scene" } else { key };
+        self.count(shown, 1)?;
+        if obj.is_instance_of::<PyBool>() {
+            return Ok(toml::Value::Boolean(obj.extract()?));
+        }
+        if obj.is_instance_of::<PyInt>() {
+            let i: i64 = obj
                 .extract()
-                .map_err(|_| mpm_msg(format!("{key}: dictionary keys must be strings, found {k}")))?;
-            let sub = if key.is_empty() {
-                k.clone()
-            } else {
-                format!("{key}.{k}")
-            };
-            table.insert(k, to_toml(&v, &sub)?);
+                .map_err(|_| mpm_msg(format!("{shown}: integer {obj} does not fit in 64 bits")))?;
+            return Ok(toml::Value::Integer(i));
         }
-        return Ok(toml::Value::Table(table));
-    }
-    if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
-        let mut items = Vec::new();
-        for (i, v) in obj.try_iter()?.enumerate() {
-            items.push(to_toml(&v?, &format!("{key}[{i}]"))?);
+        if obj.is_instance_of::<PyFloat>() {
+            return Ok(toml::Value::Float(obj.extract()?));
         }
-        return Ok(toml::Value::Array(items));
+        if let Ok(s) = obj.cast::<PyString>() {
+            return Ok(toml::Value::String(self.string(s, shown)?));
+        }
+        // A container (or a NumPy value): its items are converted with it open.
+        let address = obj.as_ptr() as usize;
+        if let Some((_, outer)) = self.open.iter().find(|(a, _)| *a == address) {
+            return Err(mpm_msg(format!(
+                "{outer} contains itself at key path {shown}: a scene is a tree of values, no dict or list may \
+                 hold itself"
+            )));
+        }
+        if self.open.len() >= MAX_DEPTH {
+            return Err(mpm_msg(format!(
+                "{shown}: nested more than {MAX_DEPTH} levels deep (a scene is a few levels deep)"
+            )));
+        }
+        self.open.push((address, shown.to_string()));
+        let value = self.container(obj, key, shown);
+        self.open.pop();
+        value
     }
-    // NumPy scalars and arrays: their Python equivalents.
-    if obj.hasattr("tolist")? {
-        return to_toml(&obj.call_method0("tolist")?, key);
+
+    /// An error naming `shown` when `more` values would take the converter past [`MAX_VALUES`];
+    /// else they are counted.
+    fn count(&mut self, shown: &str, more: usize) -> PyResult<()> {
+        if more > MAX_VALUES - self.values.min(MAX_VALUES) {
+            return Err(mpm_msg(format!(
+                "{shown}: more than {MAX_VALUES} values in all, more than a scene holds (a scene file is at most \
+                 {} MiB)",
+                MAX_TEXT_BYTES >> 20
+            )));
+        }
+        self.values += more;
+        Ok(())
     }
-    Err(mpm_msg(format!(
-        "{}: a value of type {} has no TOML form",
-        if key.is_empty() { "scene" } else { key },
-        obj.get_type().name()?
-    )))
+
+    /// The string `s` at `shown`, its size checked (against the bytes left) before it is copied.
+    fn string(&mut self, s: &Bound<'_, PyString>, shown: &str) -> PyResult<String> {
+        // A character is at least one byte of UTF-8.
+        let chars = s.len()?;
+        if chars > MAX_TEXT_BYTES - self.text.min(MAX_TEXT_BYTES) {
+            return Err(mpm_msg(format!(
+                "{shown}: a string of {chars} characters takes the strings past the {} MiB a scene file may have",
+                MAX_TEXT_BYTES >> 20
+            )));
+        }
+        let text: String = s.extract()?;
+        self.text += text.len();
+        Ok(text)
+    }
+
+    /// The dict, list, tuple or NumPy value `obj` at `key` (`shown` in errors).
+    fn container(&mut self, obj: &Bound<'_, PyAny>, key: &str, shown: &str) -> PyResult<toml::Value> {
+        if let Ok(d) = obj.cast::<PyDict>() {
+            self.check_len(shown, d.len())?;
+            let mut table = toml::map::Map::new();
+            // The items as they are now (a list of pairs): nothing run while converting them
+            // can change what is iterated over.
+            for item in d.items().iter() {
+                let (k, v): (Bound<'_, PyAny>, Bound<'_, PyAny>) = item.extract()?;
+                let Ok(k) = k.cast::<PyString>() else {
+                    return Err(mpm_msg(format!("{shown}: dictionary keys must be strings, found {k}")));
+                };
+                let k = self.string(k, shown)?;
+                let sub = if key.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{key}.{k}")
+                };
+                let value = self.convert(&v, &sub)?;
+                table.insert(k, value);
+            }
+            return Ok(toml::Value::Table(table));
+        }
+        if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
+            self.check_len(shown, obj.len()?)?;
+            let mut items = Vec::new();
+            for (i, v) in obj.try_iter()?.enumerate() {
+                items.push(self.convert(&v?, &format!("{key}[{i}]"))?);
+            }
+            return Ok(toml::Value::Array(items));
+        }
+        // NumPy scalars and arrays: their Python equivalents (an array's size checked first).
+        if let Ok(a) = obj.cast::<numpy::PyUntypedArray>() {
+            self.check_len(shown, numpy::PyUntypedArrayMethods::len(a))?;
+        }
+        if obj.hasattr("tolist")? {
+            return self.convert(&obj.call_method0("tolist")?, key);
+        }
+        Err(mpm_msg(format!(
+            "{shown}: a value of type {} has no TOML form",
+            obj.get_type().name()?
+        )))
+    }
+
+    /// An error naming `shown` unless a container of `len` items fits the bounds: no longer
+    /// than the grid's node count for a boundary's `nodes`, within [`MAX_VALUES`].
+    pub(crate) fn check_len(&self, shown: &str, len: usize) -> PyResult<()> {
+        if let Some(n) = self.max_nodes.filter(|&n| len > n && is_node_list(shown)) {
+            return Err(mpm_err(sparse_mpm::MpmError::InvalidScene {
+                key: shown.to_string(),
+                reason: format!(
+                    "lists {len} nodes, more than the {n} nodes of the grid (each node can be listed once)"
+                ),
+            }));
+        }
+        if len > MAX_VALUES - self.values.min(MAX_VALUES) {
+            return Err(mpm_msg(format!(
+                "{shown}: {len} values, more than the {MAX_VALUES} a scene may hold in all (a scene file is at \
+                 most {} MiB)",
+                MAX_TEXT_BYTES >> 20
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Whether `key` is a boundary's node list, `boundaries[k].nodes`.
+fn is_node_list(key: &str) -> bool {
+    key.strip_prefix("boundaries[")
+        .and_then(|rest| rest.strip_suffix("].nodes"))
+        .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// The node count of the grid of the scene dict `scene` (`(cx + 1) (cy + 1)` from its
+/// `grid.cells`), when it has a readable one.
+pub(crate) fn scene_grid_nodes(scene: &Bound<'_, PyDict>) -> Option<usize> {
+    let grid = scene.get_item("grid").ok()??;
+    let cells = grid.cast::<PyDict>().ok()?.get_item("cells").ok()??;
+    let [cx, cy]: [u64; 2] = cells.extract().ok()?;
+    let nodes = (cx as u128 + 1) * (cy as u128 + 1);
+    usize::try_from(nodes).ok()
 }
 
 /// The shape function given as a string or a dict (its scene-file form), validated.

@@ -1,8 +1,9 @@
 //! `Grid` and `Particles`: the background grid and the particle state, copied in from NumPy
 //! arrays and out into new ones.
 
-use crate::{f64_array, index_array, mpm_err, mpm_msg, read_only, to_vec};
-use numpy::{AllowTypeChange, PyArray1, PyArrayLike1};
+use crate::inputs::{body_indices, real_vec, Len};
+use crate::{f64_array, index_array, mpm_err, mpm_msg, read_only};
+use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
@@ -62,13 +63,14 @@ impl PyGrid {
     }
 
     /// The grid whose nodes are at `(x_g[k], y_g[k])`, with its node order (x- or y-fastest)
-    /// recovered from the lists; an error names the node out of place.
+    /// recovered from the lists; an error names the node out of place. The lists hold real
+    /// numbers (a complex array is a TypeError) and are at most `MAX_NODES` long (checked
+    /// before they are copied).
     #[staticmethod]
-    fn from_node_coordinates(
-        x_g: PyArrayLike1<'_, f64, AllowTypeChange>,
-        y_g: PyArrayLike1<'_, f64, AllowTypeChange>,
-    ) -> PyResult<Self> {
-        let grid = Grid::from_node_coordinates(&to_vec(&x_g), &to_vec(&y_g)).map_err(mpm_err)?;
+    fn from_node_coordinates(x_g: &Bound<'_, PyAny>, y_g: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let most = Len::AtMost(MAX_NODES, "nodes", "a grid made from Python may have");
+        let (x_g, y_g) = (real_vec(x_g, "x_g", most)?, real_vec(y_g, "y_g", most)?);
+        let grid = Grid::from_node_coordinates(&x_g, &y_g).map_err(mpm_err)?;
         Ok(PyGrid { inner: grid })
     }
 
@@ -123,7 +125,10 @@ const FIELDS: [&str; 11] = ["x", "y", "mass", "volume", "vx", "vy", "sxx", "syy"
 
 /// Particle state: positions, masses, volumes, velocities, stresses, body forces and bodies
 /// (copied from the arrays given). Immutable: each attribute is a read-only array made on
-/// first access and handed out again after (no copy per access).
+/// first access and handed out again after (no copy per access). Every array as long as `x`
+/// (checked before it is copied) and real (integers are taken as floats, a complex array is a
+/// TypeError); values finite, masses and volumes positive (`Particles::validate`); `body` whole
+/// numbers from 0.
 #[pyclass(name = "Particles", module = "sparse_mpm._core", frozen)]
 pub(crate) struct PyParticles {
     pub(crate) inner: Particles,
@@ -170,50 +175,46 @@ impl PyParticles {
     #[pyo3(signature = (x, y, mass, volume, vx = None, vy = None, *, sxx = None, syy = None, sxy = None, bx = None, by = None, body = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
-        x: PyArrayLike1<'_, f64, AllowTypeChange>,
-        y: PyArrayLike1<'_, f64, AllowTypeChange>,
-        mass: PyArrayLike1<'_, f64, AllowTypeChange>,
-        volume: PyArrayLike1<'_, f64, AllowTypeChange>,
-        vx: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
-        vy: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
-        sxx: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
-        syy: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
-        sxy: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
-        bx: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
-        by: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
-        body: Option<PyArrayLike1<'_, i64, AllowTypeChange>>,
+        x: &Bound<'_, PyAny>,
+        y: &Bound<'_, PyAny>,
+        mass: &Bound<'_, PyAny>,
+        volume: &Bound<'_, PyAny>,
+        vx: Option<&Bound<'_, PyAny>>,
+        vy: Option<&Bound<'_, PyAny>>,
+        sxx: Option<&Bound<'_, PyAny>>,
+        syy: Option<&Bound<'_, PyAny>>,
+        sxy: Option<&Bound<'_, PyAny>>,
+        bx: Option<&Bound<'_, PyAny>>,
+        by: Option<&Bound<'_, PyAny>>,
+        body: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let mut p = Particles::new(to_vec(&x), to_vec(&y), to_vec(&mass), to_vec(&volume)).map_err(mpm_err)?;
-        let n = p.len();
-        let or_zero =
-            |a: Option<PyArrayLike1<'_, f64, AllowTypeChange>>| a.map(|a| to_vec(&a)).unwrap_or_else(|| vec![0.0; n]);
+        // Every array real and as long as `x` (checked before it is copied); the values are
+        // checked by the library (`Particles::validate`: finite, positive masses and volumes).
+        let x = real_vec(x, "x", Len::Any)?;
+        let n = x.len();
+        let each = |a: &Bound<'_, PyAny>, name: &'static str| real_vec(a, name, Len::Exactly(n));
+        let mut p = Particles::new(x, each(y, "y")?, each(mass, "mass")?, each(volume, "volume")?).map_err(mpm_err)?;
+        let or_zero = |a: Option<&Bound<'_, PyAny>>, name: &'static str| match a {
+            Some(a) => each(a, name),
+            None => Ok(vec![0.0; n]),
+        };
         if vx.is_some() || vy.is_some() {
-            p = p.with_velocity(or_zero(vx), or_zero(vy)).map_err(mpm_err)?;
+            p = p
+                .with_velocity(or_zero(vx, "vx")?, or_zero(vy, "vy")?)
+                .map_err(mpm_err)?;
         }
         if sxx.is_some() || syy.is_some() || sxy.is_some() {
             p = p
-                .with_stress(or_zero(sxx), or_zero(syy), or_zero(sxy))
+                .with_stress(or_zero(sxx, "sxx")?, or_zero(syy, "syy")?, or_zero(sxy, "sxy")?)
                 .map_err(mpm_err)?;
         }
         if bx.is_some() || by.is_some() {
-            p = p.with_body_force(or_zero(bx), or_zero(by)).map_err(mpm_err)?;
+            p = p
+                .with_body_force(or_zero(bx, "bx")?, or_zero(by, "by")?)
+                .map_err(mpm_err)?;
         }
         if let Some(body) = body {
-            let body: Vec<i64> = body.as_array().iter().copied().collect();
-            if body.len() != n {
-                return Err(mpm_err(sparse_mpm::MpmError::LengthMismatch {
-                    field: "body",
-                    expected: n,
-                    found: body.len(),
-                }));
-            }
-            if let Some(k) = body.iter().position(|&b| b < 0) {
-                return Err(mpm_msg(format!(
-                    "body[{k}] = {}: particle {k} names a negative body index",
-                    body[k]
-                )));
-            }
-            p.body = body.iter().map(|&b| b as usize).collect();
+            p.body = body_indices(body, n)?;
         }
         Ok(PyParticles::wrap(p))
     }

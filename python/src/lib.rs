@@ -1,26 +1,29 @@
 //! `sparse_mpm._core`: the Rust side of the Python package `sparse_mpm`.
 //!
 //! Arrays cross the boundary as NumPy arrays and are copied both ways (inputs into the
-//! library's own `Vec<f64>`, outputs into new NumPy arrays). The sparse operators leave as
-//! their compressed-column arrays; `sparse_mpm/__init__.py` wraps them in
-//! `scipy.sparse.csc_array`. Every library error becomes `sparse_mpm.MpmError` (a
-//! `ValueError`) with the library's message; no input reaches a panic.
+//! library's own `Vec<f64>`, outputs into new NumPy arrays); inputs are checked first
+//! (`inputs`: real numbers only, lengths before anything is copied, finite values, positive
+//! masses and volumes). The sparse operators leave as their compressed-column arrays;
+//! `sparse_mpm/__init__.py` wraps them in `scipy.sparse.csc_array`. Every library error
+//! becomes `sparse_mpm.MpmError` (a `ValueError`) with the library's message; no input reaches
+//! a panic.
 //!
 //! The modules: `grid` (`Grid`, `Particles`), `operators` (`Operators`, the lumped and
 //! consistent mass, a scene's operators), `step` (the transfers and forces of one step, mass
 //! diagnostics, the critical time step, `explicit_step`), `simulation` (`Simulation`, the
-//! report columns) and `choices` (Python values read as TOML, shape functions, mass schemes
-//! and plane conditions). This file holds the error type, the array conversions and the
-//! module's registration.
+//! report columns), `choices` (Python values read as TOML, bounded in depth and size, shape
+//! functions, mass schemes and plane conditions) and `inputs` (the checks of the arrays given).
+//! This file holds the error type, the array conversions out and the module's registration.
 
 mod choices;
 mod grid;
+mod inputs;
 mod operators;
 mod simulation;
 mod step;
 
 use grid::{PyGrid, PyParticles};
-use numpy::{AllowTypeChange, PyArray1, PyArrayLike1};
+use numpy::PyArray1;
 use operators::{consistent_mass_csc, lumped_mass, scene_operators, PyOperators};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -43,14 +46,6 @@ fn mpm_err(e: sparse_mpm::MpmError) -> PyErr {
 /// An `MpmError` with the message given (an argument the binding checks itself).
 fn mpm_msg(msg: impl Into<String>) -> PyErr {
     MpmError::new_err(msg.into())
-}
-
-/// A 1-D float64 array-like as a vector (copied).
-fn to_vec(a: &PyArrayLike1<'_, f64, AllowTypeChange>) -> Vec<f64> {
-    match a.as_slice() {
-        Ok(s) => s.to_vec(),
-        Err(_) => a.as_array().iter().copied().collect(),
-    }
 }
 
 /// A new float64 NumPy array holding a copy of `v`.

@@ -1,10 +1,12 @@
 //! `Operators` (N, Gx, Gy in compressed-column form), the checks of per-particle arrays
-//! against them, the lumped and consistent mass, and the operators of a scene file.
+//! against them (real, one per particle, finite, masses positive), the lumped and consistent
+//! mass, and the operators of a scene file.
 
 use crate::choices::parse_shape;
 use crate::grid::{PyGrid, PyParticles};
-use crate::{f64_array, index_array, mpm_err, mpm_msg, to_vec};
-use numpy::{AllowTypeChange, PyArray1, PyArrayLike1};
+use crate::inputs::{particle_vec, Sign};
+use crate::{f64_array, index_array, mpm_err, mpm_msg};
+use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use sparse_mpm::limits::Limits;
@@ -84,46 +86,33 @@ impl PyOperators {
     }
 }
 
-/// An error unless the particle masses `m` have one entry per particle of `ops`.
-pub(crate) fn check_masses(ops: &Operators, m: &[f64]) -> PyResult<()> {
-    check_particle_field(ops, "m", m)
+/// The particle masses `m` of `ops`: real, one per particle, finite and positive.
+pub(crate) fn masses(ops: &Operators, m: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    particle_vec(m, "m", ops.num_particles(), Sign::Positive)
 }
 
-/// An error unless `v` has one entry per particle of `ops`.
-fn check_particle_field(ops: &Operators, field: &'static str, v: &[f64]) -> PyResult<()> {
-    if v.len() != ops.num_particles() {
-        return Err(mpm_err(sparse_mpm::MpmError::LengthMismatch {
-            field,
-            expected: ops.num_particles(),
-            found: v.len(),
-        }));
-    }
-    Ok(())
-}
-
-/// The particle fields `(name, array)`, each copied and checked to have one entry per particle.
+/// The particle fields `(name, array, sign)` of `ops`, each real, one entry per particle
+/// (checked before it is copied), finite, and positive with [`Sign::Positive`]; copied.
 pub(crate) fn particle_fields<const K: usize>(
     ops: &Operators,
-    fields: [(&'static str, PyArrayLike1<'_, f64, AllowTypeChange>); K],
+    fields: [(&'static str, &Bound<'_, PyAny>, Sign); K],
 ) -> PyResult<[Vec<f64>; K]> {
     let mut out: [Vec<f64>; K] = std::array::from_fn(|_| Vec::new());
-    for (slot, (name, a)) in out.iter_mut().zip(fields) {
-        let v = to_vec(&a);
-        check_particle_field(ops, name, &v)?;
-        *slot = v;
+    for (slot, (name, a, sign)) in out.iter_mut().zip(fields) {
+        *slot = particle_vec(a, name, ops.num_particles(), sign)?;
     }
     Ok(out)
 }
 
-/// `m_L = N m`: the lumped (nodal) mass, one entry per node.
+/// `m_L = N m`: the lumped (nodal) mass, one entry per node; `m` one finite positive mass per
+/// particle (integers are taken as floats, a complex array is a TypeError).
 #[pyfunction]
 pub(crate) fn lumped_mass<'py>(
     py: Python<'py>,
     ops: &PyOperators,
-    m: PyArrayLike1<'_, f64, AllowTypeChange>,
+    m: &Bound<'_, PyAny>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let m = to_vec(&m);
-    check_masses(&ops.inner, &m)?;
+    let m = masses(&ops.inner, m)?;
     Ok(PyArray1::from_vec(py, mass::lumped_mass(&ops.inner, &m)))
 }
 
@@ -132,10 +121,9 @@ pub(crate) fn lumped_mass<'py>(
 pub(crate) fn consistent_mass_csc<'py>(
     py: Python<'py>,
     ops: &PyOperators,
-    m: PyArrayLike1<'_, f64, AllowTypeChange>,
+    m: &Bound<'_, PyAny>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let m = to_vec(&m);
-    check_masses(&ops.inner, &m)?;
+    let m = masses(&ops.inner, m)?;
     let inner = &ops.inner;
     let mc = py.detach(|| mass::consistent_mass(inner, &m));
     (

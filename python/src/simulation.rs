@@ -2,11 +2,12 @@
 //! step, its step reports as dicts or as rows, its particle state in and out, snapshots and
 //! checkpoints.
 
-use crate::choices::{scene_from_value, to_toml};
+use crate::choices::{scene_from_value, scene_grid_nodes, ToToml};
 use crate::grid::{particles_dict, PyGrid, PyParticles};
+use crate::inputs::{real_vec, Len};
 use crate::operators::PyOperators;
-use crate::{f64_array, index_array, mpm_err, mpm_msg, to_vec};
-use numpy::{AllowTypeChange, PyArray1, PyArrayLike1};
+use crate::{f64_array, index_array, mpm_err, mpm_msg};
+use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use sparse_mpm::limits::{prepare_run, Limits};
@@ -14,6 +15,7 @@ use sparse_mpm::scene::Scene;
 use sparse_mpm::simulation::{Simulation, StepReport};
 use sparse_mpm::Particles;
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 /// An explicit MPM simulation built from a scene (TOML file, TOML text or dict), from arrays or
 /// from a checkpoint.
@@ -32,6 +34,9 @@ pub(crate) struct PySimulation {
     /// Changes with every change of the state (steps, particle state set from Python).
     version: u64,
 }
+
+/// Longest stretch of steps `run_rows` takes before it lets a signal's handler run (Ctrl-C).
+const SIGNAL_INTERVAL: Duration = Duration::from_millis(50);
 
 /// The particle fields `set_particle_state` accepts.
 const SETTABLE: [&str; 7] = ["vx", "vy", "sxx", "syy", "sxy", "bx", "by"];
@@ -126,7 +131,8 @@ impl PySimulation {
     #[staticmethod]
     #[pyo3(signature = (scene, base_dir = None, allow_large = false))]
     fn from_dict(scene: &Bound<'_, PyDict>, base_dir: Option<PathBuf>, allow_large: bool) -> PyResult<Self> {
-        let value = to_toml(scene.as_any(), "")?;
+        // Bounded: depth, size, no self-reference, node lists no longer than the scene's grid.
+        let value = ToToml::new(scene_grid_nodes(scene)).convert(scene.as_any(), "")?;
         let mut scene = scene_from_value(&value)?;
         scene.base_dir = base_dir;
         Self::build(scene, allow_large)
@@ -144,8 +150,10 @@ impl PySimulation {
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
         let p = &particles.inner;
+        // One bound on the size of `options` and `bodies` together; node lists within the grid.
+        let mut reader = ToToml::new(Some(grid.inner.num_nodes()));
         let mut table = match options {
-            Some(o) => match to_toml(o.as_any(), "")? {
+            Some(o) => match reader.convert(o.as_any(), "")? {
                 toml::Value::Table(t) => t,
                 _ => unreachable!("a dict gives a table"),
             },
@@ -174,10 +182,19 @@ impl PySimulation {
         table.insert("grid".into(), toml::Value::Table(spec));
         // Each body as a scene body whose geometry stands for its particles: the scene's checks
         // of the material then run, naming `bodies[k].material.…`.
+        // The reference density the simulation uses for each body (the largest m_p / V_p of its
+        // particles), for the scene's checks of the material (its wave speed): one pass.
+        reader.check_len("bodies", bodies.len())?;
+        let mut densities = vec![f64::NAN; bodies.len()];
+        for i in 0..p.len() {
+            if let Some(d) = densities.get_mut(p.body[i]) {
+                *d = d.max(p.mass[i] / p.volume[i]);
+            }
+        }
         let mut specs = Vec::new();
         for (k, b) in bodies.iter().enumerate() {
             let key = format!("bodies[{k}]");
-            let toml::Value::Table(mut t) = to_toml(&b, &key)? else {
+            let toml::Value::Table(mut t) = reader.convert(&b, &key)? else {
                 return Err(mpm_msg(format!("{key}: expected a dict with `name` and `material`")));
             };
             if let Some(other) = t.keys().find(|k| !["name", "material"].contains(&k.as_str())) {
@@ -186,12 +203,7 @@ impl PySimulation {
                      velocities, body forces and stresses are particle arrays"
                 )));
             }
-            // The reference density the simulation uses (the largest m_p / V_p of the body), for
-            // the scene's checks of the material (its wave speed).
-            let density = (0..p.len())
-                .filter(|&i| p.body[i] == k)
-                .map(|i| p.mass[i] / p.volume[i])
-                .fold(f64::NAN, f64::max);
+            let density = densities.get(k).copied().unwrap_or(f64::NAN);
             t.insert(
                 "density".into(),
                 toml::Value::Float(if density.is_nan() { 1.0 } else { density }),
@@ -278,17 +290,8 @@ impl PySimulation {
                     SETTABLE.join(", ")
                 )));
             };
-            let a: PyArrayLike1<'_, f64, AllowTypeChange> = v
-                .extract()
-                .map_err(|e| mpm_msg(format!("{field}: expected a 1-D array of floats ({e})")))?;
-            let values = to_vec(&a);
-            if values.len() != n {
-                return Err(mpm_err(sparse_mpm::MpmError::LengthMismatch {
-                    field,
-                    expected: n,
-                    found: values.len(),
-                }));
-            }
+            // Real (a complex array is a TypeError), one per particle, checked before copying.
+            let values = real_vec(&v, field, Len::Exactly(n))?;
             if let Some(i) = values.iter().position(|v| !v.is_finite()) {
                 return Err(mpm_msg(format!(
                     "{field}[{i}] = {}: particle {i} (id {}) must have a finite {field}",
@@ -445,26 +448,36 @@ impl PySimulation {
         report_dict(py, &r)
     }
     /// Steps until `until`; one row per step in `StepReport::COLUMNS` order, flattened
-    /// (rows × 25), and the number of rows.
+    /// (rows × 25), and the number of rows. A signal (Ctrl-C) is handled between steps: its
+    /// exception (KeyboardInterrupt) is raised with the steps taken kept.
     fn run_rows<'py>(&mut self, py: Python<'py>, until: f64) -> PyResult<(Bound<'py, PyArray1<f64>>, usize)> {
         if !until.is_finite() {
             return Err(mpm_msg(format!("until = {until}: must be a finite time")));
         }
-        let me = &mut *self;
-        let (rows, error) = py.detach(|| {
-            let mut rows: Vec<f64> = Vec::new();
-            let mut error = None;
-            while me.sim.time() < until * (1.0 - 1e-12) {
-                match me.advance(until) {
-                    Ok(r) => rows.extend_from_slice(&r.values()),
-                    Err(e) => {
-                        error = Some(e);
-                        break;
+        // Whole steps without the GIL, in batches of about `SIGNAL_INTERVAL`; between batches a
+        // signal's handler runs (Ctrl-C raises KeyboardInterrupt there, the steps taken stay taken).
+        let mut rows: Vec<f64> = Vec::new();
+        let error = loop {
+            let me = &mut *self;
+            let rows = &mut rows;
+            let (done, error) = py.detach(|| {
+                let start = Instant::now();
+                while me.sim.time() < until * (1.0 - 1e-12) {
+                    match me.advance(until) {
+                        Ok(r) => rows.extend_from_slice(&r.values()),
+                        Err(e) => return (true, Some(e)),
+                    }
+                    if start.elapsed() >= SIGNAL_INTERVAL {
+                        return (false, None);
                     }
                 }
+                (true, None)
+            });
+            if done {
+                break error;
             }
-            (rows, error)
-        });
+            py.check_signals()?;
+        };
         if let Some(e) = error {
             return Err(mpm_err(e));
         }

@@ -4,9 +4,10 @@
 
 use crate::choices::{mass_scheme, parse_shape, plane_condition};
 use crate::grid::{PyGrid, PyParticles};
-use crate::operators::{check_masses, particle_fields, PyOperators};
-use crate::{f64_array, index_array, mpm_err, mpm_msg, to_vec};
-use numpy::{AllowTypeChange, PyArray1, PyArrayLike1};
+use crate::inputs::Sign::{Any, Positive};
+use crate::operators::{masses, particle_fields, PyOperators};
+use crate::{f64_array, index_array, mpm_err, mpm_msg};
+use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use sparse_mpm::material::LinearElastic;
@@ -27,11 +28,11 @@ fn vector_pair<'py>(py: Python<'py>, f: &VectorField) -> Pair<'py> {
 pub(crate) fn momentum<'py>(
     py: Python<'py>,
     ops: &PyOperators,
-    m: PyArrayLike1<'_, f64, AllowTypeChange>,
-    vx: PyArrayLike1<'_, f64, AllowTypeChange>,
-    vy: PyArrayLike1<'_, f64, AllowTypeChange>,
+    m: &Bound<'_, PyAny>,
+    vx: &Bound<'_, PyAny>,
+    vy: &Bound<'_, PyAny>,
 ) -> PyResult<Pair<'py>> {
-    let [m, vx, vy] = particle_fields(&ops.inner, [("m", m), ("vx", vx), ("vy", vy)])?;
+    let [m, vx, vy] = particle_fields(&ops.inner, [("m", m, Positive), ("vx", vx, Any), ("vy", vy, Any)])?;
     Ok(vector_pair(py, &transfer::momentum(&ops.inner, &m, &vx, &vy)))
 }
 
@@ -40,11 +41,11 @@ pub(crate) fn momentum<'py>(
 pub(crate) fn external_force<'py>(
     py: Python<'py>,
     ops: &PyOperators,
-    m: PyArrayLike1<'_, f64, AllowTypeChange>,
-    bx: PyArrayLike1<'_, f64, AllowTypeChange>,
-    by: PyArrayLike1<'_, f64, AllowTypeChange>,
+    m: &Bound<'_, PyAny>,
+    bx: &Bound<'_, PyAny>,
+    by: &Bound<'_, PyAny>,
 ) -> PyResult<Pair<'py>> {
-    let [m, bx, by] = particle_fields(&ops.inner, [("m", m), ("bx", bx), ("by", by)])?;
+    let [m, bx, by] = particle_fields(&ops.inner, [("m", m, Positive), ("bx", bx, Any), ("by", by, Any)])?;
     Ok(vector_pair(py, &transfer::external_force(&ops.inner, &m, &bx, &by)))
 }
 
@@ -53,14 +54,19 @@ pub(crate) fn external_force<'py>(
 pub(crate) fn internal_force<'py>(
     py: Python<'py>,
     ops: &PyOperators,
-    volume: PyArrayLike1<'_, f64, AllowTypeChange>,
-    sxx: PyArrayLike1<'_, f64, AllowTypeChange>,
-    syy: PyArrayLike1<'_, f64, AllowTypeChange>,
-    sxy: PyArrayLike1<'_, f64, AllowTypeChange>,
+    volume: &Bound<'_, PyAny>,
+    sxx: &Bound<'_, PyAny>,
+    syy: &Bound<'_, PyAny>,
+    sxy: &Bound<'_, PyAny>,
 ) -> PyResult<Pair<'py>> {
     let [v, sxx, syy, sxy] = particle_fields(
         &ops.inner,
-        [("volume", volume), ("sxx", sxx), ("syy", syy), ("sxy", sxy)],
+        [
+            ("volume", volume, Positive),
+            ("sxx", sxx, Any),
+            ("syy", syy, Any),
+            ("sxy", sxy, Any),
+        ],
     )?;
     Ok(vector_pair(
         py,
@@ -74,12 +80,11 @@ pub(crate) fn internal_force<'py>(
 pub(crate) fn mass_diagnostics<'py>(
     py: Python<'py>,
     ops: &PyOperators,
-    m: PyArrayLike1<'_, f64, AllowTypeChange>,
+    m: &Bound<'_, PyAny>,
     mass: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let options = mass::MassOptions::both(mass_scheme(mass)?);
-    let m = to_vec(&m);
-    check_masses(&ops.inner, &m)?;
+    let m = masses(&ops.inner, m)?;
     let inner = &ops.inner;
     let d = py
         .detach(|| mass::MassDiagnostics::compute(inner, &m, &options))
@@ -137,8 +142,8 @@ pub(crate) fn dispersion<'py>(
 pub(crate) fn critical_time_step(
     py: Python<'_>,
     ops: &PyOperators,
-    m: PyArrayLike1<'_, f64, AllowTypeChange>,
-    volume: PyArrayLike1<'_, f64, AllowTypeChange>,
+    m: &Bound<'_, PyAny>,
+    volume: &Bound<'_, PyAny>,
     youngs_modulus: f64,
     poisson_ratio: f64,
     plane: &str,
@@ -146,7 +151,7 @@ pub(crate) fn critical_time_step(
 ) -> PyResult<f64> {
     let options = mass::MassOptions::both(mass_scheme(mass)?);
     let material = LinearElastic::new(youngs_modulus, poisson_ratio, plane_condition(plane)?).map_err(mpm_err)?;
-    let [m, volume] = particle_fields(&ops.inner, [("m", m), ("volume", volume)])?;
+    let [m, volume] = particle_fields(&ops.inner, [("m", m, Positive), ("volume", volume, Positive)])?;
     let inner = &ops.inner;
     py.detach(|| {
         let grid_mass = mass::GridMass::new(inner, &m, &options, &mass::Constraints::none())?;
