@@ -229,6 +229,29 @@ pub enum MpmError {
         /// A few of their names.
         examples: Vec<String>,
     },
+    /// The output folder is in use by another run (it holds the folder's lock).
+    #[error(
+        "the output folder {path} is in use by another run (mpm run or mpm resume); wait for it to end, or choose \
+         another folder with --out"
+    )]
+    OutputInUse {
+        /// The folder.
+        path: PathBuf,
+    },
+    /// `--overwrite` found files a run would write that no earlier run's manifest lists: they
+    /// are not the output of a run, and nothing is removed.
+    #[error(
+        "the output folder {path} holds {} that no earlier run's manifest (manifest.json) lists; --overwrite \
+         removes only what a run wrote there, so nothing was removed: move {} away, or choose another folder with \
+         --out",
+        .names.join(", "), if .names.len() == 1 { "it" } else { "them" }
+    )]
+    OutputNotOwned {
+        /// The folder.
+        path: PathBuf,
+        /// The names that are not listed (a few).
+        names: Vec<String>,
+    },
     /// A snapshot (`.vtp`) or time series (`.pvd`) cannot be read
     /// ([`io::vtk::read_vtp`](crate::io::vtk::read_vtp), [`io::vtk::read_pvd`](crate::io::vtk::read_pvd)):
     /// not such a file, an encoding this reader does not take, truncated or inconsistent data.

@@ -11,6 +11,17 @@
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 
+/// Largest magnitude of an acceleration accepted (a particle's body force `(bx, by)`,
+/// `Options::gravity`, a scene's `loads.gravity` and `bodies[k].body_force`): 10¹² in the
+/// scene's units, some 10¹¹ g in SI units. Above it a run only overflows (a particle's velocity
+/// after one step, its travel over the run).
+pub const MAX_ACCELERATION: f64 = 1e12;
+
+/// Largest speed accepted (a particle's `(vx, vy)`, a boundary's prescribed `vx`, `vy`, a
+/// scene's `bodies[k].velocity` and particle-file columns): 10¹² in the scene's units. The
+/// step's reports square speeds, which overflows from about 10¹⁵⁴ on.
+pub const MAX_SPEED: f64 = 1e12;
+
 /// The state of all particles. Fields are public so a program can read and set them directly;
 /// [`Particles::validate`] checks a state built by hand.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -184,7 +195,7 @@ impl Particles {
     }
 
     /// Checks every field: all lengths equal, every value finite, mass and volume positive,
-    /// `det F > 0`.
+    /// speeds within [`MAX_SPEED`], body forces within [`MAX_ACCELERATION`], `det F > 0`.
     ///
     /// # Errors
     /// [`MpmError::LengthMismatch`] naming the field, or [`MpmError::InvalidParticleValue`]
@@ -209,6 +220,31 @@ impl Particles {
                     field: name,
                     value: field[p],
                     reason: "must be positive",
+                });
+            }
+        }
+        for (name, x, y, bound, reason) in [
+            (
+                "velocity",
+                &self.vx,
+                &self.vy,
+                MAX_SPEED,
+                "the speed exceeds MAX_SPEED = 1e12 (the energies square it)",
+            ),
+            (
+                "body force",
+                &self.bx,
+                &self.by,
+                MAX_ACCELERATION,
+                "the magnitude exceeds MAX_ACCELERATION = 1e12",
+            ),
+        ] {
+            if let Some(p) = (0..n).find(|&p| x[p].hypot(y[p]) > bound) {
+                return Err(MpmError::InvalidParticleValue {
+                    particle: p,
+                    field: name,
+                    value: x[p].hypot(y[p]),
+                    reason,
                 });
             }
         }

@@ -708,3 +708,63 @@ fn a_blown_up_step_names_the_particle_and_later_steps_are_refused() {
         other => panic!("expected EarlierFailure, got {other:?}"),
     }
 }
+
+#[test]
+fn options_built_in_code_are_held_to_the_bounds_of_a_scene() {
+    let refused = |options: Options, what: &str| {
+        let err = options.validate().expect_err(what);
+        let message = err.to_string();
+        assert!(message.contains(what), "{what}: {message}");
+    };
+    let g = Options {
+        gravity: [0.0, -1e300],
+        ..Options::default()
+    };
+    refused(g, "gravity");
+    let nan_tolerance = Options {
+        mass: MassOptions {
+            pivot_tolerance: f64::NAN,
+            ..MassOptions::default()
+        },
+        ..Options::default()
+    };
+    refused(nan_tolerance, "pivot_tolerance");
+    let active = Options {
+        mass: MassOptions {
+            active_tolerance: 1.5,
+            ..MassOptions::default()
+        },
+        ..Options::default()
+    };
+    refused(active, "active_tolerance");
+    let mut wall = BoundaryCondition::edge(Edge::Left, Condition::Fixed);
+    wall.vx = Some(1e300);
+    let speed = Options {
+        boundaries: vec![wall],
+        ..Options::default()
+    };
+    refused(speed, "boundaries[0].vx");
+    assert!(Options::default().validate().is_ok());
+
+    // Particles built in code: speeds and body forces within the scene's bounds.
+    let mut p = Particles::new(vec![0.5], vec![0.5], vec![1.0], vec![1.0]).unwrap();
+    p.vy[0] = 1e200;
+    match p.validate() {
+        Err(MpmError::InvalidParticleValue {
+            particle: 0,
+            field: "velocity",
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+    p.vy[0] = 0.0;
+    p.bx[0] = -1e13;
+    match p.validate() {
+        Err(MpmError::InvalidParticleValue {
+            particle: 0,
+            field: "body force",
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+}

@@ -11,6 +11,7 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use sparse_mpm::limits::{prepare_run, Limits};
+use sparse_mpm::run::SnapshotClock;
 use sparse_mpm::scene::Scene;
 use sparse_mpm::simulation::{Simulation, StepReport};
 use sparse_mpm::Particles;
@@ -76,10 +77,12 @@ impl PySimulation {
         Ok(Self::wrap(sim, scene, false))
     }
 
-    /// `sim` built from `scene`, landing on the scene's snapshot times.
+    /// `sim` built from `scene`, stepping as `mpm run` does: a CFL step lands on the scene's
+    /// snapshot times, a fixed step stays fixed (`SnapshotClock`).
     fn wrap(sim: Simulation, scene: Scene, from_arrays: bool) -> Self {
         let interval = scene.snapshot_interval();
-        let land_every = (interval.is_finite() && interval > 0.0).then_some(interval);
+        let land_every =
+            (interval.is_finite() && interval > 0.0 && SnapshotClock::lands(sim.options())).then_some(interval);
         PySimulation {
             sim,
             end_time: Some(scene.time.end),

@@ -480,11 +480,28 @@ impl GridMass {
     }
 }
 
-/// Checks the scheme parameters and the singularity policy.
+/// Checks the scheme parameters, the tolerances and the singularity policy
+/// ([`MassOptions::validate`]).
 fn validate(options: &MassOptions) -> Result<()> {
     options.velocity.validate()?;
     options.acceleration.validate()?;
     options.stabilization.validate()?;
+    for (name, value, reason) in [
+        (
+            "active_tolerance",
+            options.active_tolerance,
+            "the relative lumped mass of an inactive node must lie in [0, 1)",
+        ),
+        (
+            "pivot_tolerance",
+            options.pivot_tolerance,
+            "the scaled Cholesky pivot of a singular matrix must lie in [0, 1)",
+        ),
+    ] {
+        if !(0.0..1.0).contains(&value) {
+            return Err(MpmError::InvalidParameter { name, value, reason });
+        }
+    }
     if let SingularityPolicy::Regularize { epsilon } = options.singularity {
         if !(epsilon > 0.0 && epsilon <= 1.0) {
             return Err(MpmError::InvalidParameter {
@@ -495,6 +512,19 @@ fn validate(options: &MassOptions) -> Result<()> {
         }
     }
     Ok(())
+}
+
+impl MassOptions {
+    /// Checks every choice: the schemes' parameters (a blend weight in [0, 1], a series of 1 to
+    /// [`super::MAX_SERIES_TERMS`] terms, CG within [`super::MAX_CG_ITERATIONS`]), the
+    /// stabilization, `active_tolerance` and `pivot_tolerance` in [0, 1), a regularization
+    /// weight in (0, 1]: the bounds a scene file is held to.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidParameter`] naming the parameter and its value.
+    pub fn validate(&self) -> Result<()> {
+        validate(self)
+    }
 }
 
 /// The matrix of [`GridMass::bounding_mass`] and the diagonal the conjugate gradient

@@ -19,10 +19,14 @@ use crate::scene::Scene;
 use crate::simulation::{Simulation, StepReport};
 
 mod clock;
+mod identity;
+mod output;
 mod resume;
 mod snapshot;
 
 pub use clock::SnapshotClock;
+use output::OutputClaim;
+pub use output::MANIFEST;
 pub use resume::resume_run;
 pub use snapshot::{write_snapshot, write_snapshot_with_reference, ReferencePositions};
 
@@ -32,9 +36,10 @@ pub enum OutputPolicy {
     /// Refuse a folder that holds anything ([`MpmError::OutputExists`]).
     #[default]
     RefuseNonEmpty,
-    /// Remove the files a run writes (snapshots, `particles.pvd`, `report.csv`, `scene.toml`,
-    /// particle files copied beside it, `checkpoints/`, left-over `*.tmp`) and write anew; other
-    /// files stay.
+    /// Remove exactly the files the earlier run's manifest ([`MANIFEST`]) lists (snapshots,
+    /// `particles.pvd`, `report.csv`, `scene.toml`, particle files copied beside it, checkpoints,
+    /// and the temporary files of their interrupted writes) and write anew; other files stay. A
+    /// file a run would write that no manifest lists is an error, and nothing is removed.
     Overwrite,
     /// Take up the output of the run being resumed (used by [`resume_run`]).
     Continue,
@@ -55,56 +60,17 @@ pub struct RunOptions {
     pub threads: Option<usize>,
 }
 
-/// Whether `name` is a file a run writes into its output folder.
-fn is_run_output(name: &str) -> bool {
-    (name.starts_with("particles_") && name.ends_with(".vtp"))
-        || matches!(name, "particles.pvd" | "report.csv" | "scene.toml" | "checkpoints")
-        || name.starts_with("input_")
-        || name.ends_with(".tmp")
-}
-
 /// Prepares `out` for a run under `policy`: creates it; refuses it when it holds files
-/// ([`OutputPolicy::RefuseNonEmpty`]); removes what an earlier run wrote there
-/// ([`OutputPolicy::Overwrite`]).
+/// ([`OutputPolicy::RefuseNonEmpty`]); removes exactly the files an earlier run's manifest lists
+/// ([`OutputPolicy::Overwrite`], see [`MANIFEST`]). A run does this itself and holds the folder
+/// while it writes there; this function releases it on return.
 ///
 /// # Errors
-/// [`MpmError::OutputExists`] naming the folder and some of its files; [`MpmError::Io`] naming
-/// a file or folder that cannot be created or removed.
+/// [`MpmError::OutputInUse`] when a run holds the folder; [`MpmError::OutputExists`] naming the
+/// folder and some of its files; [`MpmError::OutputNotOwned`] naming files in the way that no
+/// manifest lists; [`MpmError::Io`] naming a file or folder that cannot be created or removed.
 pub fn prepare_output(out: &Path, policy: OutputPolicy) -> Result<()> {
-    create_dir(out)?;
-    let entries: Vec<String> = std::fs::read_dir(out)
-        .map_err(|source| MpmError::Io {
-            path: out.to_path_buf(),
-            source,
-        })?
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    match policy {
-        OutputPolicy::RefuseNonEmpty if !entries.is_empty() => {
-            let mut names = entries.clone();
-            names.sort();
-            names.truncate(3);
-            Err(MpmError::OutputExists {
-                path: out.to_path_buf(),
-                count: entries.len(),
-                examples: names,
-            })
-        }
-        OutputPolicy::Overwrite => {
-            for name in entries.iter().filter(|n| is_run_output(n)) {
-                let path = out.join(name);
-                let removed = if path.is_dir() {
-                    std::fs::remove_dir_all(&path)
-                } else {
-                    std::fs::remove_file(&path)
-                };
-                removed.map_err(|source| MpmError::Io { path, source })?;
-            }
-            Ok(())
-        }
-        _ => Ok(()),
-    }
+    OutputClaim::claim(out, policy).map(drop)
 }
 
 /// Limits that override the scene's end time (for quick looks and tests).
@@ -196,9 +162,14 @@ struct RunState {
     snapshots: Vec<(f64, PathBuf)>,
     /// Rows of `report.csv` (= steps taken).
     report_rows: usize,
+    /// SHA-256 of the run folder's `scene.toml` and its particle files
+    /// ([`identity::scene_digest`]).
+    scene_digest: String,
+    /// The CRC-32 ending the `simulation.ckpt` this state was written with (0 until then).
+    checkpoint_crc: u32,
 }
 
-const RUN_STATE_FORMAT: &str = "sparse-mpm run state 1";
+const RUN_STATE_FORMAT: &str = "sparse-mpm run state 2";
 
 impl RunState {
     /// Whether a state read from a `run.json` holds together: times finite and ordered, and
@@ -213,6 +184,9 @@ impl RunState {
                 "snapshot_interval = {} is not a positive number",
                 self.snapshot_interval
             ));
+        }
+        if !(self.scene_digest.len() == 64 && self.scene_digest.bytes().all(|b| b.is_ascii_hexdigit())) {
+            return Err("scene_digest is not a SHA-256 digest (64 hexadecimal digits)".into());
         }
         if !(self.next_snapshot.is_finite() && self.next_snapshot >= 0.0) {
             return Err(format!("next_snapshot = {} is not a time", self.next_snapshot));
@@ -295,8 +269,8 @@ pub fn run_scene_with(
         }
         _ => e,
     })?;
-    prepare_output(out, options.output)?;
-    write_scene_copy(scene, out)?;
+    let mut claim = OutputClaim::claim(out, options.output)?;
+    write_scene_copy(scene, out, &mut claim)?;
     let state = RunState {
         format: RUN_STATE_FORMAT.into(),
         end_time: options.limits.end_time.unwrap_or(scene.time.end),
@@ -304,10 +278,14 @@ pub fn run_scene_with(
         next_snapshot: 0.0,
         snapshots: Vec::new(),
         report_rows: 0,
+        scene_digest: identity::scene_digest(out)?,
+        checkpoint_crc: 0,
     };
+    claim.add("particles.pvd")?;
     let pvd = PvdWriter::create(&out.join("particles.pvd"))?;
+    claim.add("report.csv")?;
     let csv = CsvWriter::create(&out.join("report.csv"), &StepReport::COLUMNS)?;
-    drive(sim, state, out, options, pvd, csv, start, progress)
+    drive(sim, state, out, claim, options, pvd, csv, start, progress)
 }
 
 /// Copies `from` to `to` through the atomic writer: `to` holds the whole copy or does not exist
@@ -325,7 +303,7 @@ fn copy(from: &Path, to: &Path) -> Result<()> {
 
 /// Writes `out/scene.toml`, copying particle files beside it and naming the copies, so that
 /// the copy reruns the same scene from `out`.
-fn write_scene_copy(scene: &Scene, out: &Path) -> Result<()> {
+fn write_scene_copy(scene: &Scene, out: &Path, claim: &mut OutputClaim) -> Result<()> {
     let mut copy_scene = scene.clone();
     for (k, body) in copy_scene.bodies.iter_mut().enumerate() {
         if let crate::scene::Geometry::File(path) = &body.geometry {
@@ -344,11 +322,13 @@ fn write_scene_copy(scene: &Scene, out: &Path) -> Result<()> {
                 path.file_name()
                     .map_or("particles.csv".into(), |n| n.to_string_lossy().into_owned())
             );
+            claim.add(&name)?;
             copy(&source, &out.join(&name))?;
             body.geometry = crate::scene::Geometry::File(PathBuf::from(name));
         }
     }
     let text = copy_scene.to_toml_string()?;
+    claim.add("scene.toml")?;
     crate::io::write_atomically(&out.join("scene.toml"), |w| {
         std::io::Write::write_all(w, text.as_bytes())
     })
@@ -360,6 +340,7 @@ fn drive(
     mut sim: Simulation,
     mut state: RunState,
     out: &Path,
+    claim: OutputClaim,
     options: &RunOptions,
     pvd: PvdWriter,
     csv: CsvWriter,
@@ -381,6 +362,7 @@ fn drive(
     };
     let mut files = RunFiles {
         out,
+        claim,
         reference,
         pvd,
         csv,
@@ -431,6 +413,8 @@ fn drive(
 struct RunFiles<'a> {
     /// The output folder.
     out: &'a Path,
+    /// The folder's lock and manifest: every file is listed before it is written.
+    claim: OutputClaim,
     /// The positions the snapshots' displacements are measured from.
     reference: ReferencePositions,
     /// `particles.pvd`.
@@ -448,6 +432,7 @@ impl RunFiles<'_> {
     /// `.pvd`, in the snapshots and in `state`.
     fn snapshot(&mut self, sim: &Simulation, state: &mut RunState) -> Result<()> {
         let name = format!("particles_{:06}.vtp", state.snapshots.len());
+        self.claim.add(&name)?;
         write_snapshot_with_reference(sim, &self.reference, &self.out.join(&name))?;
         self.pvd.push(sim.time(), Path::new(&name))?;
         self.snapshots.push(self.out.join(&name));
@@ -473,7 +458,8 @@ impl RunFiles<'_> {
             state.next_snapshot = clock.next();
         }
         if checkpoint_every.is_some_and(|k| k > 0 && sim.steps().is_multiple_of(k)) {
-            self.checkpoints.push(write_run_checkpoint(sim, state, self.out)?);
+            self.checkpoints
+                .push(write_run_checkpoint(sim, state, self.out, &mut self.claim)?);
         }
         Ok(())
     }
@@ -512,11 +498,18 @@ impl RunFiles<'_> {
 
 /// Writes `out/checkpoints/step_NNNNNNNN/` with `simulation.ckpt` and `run.json` (the run
 /// state last, so a folder without it is an unfinished checkpoint).
-fn write_run_checkpoint(sim: &Simulation, state: &RunState, out: &Path) -> Result<PathBuf> {
-    let dir = out.join("checkpoints").join(format!("step_{:08}", sim.steps()));
+fn write_run_checkpoint(sim: &Simulation, state: &RunState, out: &Path, claim: &mut OutputClaim) -> Result<PathBuf> {
+    let name = format!("checkpoints/step_{:08}", sim.steps());
+    claim.add("checkpoints")?;
+    claim.add(&name)?;
+    let dir = out.join(&name);
     create_dir(&dir)?;
     sim.write_checkpoint(&dir.join("simulation.ckpt"))?;
-    let json = serde_json::to_string_pretty(state).expect("the run state always serializes");
+    let record = RunState {
+        checkpoint_crc: identity::checkpoint_checksum(&dir.join("simulation.ckpt"))?,
+        ..state.clone()
+    };
+    let json = serde_json::to_string_pretty(&record).expect("the run state always serializes");
     crate::io::write_atomically(&dir.join("run.json"), |w| std::io::Write::write_all(w, json.as_bytes()))?;
     // Temporary files of an earlier, interrupted write of this checkpoint (`.NAME.PID-N.tmp`).
     if let Ok(entries) = std::fs::read_dir(&dir) {

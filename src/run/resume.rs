@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::{copy, drive, prepare_output, OutputPolicy, Progress, RunOptions, RunState, RunSummary, RUN_STATE_FORMAT};
+use super::{copy, drive, OutputClaim, OutputPolicy, Progress, RunOptions, RunState, RunSummary, RUN_STATE_FORMAT};
 use crate::error::{MpmError, Result};
 use crate::io::csv::CsvWriter;
 use crate::io::vtk::PvdWriter;
@@ -43,7 +43,18 @@ pub fn resume_run(
         return Err(bad(format!("run.json is `{}`, not `{RUN_STATE_FORMAT}`", state.format)));
     }
     state.validate().map_err(|reason| bad(format!("run.json: {reason}")))?;
-    let mut sim = Simulation::read_checkpoint(&checkpoint.join("simulation.ckpt"))?;
+    let ckpt = checkpoint.join("simulation.ckpt");
+    let crc = super::identity::checkpoint_checksum(&ckpt)?;
+    if crc != state.checkpoint_crc {
+        return Err(bad(format!(
+            "{} (checksum {crc:08x}) is not the file {} was written with (checksum {:08x}): the folder mixes \
+             two checkpoints",
+            ckpt.display(),
+            state_path.display(),
+            state.checkpoint_crc
+        )));
+    }
+    let mut sim = Simulation::read_checkpoint(&ckpt)?;
     if let Some(threads) = options.threads {
         sim.set_threads(threads)?;
     }
@@ -72,10 +83,28 @@ pub fn resume_run(
     } else {
         run_dir.to_path_buf()
     };
+    let digest = super::identity::scene_digest(&run_dir)?;
+    if digest != state.scene_digest {
+        return Err(bad(format!(
+            "it was written by a run of another scene: its run.json records the scene digest {}…, and {} with its \
+             particle files gives {}…; resume a checkpoint in the run folder that wrote it",
+            &state.scene_digest[..16],
+            run_dir.join("scene.toml").display(),
+            &digest[..16]
+        )));
+    }
     let out = out.map_or(run_dir.clone(), Path::to_path_buf);
+    // The run folder is held while the resume reads or continues it (a run still writing
+    // there is not taken up).
+    let held = OutputClaim::claim(&run_dir, OutputPolicy::Continue)?;
+    let (mut claim, _source) = if out != run_dir {
+        (OutputClaim::claim(&out, OutputPolicy::RefuseNonEmpty)?, Some(held))
+    } else {
+        (held, None)
+    };
     if out != run_dir {
-        prepare_output(&out, OutputPolicy::RefuseNonEmpty)?;
         for name in ["report.csv", "scene.toml"] {
+            claim.add(name)?;
             copy(&run_dir.join(name), &out.join(name))?;
         }
         // The particle files the scene copy names (plain names beside it), so that
@@ -85,15 +114,19 @@ pub fn resume_run(
                 if let crate::scene::Geometry::File(file) = &body.geometry {
                     let plain = file.components().count() == 1
                         && matches!(file.components().next(), Some(std::path::Component::Normal(_)));
-                    if plain && run_dir.join(file).is_file() {
+                    let name = file.to_string_lossy();
+                    if plain && super::output::is_run_output(&name) && run_dir.join(file).is_file() {
+                        claim.add(&name)?;
                         copy(&run_dir.join(file), &out.join(file))?;
                     }
                 }
             }
         }
         for (_, file) in &state.snapshots {
+            claim.add(&file.to_string_lossy())?;
             copy(&run_dir.join(file), &out.join(file))?;
         }
+        claim.add("particles.pvd")?;
     } else {
         // Snapshots written after the checkpoint by the interrupted run are written again.
         let kept: std::collections::HashSet<&PathBuf> = state.snapshots.iter().map(|(_, f)| f).collect();
@@ -104,17 +137,20 @@ pub fn resume_run(
         for entry in entries.filter_map(|e| e.ok()) {
             let name = PathBuf::from(entry.file_name());
             let text = name.to_string_lossy();
-            if (text.starts_with("particles_") && text.ends_with(".vtp") && !kept.contains(&name))
-                || text.ends_with(".tmp")
-            {
+            let after = text.starts_with("particles_") && text.ends_with(".vtp") && !kept.contains(&name);
+            // Only what the run wrote (its manifest lists it), and the atomic writer's `.NAME.PID-N.tmp`.
+            let temporary =
+                super::output::temporary_of(&text).is_some_and(|of| of == super::MANIFEST || claim.lists(of));
+            if (after && claim.lists(&text)) || temporary {
                 let path = out.join(&name);
                 std::fs::remove_file(&path).map_err(|source| MpmError::Io { path, source })?;
+                claim.forget(&text)?;
             }
         }
     }
     let pvd = PvdWriter::with_entries(&out.join("particles.pvd"), &state.snapshots)?;
     let csv = CsvWriter::append_after(&out.join("report.csv"), &StepReport::COLUMNS, state.report_rows)?;
-    let summary = drive(sim, state, &out, options, pvd, csv, start, progress)?;
+    let summary = drive(sim, state, &out, claim, options, pvd, csv, start, progress)?;
     Ok((summary, out))
 }
 

@@ -328,15 +328,7 @@ pub const MAX_NODES: f64 = 1e8;
 /// Largest `particles_per_cell` (per axis) accepted from a scene file.
 pub const MAX_PARTICLES_PER_CELL: usize = 32;
 
-/// Largest magnitude of an acceleration accepted from a scene file (`loads.gravity`,
-/// `bodies[k].body_force`): 10¹² in the scene's units, some 10¹¹ g in SI units. Above it a run
-/// only overflows (a particle's velocity after one step, its travel over the run).
-pub const MAX_ACCELERATION: f64 = 1e12;
-
-/// Largest speed accepted from a scene file (`bodies[k].velocity`, the `vx`, `vy` columns of a
-/// particle file, a boundary's `vx`, `vy`): 10¹² in the scene's units. The step's reports
-/// square speeds, which overflows from about 10¹⁵⁴ on.
-pub const MAX_SPEED: f64 = 1e12;
+pub use crate::particles::{MAX_ACCELERATION, MAX_SPEED};
 
 /// How far from zero the grid's origin may lie, in cell sizes of the same axis: 10¹². There a
 /// coordinate resolves about 2·10⁻⁴ of a cell; further out, positions within a cell lose their

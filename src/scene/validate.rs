@@ -49,6 +49,8 @@ impl Scene {
         self.validate_time_and_output()?;
         self.check_vector("loads.gravity", self.loads.gravity, MAX_ACCELERATION)?;
         self.validate_schemes()?;
+        // Before the options' own checks, which cannot name a boundary's key.
+        self.validate_boundaries()?;
         self.options().validate().map_err(|e| self.scene_error(e))?;
         if self.bodies.is_empty() {
             return Err(invalid("bodies", "the scene needs at least one [[bodies]] entry"));
@@ -56,7 +58,7 @@ impl Scene {
         for (k, b) in self.bodies.iter().enumerate() {
             self.validate_body(k, b)?;
         }
-        self.validate_boundaries()
+        Ok(())
     }
 
     /// Positive finite cell sizes, a finite origin within [`MAX_ORIGIN_CELLS`] cells of zero,

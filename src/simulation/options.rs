@@ -7,6 +7,7 @@ use crate::boundary::BoundaryCondition;
 use crate::error::{MpmError, Result};
 use crate::mass::{MassOptions, MassScheme};
 use crate::material::Material;
+use crate::particles::{MAX_ACCELERATION, MAX_SPEED};
 use crate::schemes::PositionUpdate;
 pub use crate::schemes::{Transfer, UpdateScheme};
 use crate::shape::ShapeFunction;
@@ -102,12 +103,12 @@ impl Options {
     /// outside [0, 1] (`transfer.flip`), an XPIC/FMPM series without terms (`transfer.k`), an
     /// XPIC/FMPM transfer with a consistent or series mass (`transfer`), APIC with a velocity
     /// projection other than lumped (`transfer`: the message names both scene keys and the
-    /// pairs that work), or a non-finite gravity
-    /// (`gravity`).
+    /// pairs that work), a gravity that is not finite or above [`MAX_ACCELERATION`]
+    /// (`gravity`), a boundary's prescribed speed above [`MAX_SPEED`] (`boundaries`): the
+    /// bounds a scene is held to, for options built in code.
     pub fn validate(&self) -> Result<()> {
         self.shape.validate()?;
-        self.mass.velocity.validate()?;
-        self.mass.acceleration.validate()?;
+        self.mass.validate()?;
         match self.time_step {
             TimeStep::Fixed { dt } if !(dt.is_finite() && dt > 0.0) => {
                 return Err(MpmError::InvalidOption {
@@ -181,11 +182,29 @@ impl Options {
                 ),
             });
         }
-        if !self.gravity.iter().all(|g| g.is_finite()) {
+        let g = self.gravity[0].hypot(self.gravity[1]);
+        if !g.is_finite() || g > MAX_ACCELERATION {
             return Err(MpmError::InvalidOption {
                 option: "gravity",
-                reason: format!("{:?} must be finite", self.gravity),
+                reason: format!(
+                    "{:?} must be finite, of magnitude at most {MAX_ACCELERATION:e} (a scene's loads.gravity is held \
+                     to the same bound)",
+                    self.gravity
+                ),
             });
+        }
+        for (k, bc) in self.boundaries.iter().enumerate() {
+            for (name, v) in [("vx", bc.vx), ("vy", bc.vy)] {
+                if v.is_some_and(|v| !v.is_finite() || v.abs() > MAX_SPEED) {
+                    return Err(MpmError::InvalidOption {
+                        option: "boundaries",
+                        reason: format!(
+                            "boundaries[{k}].{name} = {}: a prescribed speed must be finite and at most {MAX_SPEED:e}",
+                            v.unwrap_or_default()
+                        ),
+                    });
+                }
+            }
         }
         Ok(())
     }

@@ -379,7 +379,11 @@ fn failure(error: sparse_mpm::MpmError, out: &Path) -> String {
     use sparse_mpm::MpmError;
     let before_output = matches!(
         error,
-        MpmError::OutputExists { .. } | MpmError::InvalidScene { .. } | MpmError::InvalidOption { .. }
+        MpmError::OutputExists { .. }
+            | MpmError::OutputInUse { .. }
+            | MpmError::OutputNotOwned { .. }
+            | MpmError::InvalidScene { .. }
+            | MpmError::InvalidOption { .. }
     );
     let written = out.join("report.csv").exists();
     if written && !before_output {
