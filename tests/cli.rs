@@ -565,3 +565,28 @@ fn scene_checkpoint_and_run_files_are_read_only_when_regular_and_bounded() {
     assert!(text(&o).contains("not a regular file"), "{}", text(&o));
     assert!(!dir.join("o").exists());
 }
+
+#[test]
+fn thread_counts_are_bounded_where_they_are_read() {
+    let dir = scratch("threads");
+    for args in [
+        &["bench", "--threads", "1000000"][..],
+        &["run", "--threads", "1000000", "--out", "o"][..],
+        &["resume", "o/checkpoints/step_00000001", "--threads", "1000000"][..],
+    ] {
+        let out = mpm(args, &dir);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", text(&out));
+        assert!(text(&out).contains("1000000"), "{args:?}: {}", text(&out));
+    }
+    assert!(!dir.join("o").exists(), "nothing written");
+    // A scene asking for more threads than the program starts is refused naming the key.
+    std::fs::write(
+        dir.join("s.toml"),
+        format!("{}\n[execution]\nthreads = 1000000\n", two_disks()),
+    )
+    .unwrap();
+    let out = mpm(&["check", "s.toml"], &dir);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("threads"), "{}", text(&out));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -125,6 +125,13 @@ impl PySimulation {
     #[staticmethod]
     #[pyo3(signature = (text, base_dir = None, allow_large = false))]
     fn from_toml(text: &str, base_dir: Option<PathBuf>, allow_large: bool) -> PyResult<Self> {
+        if text.len() as u64 > sparse_mpm::scene::MAX_SCENE_BYTES {
+            return Err(mpm_msg(format!(
+                "the scene text is {} bytes, more than the {} a scene file may hold",
+                text.len(),
+                sparse_mpm::scene::MAX_SCENE_BYTES
+            )));
+        }
         let mut scene = Scene::from_toml_str(text).map_err(mpm_err)?;
         scene.base_dir = base_dir;
         Self::build(scene, allow_large)

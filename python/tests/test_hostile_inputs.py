@@ -425,3 +425,9 @@ def test_integer_arrays_are_taken_as_floats():
     np.testing.assert_array_equal(
         mpm.lumped_mass(ops, np.array([1.0, 2.0], dtype=np.float32)), mpm.lumped_mass(ops, [1.0, 2.0])
     )
+
+
+def test_oversized_scene_text_is_refused_before_parsing():
+    text = "# padding\n" * (2 * 1024 * 1024)
+    with pytest.raises(mpm.MpmError, match="more than the"):
+        mpm.Simulation.from_toml(text)
