@@ -248,3 +248,12 @@ class Simulation:
     def lumped_mass(self) -> F64: ...
     def grid_velocity(self) -> Tuple[F64, F64]: ...
     def active_nodes(self) -> I64: ...
+
+def study_plan(out: str, spec_toml: Optional[str] = None, quick: bool = False, parts: Optional[List[str]] = None) -> int:
+    """Plans a study into ``out``; the number of runs (``sparse_mpm.study.plan``)."""
+
+def study_run(dir: str, k: Optional[int] = None, n: Optional[int] = None, index: Optional[int] = None) -> Tuple[int, int, int, int]:
+    """Runs shard ``k`` of ``n``, or plan ``index``, or every run; ``(taken, ran, skipped, failed)``."""
+
+def study_merge(dir: str) -> Tuple[int, int, List[int]]:
+    """Merges the complete runs; ``(merged, failed, missing plan indices)``."""

@@ -12,7 +12,8 @@
 //! consistent mass, a scene's operators), `step` (the transfers and forces of one step, mass
 //! diagnostics, the critical time step, `explicit_step`), `simulation` (`Simulation`, the
 //! report columns), `choices` (Python values read as TOML, bounded in depth and size, shape
-//! functions, mass schemes and plane conditions) and `inputs` (the checks of the arrays given).
+//! functions, mass schemes and plane conditions), `inputs` (the checks of the arrays given) and
+//! `study` (a study planned, run in shares and merged: `sparse_mpm.study`).
 //! This file holds the error type, the array conversions out and the module's registration.
 
 mod choices;
@@ -21,6 +22,7 @@ mod inputs;
 mod operators;
 mod simulation;
 mod step;
+mod study;
 
 use grid::{PyGrid, PyParticles};
 use numpy::PyArray1;
@@ -85,5 +87,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dispersion, m)?)?;
     m.add_function(wrap_pyfunction!(critical_time_step, m)?)?;
     m.add_function(wrap_pyfunction!(explicit_step, m)?)?;
+    m.add_function(wrap_pyfunction!(study::study_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(study::study_run, m)?)?;
+    m.add_function(wrap_pyfunction!(study::study_merge, m)?)?;
     Ok(())
 }

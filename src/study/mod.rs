@@ -38,7 +38,12 @@ pub mod plot;
 mod remedies;
 mod report;
 mod runs_csv;
+mod shard;
 mod spectrum;
+
+pub use shard::{
+    merge_study, plan_study, read_plan, run_share, MergeSummary, PlannedRun, Share, ShareSummary, StudyPlan,
+};
 
 use report::section;
 use runs_csv::write_runs_csv;
@@ -445,7 +450,8 @@ impl StudySpec {
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 enum Problem {
     BarFixedFixed,
     Vortex,
@@ -595,38 +601,45 @@ pub struct StudySummary {
 }
 
 /// Runs `spec`, writing `runs.csv`, the PNG plots and `report.md` into `out` (created if
-/// needed). A run that fails (for example a singular consistent mass with one particle per
-/// cell) is recorded with its error and left out of the plots; the study goes on.
+/// needed): the plan ([`plan_study`]), every run ([`run_share`] with [`Share::All`]) and the
+/// merge ([`merge_study`]) in one process. A run that fails (for example a singular consistent
+/// mass with one particle per cell) is recorded with its error and left out of the plots; the
+/// study goes on. Runs already complete in `out` from the same plan are not run again; the
+/// plan and runs of another spec or crate version there are replaced.
 ///
 /// # Errors
 /// [`MpmError::Io`] when the folder or a file cannot be written; [`MpmError::InvalidScene`]
 /// for an invalid spec.
-pub fn run_study(spec: &StudySpec, out: &Path, mut progress: impl FnMut(&StudyProgress)) -> Result<StudySummary> {
-    spec.validate()?;
-    std::fs::create_dir_all(out).map_err(|source| MpmError::Io {
-        path: out.to_path_buf(),
-        source,
-    })?;
-    let plan = spec.plan();
-    let mut runs = Vec::with_capacity(plan.len());
-    for (k, planned) in plan.iter().enumerate() {
-        progress(&StudyProgress {
-            done: k,
-            total: plan.len(),
-            current: planned.describe(),
-        });
-        runs.push(StudyRun {
-            part: planned.part,
-            choices: planned.choices,
-            cells: planned.cells,
-            outcome: planned.run().map_err(|e| e.to_string()),
-        });
+pub fn run_study(spec: &StudySpec, out: &Path, progress: impl FnMut(&StudyProgress)) -> Result<StudySummary> {
+    let fresh = StudyPlan::of(spec)?;
+    if out.join("plan.json").exists() && read_plan(out).map_or(true, |p| p.spec_digest != fresh.spec_digest) {
+        for name in ["plan.json", "plan.csv"] {
+            let path = out.join(name);
+            std::fs::remove_file(&path)
+                .or_else(ignore_missing)
+                .map_err(|source| MpmError::Io { path, source })?;
+        }
+        let runs = out.join("runs");
+        std::fs::remove_dir_all(&runs)
+            .or_else(ignore_missing)
+            .map_err(|source| MpmError::Io { path: runs, source })?;
     }
-    progress(&StudyProgress {
-        done: plan.len(),
-        total: plan.len(),
-        current: String::new(),
-    });
+    plan_study(spec, out)?;
+    run_share(out, Share::All, progress)?;
+    Ok(merge_study(out)?.study)
+}
+
+fn ignore_missing(e: std::io::Error) -> std::io::Result<()> {
+    if e.kind() == std::io::ErrorKind::NotFound {
+        Ok(())
+    } else {
+        Err(e)
+    }
+}
+
+/// Writes `runs.csv`, the plots and `report.md` of `runs` (in plan order) into `out`, listing
+/// the runs that failed and those `missing` (described).
+fn write_study(spec: &StudySpec, runs: Vec<StudyRun>, missing: &[String], out: &Path) -> Result<StudySummary> {
     let csv = out.join("runs.csv");
     write_runs_csv(&runs, &csv)?;
     let mut plots = Vec::new();
@@ -658,6 +671,18 @@ pub fn run_study(spec: &StudySpec, out: &Path, mut progress: impl FnMut(&StudyPr
                 r.outcome.as_ref().err().map_or("", |e| e.as_str())
             )
             .ok();
+        }
+    }
+    if !missing.is_empty() {
+        writeln!(
+            report,
+            "## Runs missing\n\n{} of the plan's runs are not complete (not run yet, or interrupted); \
+             `mpm study run` runs them:\n",
+            missing.len()
+        )
+        .ok();
+        for m in missing {
+            writeln!(report, "- {m}").ok();
         }
     }
     let report_path = out.join("report.md");

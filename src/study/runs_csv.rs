@@ -32,8 +32,8 @@ pub(super) fn write_runs_csv(runs: &[StudyRun], path: &Path) -> Result<()> {
         "cells",
         "cell_size",
         "steps",
-        "seconds",
-        "ms_per_step",
+        "wall_seconds",
+        "wall_per_step_seconds",
         "error",
     ];
     header.extend(names.iter());
@@ -59,7 +59,7 @@ pub(super) fn write_runs_csv(runs: &[StudyRun], path: &Path) -> Result<()> {
                 row.push(o.steps.to_string());
                 row.push(o.seconds.to_string());
                 row.push(if o.steps > 0 {
-                    (1e3 * o.seconds / o.steps as f64).to_string()
+                    (o.seconds / o.steps as f64).to_string()
                 } else {
                     String::new()
                 });

@@ -5,7 +5,7 @@
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -20,9 +20,11 @@ use sparse_mpm::ShapeFunction;
 
 /// The scene `mpm run` uses when none is given.
 mod bench;
+mod study;
 mod view;
 
 use bench::{bench, BenchArgs};
+use study::{study, StudyArgs};
 use view::{plot, render, PlotArgs, RenderArgs};
 
 const DEFAULT_SCENE: (&str, &str) = ("two_disks", include_str!("../../../scenes/two_disks.toml"));
@@ -67,7 +69,9 @@ enum Command {
     ///
     /// Writes DIR/report.md with its PNG plots and DIR/runs.csv (every run). Parts: dispersion,
     /// frequency, bar_energy, convergence, energy, time_step, cantilever, single_point,
-    /// time_order, waves, stabilization.
+    /// time_order, waves, stabilization. With a subcommand the study is split across processes
+    /// or machines: `plan` writes the runs, `run DIR --shard K/N` runs a share, `merge DIR`
+    /// writes the report (docs/study.md).
     Study(StudyArgs),
     /// Time the peers' benchmark problem (a random block falling into a walled unit box,
     /// neo-Hookean, about 4 particles per cell; docs/performance.md) over whole steps.
@@ -208,26 +212,6 @@ struct CheckArgs {
     /// Check against raised limits, as `mpm run --allow-large` would run.
     #[arg(long)]
     allow_large: bool,
-}
-
-#[derive(Args, Debug)]
-struct StudyArgs {
-    /// Output folder [default: out/study].
-    #[arg(long, short = 'o', value_name = "DIR")]
-    out: Option<PathBuf>,
-    /// A TOML file setting any of the study's keys: each key, its type, range and default in
-    /// docs/verification.md, "Study spec keys".
-    #[arg(long, value_name = "STUDY.toml")]
-    spec: Option<PathBuf>,
-    /// Comma-separated parts to run [default: all].
-    #[arg(long, value_name = "a,b", value_delimiter = ',')]
-    parts: Option<Vec<String>>,
-    /// Smaller grids: a few seconds.
-    #[arg(long)]
-    quick: bool,
-    /// No progress bar or summary.
-    #[arg(long, short = 'q')]
-    quiet: bool,
 }
 
 /// A kernel width: 1, 4 or 8.
@@ -490,60 +474,6 @@ fn check(args: &CheckArgs) -> Result<(), String> {
     Ok(())
 }
 
-fn study(args: &StudyArgs) -> Result<(), String> {
-    use sparse_mpm::study::{run_study, Part, StudySpec};
-    let mut spec = match &args.spec {
-        Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-            StudySpec::from_toml_str(&text).map_err(|e| format!("{}: {e}", path.display()))?
-        }
-        None if args.quick => StudySpec::quick(),
-        None => StudySpec::default(),
-    };
-    if let Some(list) = &args.parts {
-        spec.parts = list
-            .iter()
-            .map(|name| {
-                Part::ALL.into_iter().find(|p| p.name() == name.trim()).ok_or_else(|| {
-                    let all: Vec<&str> = Part::ALL.iter().map(|p| p.name()).collect();
-                    format!("--parts: unknown part `{name}` (parts: {})", all.join(", "))
-                })
-            })
-            .collect::<Result<_, _>>()?;
-    }
-    let out = args.out.clone().unwrap_or_else(|| Path::new("out").join("study"));
-    let bar = if args.quiet || !std::io::stderr().is_terminal() {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(0)
-    };
-    bar.set_style(
-        ProgressStyle::with_template("[{bar:30}] {pos}/{len} {elapsed}  {wide_msg}")
-            .expect("a valid template")
-            .progress_chars("#>-"),
-    );
-    let start = Instant::now();
-    let summary = run_study(&spec, &out, |p| {
-        bar.set_length(p.total as u64);
-        bar.set_position(p.done as u64);
-        bar.set_message(p.current.clone());
-    })
-    .map_err(|e| e.to_string())?;
-    bar.finish_and_clear();
-    let failed = summary.runs.iter().filter(|r| r.outcome.is_err()).count();
-    if !args.quiet {
-        println!(
-            "{} runs ({failed} failed) in {:.0} s; report: {}, {} plots, every run: {}",
-            summary.runs.len(),
-            start.elapsed().as_secs_f64(),
-            summary.report.display(),
-            summary.plots.len(),
-            summary.csv.display()
-        );
-    }
-    Ok(())
-}
-
 fn dispersion(a: &DispersionArgs) -> Result<(), String> {
     let curve = sparse_mpm::verification::dispersion::dispersion(
         a.shape,
@@ -581,7 +511,11 @@ fn main() -> ExitCode {
         Command::Matrices(a) => matrices(a),
         Command::Check(a) => check(a),
         Command::Homework { json } => homework(*json),
-        Command::Study(a) => study(a),
+        Command::Study(a) => match study(a) {
+            Ok(0) => Ok(()),
+            Ok(status) => return ExitCode::from(status),
+            Err(e) => Err(e),
+        },
         Command::Bench(a) => bench(a),
         Command::Dispersion(a) => dispersion(a),
         Command::Render(a) => render(a),

@@ -1,0 +1,90 @@
+"""A study split across processes and machines: plan it, run its shards anywhere, merge.
+
+The same three steps as ``mpm study plan``, ``mpm study run DIR --shard K/N`` and
+``mpm study merge DIR`` (docs/study.md). A plan folder is all the state there is: any process
+that sees it (a Dask worker, a Slurm task, another machine on a shared file system) can run a
+shard of it; runs already complete are skipped, so a shard submitted twice, or after an
+interruption, only finishes what is missing. The merged ``runs.csv`` and ``report.md`` are the
+same whichever engine ran the shards (the ``*_seconds`` columns, wall-clock times, aside)::
+
+    import sparse_mpm.study as study
+    from dask.distributed import Client, LocalCluster
+
+    study.plan("out/study", quick=True)
+    with Client(LocalCluster(n_workers=2)) as client:
+        study.run("out/study", client=client)        # one shard per worker, by default
+    report = study.merge("out/study")
+
+Without ``client`` the shards run one after the other in this process.
+"""
+
+from __future__ import annotations
+
+import os as _os
+import typing as _t
+
+from . import _core
+
+__all__ = ["plan", "run", "run_shard", "merge", "MergeResult"]
+
+_PathLike = _t.Union[str, "_os.PathLike[str]"]
+
+
+class MergeResult(_t.NamedTuple):
+    """What :func:`merge` wrote: the report, the CSV of every run, and the runs missing."""
+
+    report: str
+    runs_csv: str
+    merged: int
+    failed: int
+    missing: _t.List[int]
+
+
+def plan(
+    out: _PathLike,
+    *,
+    quick: bool = False,
+    spec: _t.Optional[str] = None,
+    parts: _t.Optional[_t.Sequence[str]] = None,
+) -> int:
+    """Writes the plan of a study into ``out`` (``plan.json``, ``plan.csv``) and returns its
+    number of runs. ``spec`` is the text of a study spec (TOML, docs/verification.md "Study
+    spec keys"); without it the quick study (``quick=True``) or the full one. Planning the same
+    spec again into the same folder keeps the runs already complete."""
+    return _core.study_plan(_os.fspath(out), spec, quick, list(parts) if parts is not None else None)
+
+
+def run_shard(plan_dir: _PathLike, k: int, n: int) -> _t.Tuple[int, int, int, int]:
+    """Runs shard ``k`` of ``n`` (1 <= k <= n) of the plan in ``plan_dir``: the runs of plan
+    index ``i`` with ``i % n == k - 1`` that are not complete. Returns ``(taken, ran, skipped,
+    failed)``. A module-level function, so that Dask (or any pool) can ship it to a worker."""
+    return _core.study_run(_os.fspath(plan_dir), k, n)
+
+
+def run(plan_dir: _PathLike, client: _t.Any = None, shards: _t.Optional[int] = None) -> _t.List[_t.Tuple[int, int, int, int]]:
+    """Runs every shard of the plan in ``plan_dir``. With a Dask ``client``
+    (``dask.distributed.Client``) the shards are submitted with ``client.submit`` and gathered
+    (``shards`` defaults to the number of workers); without one they run here in turn
+    (``shards`` defaults to 1). Returns each shard's ``(taken, ran, skipped, failed)``."""
+    path = _os.fspath(plan_dir)
+    if client is None:
+        n = shards or 1
+        return [run_shard(path, k, n) for k in range(1, n + 1)]
+    n = shards or max(1, len(client.scheduler_info().get("workers", {})))
+    futures = [client.submit(run_shard, path, k, n, pure=False) for k in range(1, n + 1)]
+    return list(client.gather(futures))
+
+
+def merge(plan_dir: _PathLike) -> MergeResult:
+    """Writes ``runs.csv``, the plots and ``report.md`` from the complete runs of the plan in
+    ``plan_dir`` and lists the plan indices of the runs missing (the report lists them too).
+    Runs of another crate version or plan raise ``MpmError`` (nothing is mixed)."""
+    path = _os.fspath(plan_dir)
+    merged, failed, missing = _core.study_merge(path)
+    return MergeResult(
+        report=_os.path.join(path, "report.md"),
+        runs_csv=_os.path.join(path, "runs.csv"),
+        merged=merged,
+        failed=failed,
+        missing=list(missing),
+    )
