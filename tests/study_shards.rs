@@ -60,14 +60,9 @@ fn runs_table(dir: &Path) -> Vec<Vec<String>> {
     rows
 }
 
-/// report.md without its paragraphs of wall-clock figures.
+/// report.md.
 fn report(dir: &Path) -> String {
-    std::fs::read_to_string(dir.join("report.md"))
-        .unwrap()
-        .lines()
-        .filter(|l| !l.starts_with("Wall clock"))
-        .collect::<Vec<_>>()
-        .join("\n")
+    std::fs::read_to_string(dir.join("report.md")).unwrap()
 }
 
 /// The plots, but the one of wall-clock times.
