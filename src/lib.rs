@@ -114,6 +114,7 @@ pub mod error;
 mod fields;
 pub mod grid;
 pub mod homework;
+pub mod implicit;
 pub mod io;
 pub mod kernels;
 mod lanes;
