@@ -229,6 +229,21 @@ pub enum MpmError {
         /// A few of their names.
         examples: Vec<String>,
     },
+    /// The Newton iteration of an implicit step did not converge.
+    #[error(
+        "step {step}: the Newton iteration of the Newmark integrator did not converge after {iterations} \
+         iteration(s) (relative residual {residual:.3e}): {reason}"
+    )]
+    NewtonFailed {
+        /// The step (0-based count of steps taken before it).
+        step: usize,
+        /// Newton iterations done.
+        iterations: usize,
+        /// The last relative residual.
+        residual: f64,
+        /// What went wrong and what to change.
+        reason: String,
+    },
     /// The output folder is in use by another run (it holds the folder's lock).
     #[error(
         "the output folder {path} is in use by another run (mpm run or mpm resume); wait for it to end, or choose \

@@ -150,3 +150,216 @@ fn at_zero_displacement_the_force_is_the_explicit_internal_force_and_the_linear_
         );
     }
 }
+
+/// The Newmark integrator on the verification problems.
+mod newmark {
+    use sparse_mpm::mass::{MassOptions, MassScheme};
+    use sparse_mpm::simulation::{Integrator, Newmark, Simulation, TimeStep};
+    use sparse_mpm::verification::bar::{newmark_period, Bar, Ends};
+    use sparse_mpm::verification::{cantilever, disks, Choices};
+
+    fn choices(scheme: MassScheme) -> Choices {
+        Choices {
+            mass: MassOptions::both(scheme),
+            cfl: 0.1,
+            ..Choices::default()
+        }
+    }
+
+    /// `sim` switched to the average-acceleration rule at `factor` times its explicit stable step.
+    fn implicit(mut sim: Simulation, factor: f64) -> Simulation {
+        let dt = factor * sim.stable_time_step();
+        sim.set_integrator(Integrator::Newmark(Newmark::default()), TimeStep::Fixed { dt })
+            .unwrap();
+        sim
+    }
+
+    #[test]
+    fn the_bar_period_follows_the_discrete_newmark_theory_at_five_times_the_stable_step() {
+        let mut spatial = Vec::new();
+        for scheme in [MassScheme::Lumped, MassScheme::Consistent] {
+            let cells = 32;
+            let explicit = Bar {
+                amplitude: 1e-3,
+                ..Bar::new(Ends::FixedFixed)
+            };
+            // The space-discrete period T_h: the explicit run at a small step, its leapfrog
+            // error removed.
+            let e = explicit.run(cells, &choices(scheme)).unwrap();
+            let t = explicit.period();
+            let t_h = t * (1.0 + e.metric("spatial_period_error").unwrap());
+            let bar = Bar {
+                newmark: Some((Newmark::default(), 5.0)),
+                periods: 10.0,
+                ..explicit
+            };
+            let i = bar.run(cells, &choices(scheme)).unwrap();
+            let dt = 5.0 * i.metric("stable_time_step").unwrap();
+            let measured = t * (1.0 + i.metric("period_error").unwrap());
+            let predicted = newmark_period(t_h, dt);
+            let off = measured / predicted - 1.0;
+            assert!(
+                off.abs() < 1e-3,
+                "{scheme:?}: period {measured} against the discrete Newmark period {predicted} ({off:.2e})"
+            );
+            // Energy over ten periods: the integrator's share (the total change less the
+            // transfers' loss) within 1%; the transfers' share reported apart.
+            let change = i.metric("energy_change").unwrap();
+            let transfers = i.metric("transfer_loss").unwrap();
+            assert!(
+                (change + transfers).abs() < 0.01 && i.metric("energy_drift").unwrap() < 0.05,
+                "{scheme:?}: energy change {change:.3e}, of which the transfers {transfers:.3e}"
+            );
+            eprintln!(
+                "{scheme:?}: period / Newmark theory − 1 = {off:.2e}; energy change over 10 periods {change:.3e}, \
+                 transfers' share {transfers:.3e}; space-discrete period error {:.3e}",
+                i.metric("spatial_period_error").unwrap()
+            );
+            spatial.push(i.metric("spatial_period_error").unwrap().abs());
+        }
+        assert!(
+            spatial[1] < spatial[0],
+            "consistent {} against lumped {}",
+            spatial[1],
+            spatial[0]
+        );
+    }
+
+    #[test]
+    fn newton_converges_quadratically_on_the_cantilever() {
+        for scheme in [MassScheme::Lumped, MassScheme::Consistent] {
+            let scene = cantilever::scene(8, &choices(scheme)).unwrap();
+            let mut sim = implicit(scene.build().unwrap(), 5.0);
+            let mut shown = Vec::new();
+            for _ in 0..10 {
+                let report = sim.step().unwrap();
+                let r = sim.newton_residuals().to_vec();
+                assert!(report.acceleration_solve.iterations >= 2, "{scheme:?}: {r:?}");
+                assert!(*r.last().unwrap() <= Newmark::default().tolerance, "{scheme:?}: {r:?}");
+                // r_{k+1} ≤ C r_k², above round-off.
+                for w in r.windows(2).filter(|w| w[1] > 1e-12) {
+                    let ratio = w[1] / (w[0] * w[0]);
+                    assert!(ratio < 10.0, "{scheme:?}: residuals {r:?}, r_k+1 / r_k² = {ratio:.2e}");
+                }
+                shown.push(r);
+            }
+            eprintln!("{scheme:?}: Newton residuals of the first steps {:?}", &shown[..3]);
+        }
+    }
+
+    #[test]
+    fn the_two_disks_run_to_the_end_with_the_implicit_integrator_and_each_mass() {
+        for scheme in [
+            MassScheme::Lumped,
+            MassScheme::Consistent,
+            MassScheme::Blended { gamma: 13.0 / 18.0 },
+        ] {
+            let c = choices(scheme);
+            let scene = disks::scene(20, &c).unwrap();
+            let mut sim = implicit(scene.build().unwrap(), 5.0);
+            let e0 = sim.particles().kinetic_energy();
+            let mut last = None;
+            sim.run_until(scene.time.end, |_, r| {
+                last = Some(r.clone());
+                Ok(())
+            })
+            .unwrap();
+            let last = last.unwrap();
+            assert!((last.time - scene.time.end).abs() < 1e-9);
+            let (total, transfers) = (last.total_energy / e0, last.transfer_loss / e0);
+            assert!(
+                total.is_finite() && total < 1.01 && (total + transfers - 1.0).abs() < 0.05,
+                "{scheme:?}: E/E0 {total}, transfers {transfers}"
+            );
+            eprintln!(
+                "{scheme:?}: {} steps, E_end/E0 = {total:.4}, transfers' loss {transfers:.4}",
+                sim.steps()
+            );
+        }
+    }
+
+    #[test]
+    fn an_implicit_run_resumes_from_a_checkpoint_bit_for_bit() {
+        let scene = cantilever::scene(8, &choices(MassScheme::Consistent)).unwrap();
+        let mut whole = implicit(scene.build().unwrap(), 5.0);
+        let mut cut = implicit(scene.build().unwrap(), 5.0);
+        for _ in 0..6 {
+            whole.step().unwrap();
+        }
+        for _ in 0..3 {
+            cut.step().unwrap();
+        }
+        let dir = std::env::temp_dir().join(format!("sparse_mpm_implicit_ckpt_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("sim.ckpt");
+        cut.write_checkpoint(&path).unwrap();
+        let mut resumed = Simulation::read_checkpoint(&path).unwrap();
+        assert_eq!(resumed.options().integrator, whole.options().integrator);
+        for _ in 0..3 {
+            resumed.step().unwrap();
+        }
+        let (a, b) = (whole.particles(), resumed.particles());
+        for (x, y) in [(&a.x, &b.x), (&a.vx, &b.vx), (&a.sxx, &b.sxx), (&a.fxy, &b.fxy)] {
+            assert!(x.iter().zip(y.iter()).all(|(u, v)| u.to_bits() == v.to_bits()));
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn newmark_is_refused_with_a_cfl_step_or_apic_naming_the_option() {
+        let scene = cantilever::scene(8, &choices(MassScheme::Lumped)).unwrap();
+        let mut sim = scene.build().unwrap();
+        let err = sim
+            .set_integrator(Integrator::Newmark(Newmark::default()), TimeStep::Cfl { number: 0.5 })
+            .unwrap_err();
+        assert!(err.to_string().contains("fixed time step"), "{err}");
+        let bad = Newmark {
+            beta: 0.0,
+            ..Newmark::default()
+        };
+        let err = sim
+            .set_integrator(Integrator::Newmark(bad), TimeStep::Fixed { dt: 1e-3 })
+            .unwrap_err();
+        assert!(err.to_string().contains("beta"), "{err}");
+        // The simulation is unchanged and steps explicitly.
+        assert_eq!(sim.options().integrator, Integrator::Explicit);
+        sim.step().unwrap();
+    }
+}
+
+#[test]
+fn a_scene_selects_newmark_and_a_cfl_step_is_refused_naming_the_key() {
+    use sparse_mpm::scene::Scene;
+    let base = include_str!("../scenes/two_disks.toml").replace(
+        "[schemes]",
+        "[schemes]\nintegrator = { newmark = { beta = 0.25, gamma = 0.5, max_iterations = 10 } }",
+    );
+    let refused = Scene::from_toml_str(&base).unwrap_err().to_string();
+    assert!(
+        refused.contains("schemes.integrator") && refused.contains("fixed time step"),
+        "{refused}"
+    );
+    let scene = Scene::from_toml_str(&base.replace("cfl = 0.5", "dt = 0.05")).unwrap();
+    let mut sim = scene.build().unwrap();
+    let report = sim.step().unwrap();
+    assert_eq!(
+        report.dt, 0.05,
+        "a fixed step above the explicit stable step is taken as it is"
+    );
+    // Linear elastic disks moving apart at rest stresses: the predictor, or one Newton step.
+    assert!(
+        report.acceleration_solve.iterations <= 1,
+        "{:?}",
+        sim.newton_residuals()
+    );
+    assert!(
+        report.acceleration_solve.relative_residual <= 1e-10,
+        "{:?}",
+        sim.newton_residuals()
+    );
+    let bad = base
+        .replace("cfl = 0.5", "dt = 0.05")
+        .replace("beta = 0.25", "beta = 0.75");
+    let err = Scene::from_toml_str(&bad).unwrap_err().to_string();
+    assert!(err.contains("beta"), "{err}");
+}

@@ -4,8 +4,97 @@
 //! The tangent is the building block of Newmark integration on the grid, where the consistent
 //! mass costs no stable step (docs/implicit.md).
 
+pub mod solve;
 pub mod tangent;
+
+pub use solve::SparseLu;
 
 pub use tangent::{
     displacement_gradients, gradient_operator, internal_force, internal_force_and_tangent, particle_stress,
 };
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{MpmError, Result};
+
+/// How the grid equations are integrated in time.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Integrator {
+    /// The explicit update of the update scheme (USF, USL, MUSL), with a stable-step limit.
+    #[default]
+    Explicit,
+    /// Newmark's rule on the grid with Newton iterations (docs/implicit.md); a fixed `Δt`, no
+    /// stable-step limit for `2β ≥ γ ≥ ½`.
+    Newmark(Newmark),
+}
+
+/// Newmark's parameters and the Newton iteration's controls.
+///
+/// ```text
+/// u = Δt v_n + Δt² ((½ − β) a_n + β a_{n+1}),   v_{n+1} = v_n + Δt ((1 − γ) a_n + γ a_{n+1})
+/// ```
+///
+/// The default, average acceleration (`β = ¼`, `γ = ½`, the trapezoidal rule), is
+/// unconditionally stable and conserves the energy of linear problems.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Newmark {
+    /// `β` in (0, ½].
+    pub beta: f64,
+    /// `γ` in [½, 1].
+    pub gamma: f64,
+    /// Converged when `‖r‖ ≤ tolerance · ‖|f_ext| + |f_int| + (|M u| + |M c|)/(β Δt²)‖` on the free
+    /// degrees of freedom (`c = Δt v_n + Δt² (½ − β) a_n`: the size of each term of
+    /// `r = f_ext + f_int − M (u − c)/(β Δt²)`), or the increment `‖δu‖ ≤ tolerance · ‖u‖`; in
+    /// (0, 1).
+    pub tolerance: f64,
+    /// Newton iterations allowed per step (1 to 1000).
+    pub max_iterations: usize,
+}
+
+impl Default for Newmark {
+    fn default() -> Self {
+        Newmark {
+            beta: 0.25,
+            gamma: 0.5,
+            tolerance: 1e-10,
+            max_iterations: 25,
+        }
+    }
+}
+
+impl Newmark {
+    /// Checks the parameters.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidOption`] naming the parameter.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |option: &'static str, reason: String| Err(MpmError::InvalidOption { option, reason });
+        if !(self.beta > 0.0 && self.beta <= 0.5) {
+            return bad(
+                "integrator.newmark.beta",
+                format!("{}: β must lie in (0, 0.5]", self.beta),
+            );
+        }
+        if !(0.5..=1.0).contains(&self.gamma) {
+            return bad(
+                "integrator.newmark.gamma",
+                format!("{}: γ must lie in [0.5, 1]", self.gamma),
+            );
+        }
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return bad(
+                "integrator.newmark.tolerance",
+                format!("{}: the relative tolerance must lie in (0, 1)", self.tolerance),
+            );
+        }
+        if !(1..=1000).contains(&self.max_iterations) {
+            return bad(
+                "integrator.newmark.max_iterations",
+                format!("{}: give 1 to 1000 Newton iterations", self.max_iterations),
+            );
+        }
+        Ok(())
+    }
+}

@@ -86,6 +86,7 @@ use serde::{Deserialize, Serialize};
 use crate::boundary::BoundaryCondition;
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
+use crate::implicit::Integrator;
 use crate::mass::MassOptions;
 use crate::material::Material;
 use crate::schemes::PositionUpdate;
@@ -201,6 +202,9 @@ pub struct Schemes {
     pub mass: MassOptions,
     /// Re-sort particles by cell every this many steps (0: never).
     pub sort_interval: usize,
+    /// `"explicit"` (the default) or `{ newmark = { beta = 0.25, gamma = 0.5 } }`
+    /// ([`crate::implicit`]).
+    pub integrator: Integrator,
 }
 
 impl Default for Schemes {
@@ -213,6 +217,7 @@ impl Default for Schemes {
             position_update: o.position_update,
             mass: o.mass,
             sort_interval: o.sort_interval,
+            integrator: o.integrator,
         }
     }
 }
@@ -510,6 +515,7 @@ impl Scene {
                 .stability_interval
                 .unwrap_or(crate::simulation::DEFAULT_STABILITY_INTERVAL),
             threads: self.execution.threads,
+            integrator: s.integrator,
         }
     }
 

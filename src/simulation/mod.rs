@@ -52,6 +52,7 @@
 
 mod build;
 mod checkpoint;
+mod newmark;
 mod options;
 mod phases;
 mod profile;
@@ -60,7 +61,7 @@ mod series;
 mod stability;
 
 pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, MAX_CHECKPOINT_BYTES};
-pub use options::{Body, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
+pub use options::{Body, Integrator, Newmark, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
 pub use profile::{Phase, Profile};
 pub use report::StepReport;
 
@@ -143,6 +144,12 @@ struct Scratch {
     /// The report's particle sums when the grid-to-particle pass moved the particles and took
     /// them (USL, USF); `None` when the report sums them itself.
     sums: Option<kernels::ParticleSums>,
+    /// The Newton system's LU of the implicit integrator (its symbolic analysis kept while the
+    /// pattern is unchanged).
+    newton: crate::implicit::SparseLu,
+    /// The relative residuals of the last implicit step's Newton iterates, the first (the
+    /// predictor's) included.
+    newton_residuals: Vec<f64>,
 }
 
 impl Scratch {
@@ -185,6 +192,29 @@ impl Simulation {
     /// The options.
     pub fn options(&self) -> &Options {
         &self.options
+    }
+
+    /// The relative Newton residuals ([`Newmark::tolerance`]) of the last implicit
+    /// step's iterates, from the predictor to the converged one (empty for explicit steps).
+    pub fn newton_residuals(&self) -> &[f64] {
+        &self.scratch.newton_residuals
+    }
+
+    /// Integrates the following steps with `integrator` at `time_step` (the explicit update, or
+    /// Newmark's rule at a fixed step, [`crate::implicit`]).
+    ///
+    /// # Errors
+    /// The errors of [`Options::validate`] for the changed options (Newmark with a CFL step, with
+    /// APIC or a series transfer, parameters out of range); the simulation is unchanged then.
+    pub fn set_integrator(&mut self, integrator: Integrator, time_step: TimeStep) -> Result<()> {
+        let options = Options {
+            integrator,
+            time_step,
+            ..self.options.clone()
+        };
+        options.validate()?;
+        self.options = options;
+        Ok(())
     }
 
     /// Runs the following steps on `threads` worker threads (a resumed run on another machine,

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::boundary::BoundaryCondition;
 use crate::error::{MpmError, Result};
+pub use crate::implicit::{Integrator, Newmark};
 use crate::mass::{MassOptions, MassScheme};
 use crate::material::Material;
 use crate::particles::{MAX_ACCELERATION, MAX_SPEED};
@@ -70,6 +71,8 @@ pub struct Options {
     /// Worker threads (1: serial). Results do not depend on it, to the last bit
     /// ([`crate::parallel`]).
     pub threads: usize,
+    /// Explicit (the default) or implicit Newmark integration ([`crate::implicit`]).
+    pub integrator: Integrator,
 }
 
 impl Default for Options {
@@ -87,6 +90,7 @@ impl Default for Options {
             sort_interval: 50,
             stability_interval: DEFAULT_STABILITY_INTERVAL,
             threads: 1,
+            integrator: Integrator::Explicit,
         }
     }
 }
@@ -181,6 +185,26 @@ impl Options {
                     crate::parallel::MAX_THREADS
                 ),
             });
+        }
+        if let Integrator::Newmark(newmark) = self.integrator {
+            newmark.validate()?;
+            if !matches!(self.time_step, TimeStep::Fixed { .. }) {
+                return Err(MpmError::InvalidOption {
+                    option: "integrator",
+                    reason: "the Newmark integrator takes a fixed time step (time.dt): it has no stable-step limit \
+                             to follow"
+                        .into(),
+                });
+            }
+            if !matches!(self.transfer, Transfer::Pic | Transfer::Flip | Transfer::Blend { .. }) {
+                return Err(MpmError::InvalidOption {
+                    option: "integrator",
+                    reason: format!(
+                        "the Newmark integrator updates the particles with PIC, FLIP or a blend, not {}",
+                        self.transfer.name()
+                    ),
+                });
+            }
         }
         let g = self.gravity[0].hypot(self.gravity[1]);
         if !g.is_finite() || g > MAX_ACCELERATION {

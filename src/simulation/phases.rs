@@ -47,7 +47,7 @@ impl Simulation {
             mirror.fold(grid, options.shape, &p.x, &p.y, &mut cache.ops); // mirrored walls
             Ok::<_, MpmError>(())
         })?; // (1)
-        let stress = if options.update.schedule().stress_first {
+        let stress = if options.update.schedule().stress_first && options.integrator == super::Integrator::Explicit {
             Stress::Omit
         } else {
             Stress::Include
@@ -80,7 +80,9 @@ impl Simulation {
                 workers,
             )
         })?;
-        if stability::estimate_due(options, state, &cache.mass) {
+        // (The implicit integrator has no stable step to estimate.)
+        let explicit = options.integrator == super::Integrator::Explicit;
+        if explicit && stability::estimate_due(options, state, &cache.mass) {
             let estimate = timed(profile, Phase::StableStep, || {
                 stability::estimate(setup, options, state, cache)
             })?;
@@ -91,6 +93,9 @@ impl Simulation {
 
     /// One step no longer than `max_dt`: the lines of the [module docs](super) in order.
     pub(super) fn phases(&mut self, max_dt: f64) -> Result<StepReport> {
+        if let super::Integrator::Newmark(newmark) = self.options.integrator {
+            return self.newmark_phases(newmark, max_dt);
+        }
         self.prepare_grid()?; // (1)–(5), mass
         let (setup, state) = (&self.setup, &self.state);
         let stable = timed(&mut self.profile, Phase::StableStep, || {
@@ -249,7 +254,7 @@ impl Simulation {
     }
 
     /// The end of a step: time and step count advanced, the report, what the state keeps of it.
-    fn finish_step(&mut self, dt: f64, stable: f64, solves: [SolveReport; 2]) -> Result<StepReport> {
+    pub(super) fn finish_step(&mut self, dt: f64, stable: f64, solves: [SolveReport; 2]) -> Result<StepReport> {
         let Simulation {
             setup,
             options,
@@ -333,6 +338,7 @@ fn lumped_grid_pass(setup: &Setup, options: &Options) -> bool {
         && !options.update.schedule().stress_first
         && SeriesTransfer::of(options.transfer).is_none()
         && setup.prescribed.mirror.is_empty()
+        && options.integrator == super::Integrator::Explicit
 }
 
 /// The APIC inertia of the shape functions, when the transfer is APIC.
@@ -341,7 +347,7 @@ fn apic_inertia(options: &Options, grid: &Grid) -> Option<ApicInertia> {
 }
 
 /// (6) `v = Π M_v⁻¹ q`.
-fn project_velocity(
+pub(super) fn project_velocity(
     setup: &Setup,
     ops: &Operators,
     mass: &GridMass,
@@ -357,7 +363,7 @@ fn project_velocity(
 }
 
 /// (7) `a = Π₀ M_a⁻¹ f`.
-fn solve_acceleration(
+pub(super) fn solve_acceleration(
     prescribed: &Prescribed,
     ops: &Operators,
     mass: &GridMass,

@@ -24,7 +24,7 @@ use crate::error::Result;
 use crate::grid::Grid;
 use crate::material::{LinearElastic, Material, PlaneCondition};
 use crate::particles::{lattice, Particles};
-use crate::simulation::{Body, Simulation};
+use crate::simulation::{Body, Integrator, Newmark, Simulation, TimeStep};
 
 /// Which ends are fixed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -53,6 +53,9 @@ pub struct Bar {
     /// The rule of the fixed ends (`None`: [`WallRule::default_for`] the kernel, the mirror
     /// rule for GIMP and B-splines).
     pub wall: Option<WallRule>,
+    /// Integrate with Newmark's rule at this multiple of the explicit stable step at `t = 0`
+    /// (`None`: the explicit update of the choices).
+    pub newmark: Option<(Newmark, f64)>,
 }
 
 impl Bar {
@@ -66,6 +69,7 @@ impl Bar {
             amplitude: 0.1,
             periods: 2.0,
             wall: None,
+            newmark: None,
         }
     }
 
@@ -159,6 +163,9 @@ impl Bar {
     pub fn run(&self, cells: usize, choices: &Choices) -> Result<Outcome> {
         let mut sim = self.simulation(cells, choices)?;
         let stable = sim.stable_time_step();
+        if let Some((newmark, factor)) = self.newmark {
+            sim.set_integrator(Integrator::Newmark(newmark), TimeStep::Fixed { dt: factor * stable })?;
+        }
         let mass = sim.particles().total_mass();
         let kinetic = sim.particles().kinetic_energy();
         let mut h = ["v_cm", "v_cm_exact", "kinetic_energy", "strain_energy", "total_energy"].map(History::new);
@@ -202,7 +209,13 @@ impl Bar {
         let measured = period_from_zero_crossings(v_cm);
         let period = measured.map_or(f64::NAN, |t| t / self.period() - 1.0);
         let dt = median(&mut steps_dt);
-        let spatial = measured.map_or(f64::NAN, |t| spatial_period(t, dt) / self.period() - 1.0);
+        let spatial = measured.map_or(f64::NAN, |t| {
+            let space = match self.newmark {
+                None => spatial_period(t, dt),
+                Some((newmark, _)) => newmark_spatial_period(t, dt, &newmark),
+            };
+            space / self.period() - 1.0
+        });
         let e0 = total.value[0];
         let metrics = vec![
             ("rms_error".to_string(), rms),
@@ -243,6 +256,36 @@ pub fn spatial_period(measured: f64, dt: f64) -> f64 {
         return measured;
     }
     PI * dt / (PI * dt / measured).sin()
+}
+
+/// The period of the space-discrete system whose integration by Newmark's average-acceleration
+/// rule at step `Δt` has the measured period `T_Δt`: the rule maps ω_h to ω_Δt with
+/// `tan(ω_Δt Δt / 2) = ω_h Δt / 2`, so
+///
+/// ```text
+/// T_h = π Δt / tan(π Δt / T_Δt)
+/// ```
+///
+/// (NaN for other `β`, `γ`, whose map this does not invert).
+#[must_use]
+pub fn newmark_spatial_period(measured: f64, dt: f64, newmark: &Newmark) -> f64 {
+    if newmark.beta != 0.25 || newmark.gamma != 0.5 {
+        return f64::NAN;
+    }
+    if dt <= 0.0 || !dt.is_finite() {
+        return measured;
+    }
+    PI * dt / (PI * dt / measured).tan()
+}
+
+/// The period the average-acceleration rule at step `Δt` gives a mode of period `T_h`:
+///
+/// ```text
+/// T_Δt = π Δt / arctan(π Δt / T_h)
+/// ```
+#[must_use]
+pub fn newmark_period(space_period: f64, dt: f64) -> f64 {
+    PI * dt / (PI * dt / space_period).atan()
 }
 
 /// The median of `values` (NaN when empty).

@@ -459,7 +459,16 @@ fn check(args: &CheckArgs) -> Result<(), String> {
         "shape {:#}, update {}, transfer {:#}, mass velocity {:#} / acceleration {:#}",
         schemes.shape, schemes.update, schemes.transfer, schemes.mass.velocity, schemes.mass.acceleration
     );
-    println!("stable time step at t = 0: {}", human(sim.stable_time_step()));
+    match schemes.integrator {
+        sparse_mpm::simulation::Integrator::Explicit => {
+            println!("stable time step at t = 0: {}", human(sim.stable_time_step()));
+        }
+        sparse_mpm::simulation::Integrator::Newmark(n) => println!(
+            "integrator Newmark (β = {}, γ = {}), Newton to a relative residual of {:e} in at most {} iterations; no \
+             stable-step limit",
+            n.beta, n.gamma, n.tolerance, n.max_iterations
+        ),
+    }
     println!("{estimate}");
     if scene.time.dt.is_none() && estimate.steps.is_some() {
         println!(

@@ -13,7 +13,7 @@ use crate::particles::Particles;
 use crate::schemes::PositionUpdate;
 use crate::shape::ShapeFunction;
 use crate::simulation::stability::{Basis, Stability};
-use crate::simulation::{Body, Options, TimeStep, Transfer, UpdateScheme};
+use crate::simulation::{Body, Integrator, Options, TimeStep, Transfer, UpdateScheme};
 use crate::stiffness::FrequencyEstimate;
 
 #[derive(Serialize, Deserialize)]
@@ -39,6 +39,7 @@ pub(super) struct OptionsRecord {
     sort_interval: usize,
     stability_interval: usize,
     threads: usize,
+    integrator: Integrator,
 }
 
 /// A [`BoundaryCondition`] with every field written (its own serde form omits absent ones,
@@ -121,6 +122,7 @@ impl OptionsRecord {
             sort_interval,
             stability_interval,
             threads,
+            integrator,
         } = options;
         OptionsRecord {
             shape: *shape,
@@ -135,6 +137,7 @@ impl OptionsRecord {
             sort_interval: *sort_interval,
             stability_interval: *stability_interval,
             threads: *threads,
+            integrator: *integrator,
         }
     }
 
@@ -152,6 +155,7 @@ impl OptionsRecord {
             sort_interval,
             stability_interval,
             threads,
+            integrator,
         } = self;
         Options {
             shape,
@@ -166,6 +170,7 @@ impl OptionsRecord {
             sort_interval,
             stability_interval,
             threads,
+            integrator,
         }
     }
 }

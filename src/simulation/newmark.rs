@@ -1,0 +1,357 @@
+//! The implicit step: Newmark's rule on the grid, Newton iterations on the grid displacement,
+//! the particles updated from the converged solution (docs/implicit.md).
+//!
+//! ```text
+//! (1)–(5)  operators, grid mass, momentum and force at the particles' positions (as explicit)
+//! (6)      v_n = M_v⁻¹ N m v_p                       (the velocity projection of the mass scheme)
+//! (7)      a_n = M⁻¹ (f_ext + f_int(σ_n))             (the acceleration solve of the mass scheme)
+//! (8)      Newton on the free degrees of freedom, from u = Δt v_n + ½ Δt² a_n:
+//!            a(u) = (u − Δt v_n − Δt² (½ − β) a_n) / (β Δt²)
+//!            r(u) = f_ext + f_int(u) − M a(u)
+//!            (K(u) + M / (β Δt²)) δu = r(u),   u ← u + δu        (faer sparse LU)
+//! (9)      a_{n+1} = a(u),  v_{n+1} = v_n + Δt ((1 − γ) a_n + γ a_{n+1})
+//! (10)     particles: x += Nᵀ u,  F ← (I + ∇u) F,  V ← det(I + ∇u) V,  σ from ∇u (linear) or F,
+//!          v_p ← v_p + Nᵀ (v_{n+1} − v_n) (FLIP), Nᵀ v_{n+1} (PIC), or a blend
+//! ```
+//!
+//! `M` is the mass of the acceleration scheme as a matrix: `diag(m_L)` (lumped), the consistent
+//! mass with its stabilisation (consistent, conjugate gradient, truncated series), or
+//! `(1 − γ) M_L + γ M` (blended). The free degrees of freedom are the nodes of positive lumped
+//! mass less the prescribed components, where `u = Δt v̄` (`a = 0`). The Newton iterations and the
+//! relative residual are reported in the acceleration solve's columns of the step report.
+
+use nalgebra_sparse::{CooMatrix, CscMatrix};
+
+use super::phases::{project_velocity, solve_acceleration};
+use super::{Cache, Simulation, StepReport, TimeStep, Transfer};
+use crate::error::{MpmError, Result};
+use crate::implicit::{displacement_gradients, gradient_operator, internal_force_and_tangent, Newmark};
+use crate::kernels::KineticEnergies;
+use crate::mass::{GridMass, MassScheme, SolveOutcome, SolveReport};
+use crate::material::Material;
+
+/// `M` of the Newmark residual (n × n, the same for both components).
+fn newmark_mass(mass: &GridMass, n: usize) -> CscMatrix<f64> {
+    let lumped = mass.lumped();
+    let diagonal = |scale: f64| {
+        let mut coo = CooMatrix::new(n, n);
+        for (i, &m) in lumped.iter().enumerate() {
+            if m != 0.0 {
+                coo.push(i, i, scale * m);
+            }
+        }
+        CscMatrix::from(&coo)
+    };
+    let consistent = || -> Option<CscMatrix<f64>> {
+        mass.stabilized_matrix()
+            .cloned()
+            .or_else(|| mass.consistent_matrix().map(|m| m.into_owned()))
+    };
+    match mass.options().acceleration {
+        MassScheme::Lumped => diagonal(1.0),
+        MassScheme::Blended { gamma } => match consistent() {
+            Some(m) => &(&m * gamma) + &diagonal(1.0 - gamma),
+            None => diagonal(1.0),
+        },
+        MassScheme::Consistent | MassScheme::Iterative { .. } | MassScheme::TruncatedSeries { .. } => {
+            consistent().unwrap_or_else(|| diagonal(1.0))
+        }
+    }
+}
+
+/// `y = M x` for both components stacked (x values, then y values).
+fn mass_times(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
+    let n = m.nrows();
+    let mut y = vec![0.0; 2 * n];
+    for (i, j, &v) in m.triplet_iter() {
+        y[i] += v * x[j];
+        y[n + i] += v * x[n + j];
+    }
+    y
+}
+
+/// Whether the grid displacement `u` keeps every particle's `det(I + ∇u) > 0`.
+fn admissible(ops: &crate::operators::Operators, u: &[f64]) -> bool {
+    displacement_gradients(ops, u)
+        .iter()
+        .all(|h| (1.0 + h[0]) * (1.0 + h[3]) - h[1] * h[2] > 0.0)
+}
+
+fn norm(v: impl Iterator<Item = f64>) -> f64 {
+    v.map(|x| x * x).sum::<f64>().sqrt()
+}
+
+impl Simulation {
+    /// One Newmark step of at most `max_dt` (the steps of the [module docs](self)).
+    pub(super) fn newmark_phases(&mut self, newmark: Newmark, max_dt: f64) -> Result<StepReport> {
+        self.prepare_grid()?; // (1)–(5)
+        let TimeStep::Fixed { dt } = self.options.time_step else {
+            return Err(MpmError::InvalidOption {
+                option: "integrator",
+                reason: "the Newmark integrator takes a fixed time step".into(),
+            });
+        };
+        let dt = dt.min(max_dt);
+        let step = self.state.steps;
+        let Simulation {
+            setup,
+            options,
+            state,
+            cache: Cache { ops, mass, nodes },
+            scratch,
+            ..
+        } = self;
+        let velocity_solve = project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?; // (6)
+        let prescribed = &setup.prescribed;
+        let base_solve = solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)?; // (7)
+        let n = ops.num_nodes();
+        let materials: Vec<Material> = setup.bodies.iter().map(|b| b.material).collect();
+        let g = gradient_operator(ops);
+        let stack = |x: &[f64], y: &[f64]| -> Vec<f64> { x.iter().chain(y).copied().collect() };
+        let (vn, an) = (
+            stack(&nodes.projected.x, &nodes.projected.y),
+            stack(&nodes.acceleration.x, &nodes.acceleration.y),
+        );
+        let p = &state.particles;
+        let (f_int0, _) = internal_force_and_tangent(ops, &g, p, &materials, &vec![0.0; 2 * n])?;
+        let force = stack(&nodes.force.x, &nodes.force.y);
+        let f_ext: Vec<f64> = force.iter().zip(&f_int0).map(|(f, i)| f - i).collect();
+        let m = newmark_mass(mass, n);
+        // Free degrees of freedom: nodes with mass, less the prescribed components.
+        let mut free = vec![true; 2 * n];
+        let mut u = vec![0.0; 2 * n];
+        for i in 0..n {
+            if mass.lumped()[i] <= 0.0 {
+                free[i] = false;
+                free[n + i] = false;
+            }
+        }
+        let (beta, gamma) = (newmark.beta, newmark.gamma);
+        for k in 0..2 * n {
+            if free[k] {
+                u[k] = dt * vn[k] + 0.5 * dt * dt * an[k];
+            }
+        }
+        for (c, i, v) in prescribed.each() {
+            free[c * n + i] = false;
+            u[c * n + i] = dt * v;
+        }
+        // A predictor that inverts a particle (a large step into contact) gives way to
+        // `u = Δt v_n`, then to no motion of the free nodes.
+        for fallback in [1.0, 0.0] {
+            if admissible(ops, &u) {
+                break;
+            }
+            for k in 0..2 * n {
+                if free[k] {
+                    u[k] = fallback * dt * vn[k];
+                }
+            }
+        }
+        let dofs: Vec<usize> = (0..2 * n).filter(|&k| free[k]).collect();
+        let predicted: Vec<f64> = (0..2 * n)
+            .map(|k| {
+                if free[k] {
+                    dt * vn[k] + dt * dt * (0.5 - beta) * an[k]
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mut local = vec![usize::MAX; 2 * n];
+        for (l, &k) in dofs.iter().enumerate() {
+            local[k] = l;
+        }
+        let accel = |u: &[f64]| -> Vec<f64> {
+            (0..2 * n)
+                .map(|k| {
+                    if free[k] {
+                        (u[k] - dt * vn[k] - dt * dt * (0.5 - beta) * an[k]) / (beta * dt * dt)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        };
+        let mut iterations = 0;
+        let mut relative = f64::INFINITY;
+        let mut solver = std::mem::take(&mut scratch.newton);
+        let mut small_increment = false;
+        scratch.newton_residuals.clear();
+        loop {
+            let (f_int, k) = internal_force_and_tangent(ops, &g, p, &materials, &u).map_err(|e| match e {
+                MpmError::InvalidParticleValue { particle, value, .. } => MpmError::NewtonFailed {
+                    step,
+                    iterations,
+                    residual: relative,
+                    reason: format!(
+                        "particle {particle} inverts in the Newton iterate (det F = {value:.3e}); take a smaller \
+                         time.dt"
+                    ),
+                },
+                other => other,
+            })?;
+            // M a(u) = (M u − M c) / (β Δt²), c = Δt v_n + Δt² (½ − β) a_n: each term's size is the
+            // residual's scale, so that a converged step reads near round-off even where the
+            // forces and accelerations vanish.
+            let free_u: Vec<f64> = (0..2 * n).map(|k| if free[k] { u[k] } else { 0.0 }).collect();
+            let (mu, mc) = (mass_times(&m, &free_u), mass_times(&m, &predicted));
+            let inertia = 1.0 / (beta * dt * dt);
+            let r: Vec<f64> = dofs
+                .iter()
+                .map(|&k| f_ext[k] + f_int[k] - inertia * (mu[k] - mc[k]))
+                .collect();
+            let scale = norm(
+                dofs.iter()
+                    .map(|&k| f_ext[k].abs() + f_int[k].abs() + inertia * (mu[k].abs() + mc[k].abs())),
+            );
+            relative = if scale > 0.0 {
+                norm(r.iter().copied()) / scale
+            } else {
+                0.0
+            };
+            scratch.newton_residuals.push(relative);
+            if relative <= newmark.tolerance || small_increment || dofs.is_empty() {
+                break;
+            }
+            if iterations >= newmark.max_iterations {
+                scratch.newton = solver;
+                return Err(MpmError::NewtonFailed {
+                    step,
+                    iterations,
+                    residual: relative,
+                    reason: "take a smaller time.dt, or raise schemes.integrator.newmark.max_iterations or its \
+                             tolerance"
+                        .into(),
+                });
+            }
+            // (K + M / (β Δt²)) on the free degrees of freedom.
+            let mut coo = CooMatrix::new(dofs.len(), dofs.len());
+            for (i, j, &v) in k.triplet_iter() {
+                if local[i] != usize::MAX && local[j] != usize::MAX {
+                    coo.push(local[i], local[j], v);
+                }
+            }
+            let shift = 1.0 / (beta * dt * dt);
+            for (i, j, &v) in m.triplet_iter() {
+                for c in [0, n] {
+                    if local[c + i] != usize::MAX && local[c + j] != usize::MAX {
+                        coo.push(local[c + i], local[c + j], shift * v);
+                    }
+                }
+            }
+            let jacobian = CscMatrix::from(&coo);
+            let mut delta = r;
+            if let Err(reason) = solver.solve(&jacobian, &mut delta) {
+                scratch.newton = solver;
+                return Err(MpmError::NewtonFailed {
+                    step,
+                    iterations,
+                    residual: relative,
+                    reason,
+                });
+            }
+            // Backtracking: the Newton step halved until no particle inverts.
+            let mut step_length = 1.0;
+            let mut trial = u.clone();
+            for _ in 0..30 {
+                for (l, &k) in dofs.iter().enumerate() {
+                    trial[k] = u[k] + step_length * delta[l];
+                }
+                if admissible(ops, &trial) {
+                    break;
+                }
+                step_length *= 0.5;
+            }
+            if step_length < 1.0 {
+                delta.iter_mut().for_each(|d| *d *= step_length);
+            }
+            u = trial;
+            iterations += 1;
+            // Converged by the increment: the residual of the new iterate is evaluated for the
+            // report, then the loop ends.
+            small_increment = norm(delta.iter().copied()) <= newmark.tolerance * norm(u.iter().copied());
+        }
+        scratch.newton = solver;
+        // (9)
+        let a1 = accel(&u);
+        let mut v1: Vec<f64> = (0..2 * n)
+            .map(|k| {
+                if free[k] {
+                    vn[k] + dt * ((1.0 - gamma) * an[k] + gamma * a1[k])
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        for (c, i, v) in prescribed.each() {
+            v1[c * n + i] = v;
+        }
+        let energy = |v: &[f64]| 0.5 * v.iter().zip(mass_times(&m, v)).map(|(a, b)| a * b).sum::<f64>();
+        let kinetic_before = p.kinetic_energy();
+        let (k_projected, k_updated) = (energy(&vn), energy(&v1));
+        // (10)
+        let h = displacement_gradients(ops, &u);
+        let transfer = options.transfer;
+        let p = &mut state.particles;
+        let mut strain_energy = 0.0;
+        for q in 0..p.len() {
+            let (mut du, mut dv, mut v_new) = ([0.0; 2], [0.0; 2], [0.0; 2]);
+            for (node, w, _, _) in ops.column(q) {
+                for c in 0..2 {
+                    du[c] += w * u[c * n + node];
+                    dv[c] += w * (v1[c * n + node] - vn[c * n + node]);
+                    v_new[c] += w * v1[c * n + node];
+                }
+            }
+            let flip = [p.vx[q] + dv[0], p.vy[q] + dv[1]];
+            let [vx, vy] = match transfer {
+                Transfer::Pic => v_new,
+                Transfer::Blend { flip: alpha } => [
+                    alpha * flip[0] + (1.0 - alpha) * v_new[0],
+                    alpha * flip[1] + (1.0 - alpha) * v_new[1],
+                ],
+                _ => flip,
+            };
+            p.vx[q] = vx;
+            p.vy[q] = vy;
+            p.x[q] += du[0];
+            p.y[q] += du[1];
+            let hq = h[q];
+            let (fxx, fxy, fyx, fyy) = (p.fxx[q], p.fxy[q], p.fyx[q], p.fyy[q]);
+            p.fxx[q] = (1.0 + hq[0]) * fxx + hq[1] * fyx;
+            p.fxy[q] = (1.0 + hq[0]) * fxy + hq[1] * fyy;
+            p.fyx[q] = hq[2] * fxx + (1.0 + hq[3]) * fyx;
+            p.fyy[q] = hq[2] * fxy + (1.0 + hq[3]) * fyy;
+            let j_inc = (1.0 + hq[0]) * (1.0 + hq[3]) - hq[1] * hq[2];
+            p.volume[q] *= j_inc;
+            let material = &materials[p.body[q]];
+            let f = [p.fxx[q], p.fxy[q], p.fyx[q], p.fyy[q]];
+            let sigma = match material {
+                Material::LinearElastic(le) => {
+                    let d = le.stress_increment(hq[0], hq[3], 0.5 * (hq[1] + hq[2]));
+                    [p.sxx[q] + d[0], p.syy[q] + d[1], p.sxy[q] + d[2]]
+                }
+                Material::NeoHookean(nh) => nh.stress(f),
+            };
+            [p.sxx[q], p.syy[q], p.sxy[q]] = sigma;
+            strain_energy += material.strain_energy(p.volume[q], sigma, f);
+        }
+        state.strain_energy = strain_energy;
+        nodes.updated.x[..n].copy_from_slice(&v1[..n]);
+        nodes.updated.y[..n].copy_from_slice(&v1[n..]);
+        scratch.particle.kinetic = KineticEnergies {
+            before: kinetic_before,
+            projected: k_projected,
+            updated: k_updated,
+        };
+        scratch.sums = None;
+        let newton = SolveReport {
+            scheme: base_solve.scheme,
+            outcome: SolveOutcome::Solved,
+            iterations,
+            relative_residual: relative,
+        };
+        self.finish_step(dt, f64::INFINITY, [velocity_solve, newton])
+    }
+}
