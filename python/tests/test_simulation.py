@@ -140,3 +140,30 @@ def test_example_script_runs(root, tmp_path):
         assert "no plot" in done.stdout
     else:  # the two panels: velocities, and the error on a log scale
         assert out.stat().st_size > 10_000 and f"plot saved to {out}" in done.stdout
+
+
+def test_a_scene_dict_selects_the_newmark_integrator():
+    scene = {
+        "grid": {"origin": [0.0, 0.0], "cell_size": [0.1, 0.1], "cells": [10, 10]},
+        "schemes": {
+            "mass": {"velocity": "consistent", "acceleration": "consistent"},
+            "integrator": {"newmark": {"beta": 0.25, "gamma": 0.5}},
+        },
+        "time": {"end": 0.02, "dt": 0.01},
+        "loads": {"gravity": [0.0, -9.81]},
+        "bodies": [
+            {
+                "name": "block",
+                "material": {"model": "neo_hookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3},
+                "density": 1000.0,
+                "geometry": {"rectangle": {"min": [0.3, 0.3], "max": [0.7, 0.7]}},
+            }
+        ],
+    }
+    sim = mpm.Simulation.from_dict(scene)
+    report = sim.step()
+    assert report["dt"] == 0.01, "a fixed step far above the explicit stable step"
+    assert report["acceleration_residual"] <= 1e-10
+    scene["time"] = {"end": 0.02, "cfl": 0.5}
+    with pytest.raises(mpm.MpmError, match="schemes.integrator"):
+        mpm.Simulation.from_dict(scene)
