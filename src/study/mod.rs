@@ -14,6 +14,7 @@
 //! | `cantilever` | cantilever under gravity | mass × cells | tip deflection against time; Richardson extrapolation |
 //! | `single_point` | one material point | update scheme | (a table) |
 //! | `stabilization` | spinning disk, strip projection, thin cantilevers, two disks | stabilisation of the consistent mass | (tables) |
+//! | `implicit` | bar, cantilever, two disks | explicit or Newmark (1×–10× the explicit step) × lumped, consistent | bar period error against Δt with the discrete Newmark theory; (tables) |
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -48,6 +49,9 @@ pub use shard::{
 use report::section;
 use runs_csv::write_runs_csv;
 
+/// The step of the implicit part's Newmark runs, in explicit stable steps at `t = 0`.
+pub(crate) const IMPLICIT_STEP: f64 = 5.0;
+
 /// One part of a study.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -74,11 +78,14 @@ pub enum Part {
     Waves,
     /// The single material point under a sequence of time steps for each update scheme.
     TimeOrder,
+    /// Explicit against implicit (Newmark) integration with each mass: bar period against Δt and
+    /// h, cantilever, two disks.
+    Implicit,
 }
 
 impl Part {
     /// Every part, in report order.
-    pub const ALL: [Part; 11] = [
+    pub const ALL: [Part; 12] = [
         Part::Dispersion,
         Part::Frequency,
         Part::BarEnergy,
@@ -90,6 +97,7 @@ impl Part {
         Part::TimeOrder,
         Part::Waves,
         Part::Stabilization,
+        Part::Implicit,
     ];
 
     /// The part's name as spelled in a spec (`"frequency"` …).
@@ -106,6 +114,7 @@ impl Part {
             Part::Dispersion => "dispersion",
             Part::Waves => "waves",
             Part::TimeOrder => "time_order",
+            Part::Implicit => "implicit",
         }
     }
 }
@@ -293,6 +302,7 @@ impl StudySpec {
             Part::Dispersion => self.plan_dispersion(),
             Part::Waves => self.plan_waves(),
             Part::TimeOrder => self.plan_time_order(),
+            Part::Implicit => self.plan_implicit(),
         };
         runs.into_iter()
             .map(|(problem, choices, cells)| Planned {
@@ -410,6 +420,43 @@ impl StudySpec {
 
     /// The cantilever part: quadratic B-splines with the lumped and the consistent mass on
     /// every cantilever grid.
+    /// The implicit part: with the lumped and the consistent mass, the bar explicit and with
+    /// Newmark at 5× the explicit stable step on every bar grid of at most 64 cells, and at
+    /// 1×, 2×, 5× and 10× on the finest of them; the cantilever (quadratic B-splines, the middle
+    /// grid) and the two disks explicit and at 5×.
+    fn plan_implicit(&self) -> Vec<(Problem, Choices, usize)> {
+        let mut runs = Vec::new();
+        let bars: Vec<usize> = self.bar_cells.iter().copied().filter(|&c| c <= 64).collect();
+        let finest = bars.iter().copied().max();
+        for scheme in [MassScheme::Lumped, MassScheme::Consistent] {
+            let base = self.choices(MassOptions::both(scheme));
+            let at = |factor: Option<f64>| Choices {
+                implicit_step: factor,
+                ..base
+            };
+            for &c in &bars {
+                runs.push((Problem::BarFixedFixed, at(None), c));
+                runs.push((Problem::BarFixedFixed, at(Some(IMPLICIT_STEP)), c));
+            }
+            if let Some(c) = finest {
+                for factor in [1.0, 2.0, 10.0] {
+                    runs.push((Problem::BarFixedFixed, at(Some(factor)), c));
+                }
+            }
+            let quadratic = |factor| Choices {
+                shape: ShapeFunction::QuadraticBSpline,
+                ..at(factor)
+            };
+            if let Some(&c) = self.cantilever_cells.get(self.cantilever_cells.len() / 2) {
+                runs.push((Problem::Cantilever, quadratic(None), c));
+                runs.push((Problem::Cantilever, quadratic(Some(IMPLICIT_STEP)), c));
+            }
+            runs.push((Problem::TwoDisks, at(None), self.disks_cells));
+            runs.push((Problem::TwoDisks, at(Some(IMPLICIT_STEP)), self.disks_cells));
+        }
+        runs
+    }
+
     fn plan_cantilever(&self) -> Vec<(Problem, Choices, usize)> {
         // Quadratic B-splines: bilinear functions lock in bending, and the deflection then
         // grows with refinement long before it converges.
@@ -478,7 +525,7 @@ struct Planned {
 
 /// The bar of the frequency and energy parts: the published bar at amplitude 1e-3, so that the
 /// particles stay within a fraction of a cell of their start.
-fn small_bar() -> Bar {
+pub(crate) fn small_bar() -> Bar {
     Bar {
         amplitude: 1e-3,
         ..Bar::new(Ends::FixedFixed)

@@ -163,7 +163,10 @@ impl Bar {
     pub fn run(&self, cells: usize, choices: &Choices) -> Result<Outcome> {
         let mut sim = self.simulation(cells, choices)?;
         let stable = sim.stable_time_step();
-        if let Some((newmark, factor)) = self.newmark {
+        let implicit = self
+            .newmark
+            .or(choices.implicit_step.map(|factor| (Newmark::default(), factor)));
+        if let Some((newmark, factor)) = implicit {
             sim.set_integrator(Integrator::Newmark(newmark), TimeStep::Fixed { dt: factor * stable })?;
         }
         let mass = sim.particles().total_mass();
@@ -210,7 +213,7 @@ impl Bar {
         let period = measured.map_or(f64::NAN, |t| t / self.period() - 1.0);
         let dt = median(&mut steps_dt);
         let spatial = measured.map_or(f64::NAN, |t| {
-            let space = match self.newmark {
+            let space = match implicit {
                 None => spatial_period(t, dt),
                 Some((newmark, _)) => newmark_spatial_period(t, dt, &newmark),
             };
@@ -227,6 +230,7 @@ impl Bar {
                 total.value[total.value.len() - 1] / e0 - 1.0,
             ),
             ("stable_time_step".to_string(), stable),
+            ("dt".to_string(), dt),
             ("transfer_loss".to_string(), transfer_loss / e0),
         ];
         Ok(Outcome {

@@ -43,6 +43,7 @@ pub fn scene(cells: usize, choices: &Choices) -> Result<Scene> {
 pub fn run(cells: usize, choices: &Choices) -> Result<Outcome> {
     let scene = scene(cells, choices)?;
     let mut sim = scene.build()?;
+    choices.integrate(&mut sim)?;
     let p = sim.particles();
     let tip_id = (0..p.len())
         .min_by(|&a, &b| {

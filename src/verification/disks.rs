@@ -41,6 +41,7 @@ pub fn run(cells: usize, choices: &Choices) -> Result<Outcome> {
     let scene = scene(cells, choices)?;
     let mut sim = scene.build()?;
     let stable = sim.stable_time_step();
+    choices.integrate(&mut sim)?;
     let mut h = ["kinetic_energy", "strain_energy", "total_energy"].map(History::new);
     let kinetic = sim.particles().kinetic_energy();
     for (k, v) in [kinetic, 0.0, kinetic].into_iter().enumerate() {

@@ -50,6 +50,9 @@ pub struct Choices {
     pub particles_per_cell: usize,
     /// Courant number: the fraction of the stable step taken.
     pub cfl: f64,
+    /// Newmark's average-acceleration rule at this multiple of the explicit stable step at
+    /// `t = 0` instead of the explicit update (`None`, the default: explicit).
+    pub implicit_step: Option<f64>,
 }
 
 impl Default for Choices {
@@ -61,6 +64,7 @@ impl Default for Choices {
             mass: MassOptions::both(MassScheme::Lumped),
             particles_per_cell: 2,
             cfl: 0.5,
+            implicit_step: None,
         }
     }
 }
@@ -93,6 +97,22 @@ impl Choices {
         }
     }
 
+    /// Switches `sim` to Newmark's rule at [`Choices::implicit_step`] times its explicit stable
+    /// step, when set.
+    ///
+    /// # Errors
+    /// Those of [`Simulation::set_integrator`](crate::simulation::Simulation::set_integrator).
+    pub fn integrate(&self, sim: &mut crate::simulation::Simulation) -> crate::error::Result<()> {
+        if let Some(factor) = self.implicit_step {
+            let dt = factor * sim.stable_time_step();
+            sim.set_integrator(
+                crate::simulation::Integrator::Newmark(crate::simulation::Newmark::default()),
+                TimeStep::Fixed { dt },
+            )?;
+        }
+        Ok(())
+    }
+
     /// A short label: `"linear, MUSL, FLIP, lumped"`, with the velocity and acceleration masses
     /// separated by `/` when they differ.
     pub fn label(&self) -> String {
@@ -116,10 +136,17 @@ impl Choices {
         } else {
             mass
         };
-        format!("{}, {:?}, {transfer}, {mass}", self.shape.name(), self.update)
-            .replace("Musl", "MUSL")
-            .replace("Usl", "USL")
-            .replace("Usf", "USF")
+        let integrator = self
+            .implicit_step
+            .map_or(String::new(), |f| format!(", Newmark at {f} × the explicit step"));
+        format!(
+            "{}, {:?}, {transfer}, {mass}{integrator}",
+            self.shape.name(),
+            self.update
+        )
+        .replace("Musl", "MUSL")
+        .replace("Usl", "USL")
+        .replace("Usf", "USF")
     }
 }
 

@@ -69,7 +69,7 @@ enum Command {
     ///
     /// Writes DIR/report.md with its PNG plots and DIR/runs.csv (every run). Parts: dispersion,
     /// frequency, bar_energy, convergence, energy, time_step, cantilever, single_point,
-    /// time_order, waves, stabilization. With a subcommand the study is split across processes
+    /// time_order, waves, stabilization, implicit. With a subcommand the study is split across processes
     /// or machines: `plan` writes the runs, `run DIR --shard K/N` runs a share, `merge DIR`
     /// writes the report (docs/study.md).
     Study(StudyArgs),

@@ -12,6 +12,7 @@ mod cantilever;
 mod convergence;
 mod energy;
 mod frequency;
+mod implicit;
 mod single_point;
 mod spectrum;
 mod stabilization;
@@ -58,6 +59,7 @@ pub(super) fn section(
         Part::Energy => energy::write_two_disks(&ok, &mut page),
         Part::TimeStep => time_step::write(&ok, &mut page),
         Part::Cantilever => cantilever::write(&ok, &mut page),
+        Part::Implicit => implicit::write(&ok, &mut page),
         Part::SinglePoint => {
             single_point::write(&ok, page.md);
             Ok(())
