@@ -183,18 +183,19 @@ mod newmark {
                 amplitude: 1e-3,
                 ..Bar::new(Ends::FixedFixed)
             };
-            // The space-discrete period T_h: the explicit run at a small step, its leapfrog
-            // error removed.
-            let e = explicit.run(cells, &choices(scheme)).unwrap();
+            // The space-discrete period T_h in closed form (two particles per cell), checked
+            // against an explicit run in the_closed_form_space_discrete_period_is_….
             let t = explicit.period();
-            let t_h = t * (1.0 + e.metric("spatial_period_error").unwrap());
+            let t_h = explicit
+                .discrete_period(cells, 2, scheme == MassScheme::Consistent)
+                .unwrap();
             let bar = Bar {
                 newmark: Some((Newmark::default(), 5.0)),
                 periods: 10.0,
                 ..explicit
             };
             let i = bar.run(cells, &choices(scheme)).unwrap();
-            let dt = 5.0 * i.metric("stable_time_step").unwrap();
+            let dt = i.metric("dt").unwrap();
             let measured = t * (1.0 + i.metric("period_error").unwrap());
             let predicted = newmark_period(t_h, dt);
             let off = measured / predicted - 1.0;
@@ -362,4 +363,31 @@ fn a_scene_selects_newmark_and_a_cfl_step_is_refused_naming_the_key() {
         .replace("beta = 0.25", "beta = 0.75");
     let err = Scene::from_toml_str(&bad).unwrap_err().to_string();
     assert!(err.contains("beta"), "{err}");
+}
+
+#[test]
+fn the_closed_form_space_discrete_period_is_the_one_the_explicit_bar_measures() {
+    use sparse_mpm::mass::{MassOptions, MassScheme};
+    use sparse_mpm::verification::bar::{Bar, Ends};
+    use sparse_mpm::verification::Choices;
+    let bar = Bar {
+        amplitude: 1e-3,
+        ..Bar::new(Ends::FixedFixed)
+    };
+    for (scheme, consistent) in [(MassScheme::Lumped, false), (MassScheme::Consistent, true)] {
+        for cells in [16, 32] {
+            let choices = Choices {
+                mass: MassOptions::both(scheme),
+                cfl: 0.1,
+                ..Choices::default()
+            };
+            let e = bar.run(cells, &choices).unwrap();
+            let measured = bar.period() * (1.0 + e.metric("spatial_period_error").unwrap());
+            let closed = bar.discrete_period(cells, 2, consistent).unwrap();
+            assert!(
+                (measured / closed - 1.0).abs() < 1e-4,
+                "{scheme:?} {cells}: measured {measured}, closed form {closed}"
+            );
+        }
+    }
 }

@@ -282,6 +282,43 @@ pub fn newmark_spatial_period(measured: f64, dt: f64, newmark: &Newmark) -> f64 
     PI * dt / (PI * dt / measured).tan()
 }
 
+impl Bar {
+    /// The closed-form period of the space-discrete bar with FLIP (both ends fixed, bilinear
+    /// functions, `ppc` particles per cell along the bar at `ξ_j = (j + ½)/ppc` of a cell,
+    /// `cells` cells). The first mode `sin(kx)`, `k = π/L`, is an eigenvector of the stiffness,
+    /// of the particles' consistent mass `N diag(m) Nᵀ` and of the lumped mass, with
+    ///
+    /// ```text
+    /// K φ = (E/h) (2 − 2 cos kh) φ,   M φ = ρh (2a + 2b cos kh) φ,   M_L φ = ρh φ
+    /// a = Σ_j (1 − ξ_j)² / ppc,   b = Σ_j ξ_j (1 − ξ_j) / ppc     (2 per cell: a = 5/16, b = 3/16)
+    /// ```
+    ///
+    /// With the consistent mass in both solves the grid equations are `M a = −K u`:
+    /// `ω_h² = c² (2 − 2 cos kh) / (h² (2a + 2b cos kh))`. With the lumped mass and FLIP the
+    /// particles hand back to the grid `M_L⁻¹ N m Nᵀ Δv = (M_L⁻¹M) Δv`, the fraction
+    /// `λ = 2a + 2b cos kh` of each step's velocity change, so the grid's inertia is `M_L/λ`:
+    /// `ω_h² = c² (2 − 2 cos kh) λ / h²`. `T_h = 2π/ω_h`; `None` for a fixed–free bar.
+    #[must_use]
+    pub fn discrete_period(&self, cells: usize, ppc: usize, consistent: bool) -> Option<f64> {
+        if self.ends != Ends::FixedFixed || cells == 0 || ppc == 0 {
+            return None;
+        }
+        let h = self.length / cells as f64;
+        let kh = self.wavenumber() * h;
+        let xi = (0..ppc).map(|j| (j as f64 + 0.5) / ppc as f64);
+        let a = xi.clone().map(|x| (1.0 - x) * (1.0 - x)).sum::<f64>() / ppc as f64;
+        let b = xi.map(|x| x * (1.0 - x)).sum::<f64>() / ppc as f64;
+        let lambda = 2.0 * a + 2.0 * b * kh.cos();
+        let stiffness = self.youngs_modulus / (h * h * self.density) * (2.0 - 2.0 * kh.cos());
+        let omega2 = if consistent {
+            stiffness / lambda
+        } else {
+            stiffness * lambda
+        };
+        Some(2.0 * PI / omega2.sqrt())
+    }
+}
+
 /// The period the average-acceleration rule at step `Δt` gives a mode of period `T_h`:
 ///
 /// ```text
