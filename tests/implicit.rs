@@ -307,6 +307,36 @@ mod newmark {
     }
 
     #[test]
+    fn the_newton_matrix_keeps_its_symbolic_analysis_and_a_step_that_does_not_converge_is_an_error() {
+        let scene = cantilever::scene(8, &choices(MassScheme::Consistent)).unwrap();
+        let mut sim = implicit(scene.build().unwrap(), 5.0);
+        let mut iterations = 0;
+        for _ in 0..10 {
+            iterations += sim.step().unwrap().acceleration_solve.iterations;
+        }
+        let analyses = sim.newton_symbolic_analyses();
+        assert!(
+            analyses >= 1 && analyses < 10 && analyses < iterations,
+            "{analyses} analyses for {iterations} Newton iterations in 10 steps"
+        );
+        // One iteration allowed, a tolerance no iterate meets: an error naming the step.
+        let strict = Newmark {
+            max_iterations: 1,
+            tolerance: 1e-15,
+            ..Newmark::default()
+        };
+        let mut sim = scene.build().unwrap();
+        let dt = 5.0 * sim.stable_time_step();
+        sim.set_integrator(Integrator::Newmark(strict), TimeStep::Fixed { dt })
+            .unwrap();
+        let err = sim.step().unwrap_err().to_string();
+        assert!(
+            err.contains("step 0") && err.contains("did not converge") && err.contains("time.dt"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn newmark_is_refused_with_a_cfl_step_or_apic_naming_the_option() {
         let scene = cantilever::scene(8, &choices(MassScheme::Lumped)).unwrap();
         let mut sim = scene.build().unwrap();

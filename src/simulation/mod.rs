@@ -200,6 +200,13 @@ impl Simulation {
         &self.scratch.newton_residuals
     }
 
+    /// Symbolic analyses of the implicit integrator's Newton matrix so far (one per distinct
+    /// sparsity pattern: reused across a step's iterations and across steps with the same
+    /// pattern).
+    pub fn newton_symbolic_analyses(&self) -> usize {
+        self.scratch.newton.symbolic_analyses()
+    }
+
     /// Integrates the following steps with `integrator` at `time_step` (the explicit update, or
     /// Newmark's rule at a fixed step, [`crate::implicit`]).
     ///
