@@ -316,7 +316,7 @@ mod newmark {
         }
         let analyses = sim.newton_symbolic_analyses();
         assert!(
-            analyses >= 1 && analyses < 10 && analyses < iterations,
+            (1..10).contains(&analyses) && analyses < iterations,
             "{analyses} analyses for {iterations} Newton iterations in 10 steps"
         );
         // One iteration allowed, a tolerance no iterate meets: an error naming the step.
