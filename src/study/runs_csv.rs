@@ -34,6 +34,7 @@ pub(super) fn write_runs_csv(runs: &[StudyRun], path: &Path) -> Result<()> {
         "steps",
         "wall_seconds",
         "wall_per_step_seconds",
+        "wall_per_simulated_time_seconds",
         "error",
     ];
     header.extend(names.iter());
@@ -63,13 +64,26 @@ pub(super) fn write_runs_csv(runs: &[StudyRun], path: &Path) -> Result<()> {
                 } else {
                     String::new()
                 });
+                // Wall time per unit of simulated time, where the problem simulates one.
+                row.push(
+                    o.metric("end_time")
+                        .filter(|&t| t > 0.0)
+                        .map_or(String::new(), |t| (o.seconds / t).to_string()),
+                );
                 row.push(String::new());
                 for n in &names {
                     row.push(o.metric(n).map_or(String::new(), |v| v.to_string()));
                 }
             }
             Err(e) => {
-                row.extend([String::new(), String::new(), String::new(), String::new(), e.clone()]);
+                row.extend([
+                    String::new(),
+                    String::new(),
+                    String::new(),
+                    String::new(),
+                    String::new(),
+                    e.clone(),
+                ]);
                 row.extend(names.iter().map(|_| String::new()));
             }
         }

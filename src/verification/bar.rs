@@ -221,6 +221,7 @@ impl Bar {
         });
         let e0 = total.value[0];
         let metrics = vec![
+            ("end_time".to_string(), self.periods * self.period()),
             ("rms_error".to_string(), rms),
             ("period_error".to_string(), period),
             ("spatial_period_error".to_string(), spatial),

@@ -68,6 +68,7 @@ pub fn run(cells: usize, choices: &Choices) -> Result<Outcome> {
     let seconds = clock.elapsed().as_secs_f64();
     let deflection = h[0].value.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let metrics = vec![
+        ("end_time".to_string(), scene.time.end),
         ("tip_deflection".to_string(), deflection),
         ("energy_drift".to_string(), energy_drift(&h[1])),
     ];

@@ -64,6 +64,7 @@ pub fn run(cells: usize, choices: &Choices) -> Result<Outcome> {
     let e0 = total.value[0];
     let lowest = total.value.iter().cloned().fold(f64::INFINITY, f64::min);
     let metrics = vec![
+        ("end_time".to_string(), scene.time.end),
         ("energy_drift".to_string(), energy_drift(total)),
         (
             "energy_change".to_string(),

@@ -138,7 +138,7 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
     writeln!(
         page.md,
         "\nThe cantilever (quadratic B-splines) and the two disks, explicit and at 5 × the explicit stable step \
-         (the wall times are in runs.csv, `wall_seconds`):\n\n\
+         (the wall time per unit of simulated time is in runs.csv, `wall_per_simulated_time_seconds`):\n\n\
          | problem | mass | integrator | steps | tip deflection | energy change | transfers' loss |\n\
          |---|---|---|---|---|---|---|"
     )
