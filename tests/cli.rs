@@ -2,32 +2,11 @@
 //! that are not silently overwritten, limits that stop bombs before they run, `check` doing
 //! what `run` does, a scene copy that reruns, and an interrupted run resumed bit for bit.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Command;
 
-fn mpm(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mpm"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the mpm binary runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-/// A fresh folder for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse_mpm_cli_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::program::{mpm, scratch, text};
 
 fn two_disks() -> &'static str {
     include_str!("../scenes/two_disks.toml")
@@ -35,7 +14,7 @@ fn two_disks() -> &'static str {
 
 #[test]
 fn help_version_and_unknown_arguments() {
-    let dir = scratch("help");
+    let dir = scratch("cli", "help");
     let v = mpm(&["--version"], &dir);
     assert!(v.status.success());
     assert!(text(&v).contains(env!("CARGO_PKG_VERSION")));
@@ -56,7 +35,7 @@ fn help_version_and_unknown_arguments() {
 
 #[test]
 fn a_second_run_into_the_same_folder_is_refused_and_overwrite_clears_the_old_output() {
-    let dir = scratch("overwrite");
+    let dir = scratch("cli", "overwrite");
     let first = mpm(&["run", "--out", "o", "--steps", "30", "-q"], &dir);
     assert!(first.status.success(), "{}", text(&first));
     let snapshots = |d: &Path| {
@@ -94,7 +73,7 @@ fn a_second_run_into_the_same_folder_is_refused_and_overwrite_clears_the_old_out
 
 #[test]
 fn an_interrupted_run_resumes_bit_for_bit() {
-    let dir = scratch("resume");
+    let dir = scratch("cli", "resume");
     let whole = mpm(&["run", "--out", "whole", "-q"], &dir);
     assert!(whole.status.success(), "{}", text(&whole));
     // The "interrupted" run stops at step 130, having checkpointed every 40 steps.
@@ -143,7 +122,7 @@ fn an_interrupted_run_resumes_bit_for_bit() {
 
 #[test]
 fn the_scene_copy_reruns_from_the_output_folder_with_its_particle_file() {
-    let dir = scratch("rerun");
+    let dir = scratch("cli", "rerun");
     std::fs::create_dir_all(dir.join("scene")).unwrap();
     let mut csv = String::from("x,y,volume\n");
     for i in 0..6 {
@@ -210,7 +189,7 @@ geometry = { file = "block.csv" }
 
 #[test]
 fn check_refuses_what_run_refuses_naming_the_key() {
-    let dir = scratch("check");
+    let dir = scratch("cli", "check");
     let bombs = [
         // Memory: a huge grid with many particles per cell.
         (
@@ -260,7 +239,7 @@ fn check_refuses_what_run_refuses_naming_the_key() {
 
 #[test]
 fn check_refuses_a_fixed_step_above_the_stable_step_with_numbers_for_people() {
-    let dir = scratch("bigdt");
+    let dir = scratch("cli", "bigdt");
     let path = dir.join("bigdt.toml");
     std::fs::write(&path, two_disks().replace("cfl = 0.5", "dt = 22.0")).unwrap();
     for command in ["check", "run"] {
@@ -278,7 +257,7 @@ fn check_refuses_a_fixed_step_above_the_stable_step_with_numbers_for_people() {
 
 #[test]
 fn dispersion_prints_the_curve_as_csv_and_names_bad_input() {
-    let dir = scratch("dispersion");
+    let dir = scratch("cli", "dispersion");
     let o = mpm(&["dispersion", "--mass", "consistent", "--cells", "8"], &dir);
     assert!(o.status.success(), "{}", text(&o));
     let out = String::from_utf8_lossy(&o.stdout).to_string();
@@ -330,7 +309,7 @@ fn dispersion_prints_the_curve_as_csv_and_names_bad_input() {
 
 #[test]
 fn threads_from_the_command_line_or_the_scene_change_no_bit_of_the_output() {
-    let dir = scratch("threads");
+    let dir = scratch("cli", "threads");
     std::fs::write(
         dir.join("threaded.toml"),
         format!("{}\n[execution]\nthreads = 3\n", two_disks()),
@@ -409,7 +388,7 @@ fn threads_from_the_command_line_or_the_scene_change_no_bit_of_the_output() {
 
 #[test]
 fn a_run_json_naming_files_outside_its_run_is_refused_and_a_run_resumes_from_inside_its_folder() {
-    let dir = scratch("resume_paths");
+    let dir = scratch("cli", "resume_paths");
     let cut = mpm(
         &["run", "--out", "cut", "--steps", "60", "--checkpoint-every", "40", "-q"],
         &dir,
@@ -473,7 +452,7 @@ fn serde_json_string(s: &str) -> String {
 
 #[test]
 fn an_end_time_option_meets_the_limits_of_the_scenes_time_end() {
-    let dir = scratch("end_time");
+    let dir = scratch("cli", "end_time");
     for end in ["1e12", "inf", "0"] {
         let o = mpm(&["run", "--out", "far", "--end-time", end, "-q"], &dir);
         assert!(!o.status.success(), "--end-time {end} ran");
@@ -492,7 +471,7 @@ fn an_end_time_option_meets_the_limits_of_the_scenes_time_end() {
 
 #[test]
 fn a_resumed_run_meets_the_limits_of_a_new_one() {
-    let dir = scratch("resume_limits");
+    let dir = scratch("cli", "resume_limits");
     let cut = mpm(
         &["run", "--out", "cut", "--steps", "50", "--checkpoint-every", "40", "-q"],
         &dir,
@@ -530,7 +509,7 @@ fn a_resumed_run_meets_the_limits_of_a_new_one() {
 
 #[test]
 fn scene_checkpoint_and_run_files_are_read_only_when_regular_and_bounded() {
-    let dir = scratch("bounded_reads");
+    let dir = scratch("cli", "bounded_reads");
     // A device, a pipe and a folder are refused before anything is read (nothing hangs).
     let fifo = dir.join("pipe.toml");
     assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
@@ -568,7 +547,7 @@ fn scene_checkpoint_and_run_files_are_read_only_when_regular_and_bounded() {
 
 #[test]
 fn thread_counts_are_bounded_where_they_are_read() {
-    let dir = scratch("threads");
+    let dir = scratch("cli", "threads");
     for args in [
         &["bench", "--threads", "1000000"][..],
         &["run", "--threads", "1000000", "--out", "o"][..],

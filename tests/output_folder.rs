@@ -3,32 +3,11 @@
 //! and a checkpoint of another run is refused.
 
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Command;
 
-fn mpm(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mpm"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the mpm binary runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-/// A fresh folder for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse_mpm_output_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::program::{mpm, scratch, text};
 
 /// The names `dir/manifest.json` lists.
 fn manifest(dir: &Path) -> Vec<String> {
@@ -84,7 +63,7 @@ fn assert_one_run(out: &Path, steps: usize) {
 
 #[test]
 fn overwrite_removes_exactly_the_files_the_manifest_lists() {
-    let dir = scratch("manifest");
+    let dir = scratch("output", "manifest");
     let first = mpm(
         &["run", "--out", "o", "--steps", "60", "--checkpoint-every", "20", "-q"],
         &dir,
@@ -122,7 +101,7 @@ fn overwrite_removes_exactly_the_files_the_manifest_lists() {
 #[test]
 fn overwrite_refuses_files_in_the_way_that_no_manifest_lists_and_removes_nothing() {
     // `--out .` in a scene's own folder: the scene file is in the way of the scene copy.
-    let dir = scratch("scene_folder");
+    let dir = scratch("output", "scene_folder");
     std::fs::write(dir.join("scene.toml"), include_str!("../scenes/seed_problem.toml")).unwrap();
     std::fs::write(
         dir.join("seed_particles.csv"),
@@ -162,7 +141,7 @@ fn overwrite_refuses_files_in_the_way_that_no_manifest_lists_and_removes_nothing
 
 #[test]
 fn a_manifest_naming_files_outside_the_folder_is_refused() {
-    let dir = scratch("hostile_manifest");
+    let dir = scratch("output", "hostile_manifest");
     let run = mpm(&["run", "--out", "o", "--steps", "5", "-q"], &dir);
     assert!(run.status.success(), "{}", text(&run));
     std::fs::write(dir.join("victim.txt"), "keep me").unwrap();
@@ -180,7 +159,7 @@ fn a_manifest_naming_files_outside_the_folder_is_refused() {
 
 #[test]
 fn two_runs_into_one_folder_at_the_same_time_never_mix() {
-    let dir = scratch("concurrent");
+    let dir = scratch("output", "concurrent");
     let steps = "250";
     for attempt in 0..5 {
         let spawn = || {
@@ -215,7 +194,7 @@ fn two_runs_into_one_folder_at_the_same_time_never_mix() {
 
 #[test]
 fn a_checkpoint_of_another_run_is_refused_naming_both() {
-    let dir = scratch("foreign");
+    let dir = scratch("output", "foreign");
     let scene = include_str!("../scenes/two_disks.toml");
     let other = scene.replace("youngs_modulus = 1000.0", "youngs_modulus = 1200.0");
     assert_ne!(scene, other);

@@ -2,44 +2,11 @@
 //! parallel, through a Slurm job array) and merged gives the runs.csv and report of the study
 //! run in one process; runs of another version or plan are refused.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::path::Path;
+use std::process::{Command, Stdio};
 
-const MPM: &str = env!("CARGO_BIN_EXE_mpm");
-
-fn mpm(args: &[&str], dir: &Path) -> Output {
-    Command::new(MPM)
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the mpm binary runs")
-}
-
-fn ok(o: Output) -> Output {
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    o
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-/// A fresh folder for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse_mpm_study_shards_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::program::{mpm, ok, scratch, text, MPM};
 
 /// runs.csv without the `*_seconds` columns.
 fn runs_table(dir: &Path) -> Vec<Vec<String>> {
@@ -109,7 +76,7 @@ fn path_with_mpm(extra: &Path) -> String {
 
 #[test]
 fn a_quick_study_in_shards_merges_to_the_single_process_study() {
-    let dir = scratch("shards");
+    let dir = scratch("study_shards", "shards");
     ok(mpm(&["study", "--quick", "-o", "single", "-q"], &dir));
 
     // Planned, then shard 3 of 3, shard 1 interrupted and run again, shard 2.
@@ -206,7 +173,7 @@ fn a_quick_study_in_shards_merges_to_the_single_process_study() {
 fn the_slurm_scripts_run_unchanged_under_a_job_array() {
     // A stand-in for sbatch: runs an array's tasks at once (as a cluster would), each with the
     // variables Slurm sets, then a dependent job; prints job ids as `sbatch --parsable` does.
-    let dir = scratch("slurm");
+    let dir = scratch("study_shards", "slurm");
     let bin = dir.join("bin");
     std::fs::create_dir_all(&bin).unwrap();
     let sbatch = r#"#!/bin/bash

@@ -8,6 +8,8 @@
 #![allow(dead_code)]
 
 use nalgebra::{DMatrix, DVector};
+
+pub mod program;
 use sparse_mpm::{Grid, NodeOrder, Particles};
 
 // ---------------------------------------------------------------------------------------------
