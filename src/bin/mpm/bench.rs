@@ -9,11 +9,13 @@ pub(crate) struct BenchArgs {
     /// Shape functions: linear, gimp (or gimp:half_width), quadratic_bspline (quadratic), cubic_bspline (cubic).
     #[arg(long, default_value = "quadratic")]
     shape: ShapeFunction,
-    /// Mass scheme: lumped, consistent, blended:γ, series:k, cg (or cg:tolerance[:max_iterations]).
+    /// Mass scheme: lumped, consistent, blended:γ, series:k, cg, cg:tolerance or
+    /// cg:tolerance:max_iterations.
     #[arg(long, default_value = "lumped")]
     mass: MassScheme,
-    /// Stabilisation of the consistent mass: linear_extension[:γ[:θ]], partial_lumping[:θ],
-    /// ghost_penalty[:γ], none.
+    /// Stabilisation of the consistent mass: linear_extension, linear_extension:γ,
+    /// linear_extension:γ:θ, partial_lumping, partial_lumping:θ, ghost_penalty, ghost_penalty:γ,
+    /// none.
     #[arg(long, default_value = "linear_extension")]
     stabilization: Stabilization,
     /// Velocity transfer: pic, flip, apic, blend:α, xpic:k, fmpm:k [default: apic with the
