@@ -3,7 +3,9 @@
 //! field; damaged files (a changed byte, a truncation, another format version, random bytes)
 //! are clear errors, never panics.
 
-use std::path::{Path, PathBuf};
+#[path = "common/scratch.rs"]
+mod scratch;
+use std::path::Path;
 
 use sparse_mpm::boundary::{BoundaryCondition, Condition, Edge};
 use sparse_mpm::mass::{MassOptions, MassScheme};
@@ -17,11 +19,8 @@ use sparse_mpm::{Grid, MpmError, Particles, ShapeFunction};
 const VERSION_OFFSET: usize = b"sparse-mpm checkpoint\n".len();
 
 /// A directory of its own for one test, emptied first.
-fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse-mpm-checkpoint-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch_dir(name: &str) -> scratch::Scratch {
+    scratch::Scratch::new("checkpoint", name)
 }
 
 /// Particles of 2 × 2 per cell over cells `[i0, i1) × [j0, j1)` of body `body`, turning about

@@ -1,6 +1,8 @@
 //! Snapshot (`.vtp`, `.pvd`) and CSV output: snapshots read back through an independent VTK
 //! reader (the `vtkio` crate, in `common/vtk_read.rs`), CSV files through the crate's reader.
 
+#[path = "common/scratch.rs"]
+mod scratch;
 use std::fs;
 use std::io::ErrorKind;
 use std::path::{Path, PathBuf};
@@ -15,11 +17,8 @@ mod vtk_read;
 use vtk_read::{f64_values, read_pvd, read_vtp, VtpData};
 
 /// A fresh, empty directory for one test.
-fn scratch_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse-mpm-output-{}-{test}", std::process::id()));
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch_dir(test: &str) -> scratch::Scratch {
+    scratch::Scratch::new("output_files", test)
 }
 
 fn files_in(dir: &Path) -> Vec<String> {

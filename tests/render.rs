@@ -2,6 +2,8 @@
 //! frames and GIF decoded back (with the png and gif decoders, not the code that wrote them),
 //! the particles found in the pixels where the snapshots put them, and the report plot written.
 
+#[path = "common/scratch.rs"]
+mod scratch;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -25,11 +27,8 @@ fn ok(o: Output) -> String {
     text
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse_mpm_render_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch(name: &str) -> scratch::Scratch {
+    scratch::Scratch::new("render", name)
 }
 
 /// The RGB pixels of a PNG, and its size.

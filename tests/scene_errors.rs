@@ -3,6 +3,8 @@
 //! particles lie in the same place, a step count that is the count the run takes, and a
 //! fixed time step that stays fixed.
 
+#[path = "common/scratch.rs"]
+mod scratch;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -13,11 +15,8 @@ use sparse_mpm::scene::{overlaps, Scene};
 const TWO_DISKS: &str = include_str!("../scenes/two_disks.toml");
 
 /// A fresh folder for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse_mpm_scene_errors_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch(name: &str) -> scratch::Scratch {
+    scratch::Scratch::new("scene_errors", name)
 }
 
 /// `text` written to `dir/scene.toml`.

@@ -3,7 +3,9 @@
 //! checked where it is given, with an error that names the key and the value; boundary node
 //! lists name each node once and are no longer than the grid.
 
-use std::path::{Path, PathBuf};
+#[path = "common/scratch.rs"]
+mod scratch;
+use std::path::Path;
 
 use sparse_mpm::boundary::{resolve, BoundaryCondition, Condition};
 use sparse_mpm::scene::{Scene, MAX_PARTICLE_FILE_BYTES};
@@ -31,11 +33,8 @@ const RECTANGLE: &str = "geometry = { rectangle = { min = [0.2, 0.2], max = [0.6
 const PARTICLES: &str = "x,y,volume\n0.45,0.45,0.0025\n0.55,0.55,0.0025\n";
 
 /// A fresh, empty directory for one test.
-fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse-mpm-scene-validation-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch_dir(name: &str) -> scratch::Scratch {
+    scratch::Scratch::new("scene_validation", name)
 }
 
 /// [`BASE`] with its body read from `file`, as if the scene file were in `folder`.

@@ -1,6 +1,8 @@
 //! Scene files: the shipped scenes run and write readable output, scenes round-trip through
 //! TOML, bad scenes are refused with errors that name the key, and the `mpm` binary.
 
+#[path = "common/scratch.rs"]
+mod scratch;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -30,11 +32,8 @@ fn scene_path(name: &str) -> PathBuf {
 }
 
 /// A fresh, empty directory for one test.
-fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse-mpm-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch_dir(name: &str) -> scratch::Scratch {
+    scratch::Scratch::new("scenes", name)
 }
 
 #[test]
@@ -352,7 +351,7 @@ fn bad_particle_files_get_errors_naming_the_file_line_and_column() {
             &format!("geometry = {{ file = \"{file}\" }}"),
         );
         let mut scene = Scene::from_toml_str(&text).unwrap();
-        scene.base_dir = Some(dir.clone());
+        scene.base_dir = Some(dir.to_path_buf());
         let message = scene.build().unwrap_err().to_string();
         assert!(message.contains("bodies[0].geometry"), "{message}");
         for needle in needles {

@@ -10,6 +10,7 @@
 use nalgebra::{DMatrix, DVector};
 
 pub mod program;
+pub mod scratch;
 use sparse_mpm::{Grid, NodeOrder, Particles};
 
 // ---------------------------------------------------------------------------------------------

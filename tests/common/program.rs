@@ -1,7 +1,9 @@
 //! Helpers of the tests that run the `mpm` program.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
+
+use super::scratch::Scratch;
 
 /// The `mpm` program cargo built for these tests.
 pub const MPM: &str = env!("CARGO_BIN_EXE_mpm");
@@ -30,10 +32,7 @@ pub fn ok(o: Output) -> Output {
     o
 }
 
-/// A fresh folder `<temp>/sparse_mpm_<suite>_<name>_<pid>` for one test.
-pub fn scratch(suite: &str, name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sparse_mpm_{suite}_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh folder `<temp>/sparse_mpm_<suite>_<name>_<pid>` for one test, removed when it passes.
+pub fn scratch(suite: &str, name: &str) -> Scratch {
+    Scratch::new(suite, name)
 }
