@@ -55,13 +55,17 @@ fn a_second_run_into_the_same_folder_is_refused_and_overwrite_clears_the_old_out
     );
     assert!(!message.contains("output written"), "nothing was written: {message}");
     assert_eq!(std::fs::read(dir.join("o/report.csv")).unwrap(), before, "nothing lost");
-    // A left-over temporary file of the run's (the atomic writer's `.NAME.PID-N.tmp`) and a
+    // A left-over temporary file of the run's (the atomic writer's `.NAME.PID-N-R.tmp`) and a
     // file of the user's.
-    std::fs::write(dir.join("o/.particles_000001.vtp.4242-0.tmp"), "partial").unwrap();
+    std::fs::write(
+        dir.join("o/.particles_000001.vtp.4242-0-0123456789abcdef.tmp"),
+        "partial",
+    )
+    .unwrap();
     std::fs::write(dir.join("o/notes.txt"), "mine").unwrap();
     let third = mpm(&["run", "--out", "o", "--steps", "10", "-q", "--overwrite"], &dir);
     assert!(third.status.success(), "{}", text(&third));
-    assert!(!dir.join("o/.particles_000001.vtp.4242-0.tmp").exists());
+    assert!(!dir.join("o/.particles_000001.vtp.4242-0-0123456789abcdef.tmp").exists());
     assert!(dir.join("o/notes.txt").exists(), "files a run does not write are kept");
     let rows = std::fs::read_to_string(dir.join("o/report.csv"))
         .unwrap()

@@ -84,18 +84,80 @@ fn overwrite_removes_exactly_the_files_the_manifest_lists() {
     std::fs::write(dir.join("o/notes.txt"), "mine").unwrap();
     std::fs::write(dir.join("o/checkpoints/mine.txt"), "mine").unwrap();
     std::fs::write(dir.join("o/particles_000001.vtp.bak"), "mine").unwrap();
+    std::fs::write(dir.join("o/checkpoints/step_00000040/mynotes.txt"), "mine").unwrap();
     let second = mpm(&["run", "--out", "o", "--steps", "10", "-q", "--overwrite"], &dir);
     assert!(second.status.success(), "{}", text(&second));
     assert_one_run(&dir.join("o"), 10);
     let left = tree(&dir.join("o"));
-    for kept in ["notes.txt", "checkpoints/mine.txt", "particles_000001.vtp.bak"] {
+    for kept in [
+        "notes.txt",
+        "checkpoints/mine.txt",
+        "particles_000001.vtp.bak",
+        "checkpoints/step_00000040/mynotes.txt",
+    ] {
         assert!(left.contains(kept), "{kept} is kept: {left:?}");
     }
-    assert!(
-        !left.iter().any(|n| n.starts_with("checkpoints/step_")),
-        "the earlier run's checkpoints are removed: {left:?}"
+    let checkpoint_files: Vec<&String> = left
+        .iter()
+        .filter(|n| n.starts_with("checkpoints/step_") && !n.ends_with("mynotes.txt"))
+        .collect();
+    assert_eq!(
+        checkpoint_files,
+        ["checkpoints/step_00000040"],
+        "the earlier run's checkpoint files are removed, a folder with a file of the user's stays"
     );
-    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_checkpoint_folder_no_manifest_lists_is_not_written_over() {
+    let dir = scratch("output", "unlisted_checkpoint");
+    let other = mpm(
+        &[
+            "run",
+            "--out",
+            "other",
+            "--steps",
+            "20",
+            "--checkpoint-every",
+            "10",
+            "-q",
+        ],
+        &dir,
+    );
+    assert!(other.status.success(), "{}", text(&other));
+    let first = mpm(&["run", "--out", "o", "--steps", "5", "-q"], &dir);
+    assert!(first.status.success(), "{}", text(&first));
+    // Another run's checkpoint copied in, where this run would write its own.
+    std::fs::create_dir_all(dir.join("o/checkpoints/step_00000010")).unwrap();
+    for name in ["simulation.ckpt", "run.json"] {
+        std::fs::copy(
+            dir.join("other/checkpoints/step_00000010").join(name),
+            dir.join("o/checkpoints/step_00000010").join(name),
+        )
+        .unwrap();
+    }
+    let copied = std::fs::read(dir.join("o/checkpoints/step_00000010/simulation.ckpt")).unwrap();
+    let second = mpm(
+        &[
+            "run",
+            "--out",
+            "o",
+            "--steps",
+            "20",
+            "--checkpoint-every",
+            "10",
+            "-q",
+            "--overwrite",
+        ],
+        &dir,
+    );
+    assert!(!second.status.success(), "{}", text(&second));
+    assert!(text(&second).contains("checkpoints/step_00000010"), "{}", text(&second));
+    assert_eq!(
+        std::fs::read(dir.join("o/checkpoints/step_00000010/simulation.ckpt")).unwrap(),
+        copied,
+        "the unlisted checkpoint is not written over"
+    );
 }
 
 #[test]

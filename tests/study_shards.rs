@@ -222,3 +222,199 @@ fi
     assert_same_study(&dir.join("slurm_study"), &dir.join("single"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The names in `dir`, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn a_study_replaces_only_what_a_study_wrote_and_refuses_a_folder_it_did_not_write() {
+    let dir = scratch("study_shards", "replace");
+    // A folder of the user's with a plan.json and runs/ of its own: refused, nothing removed.
+    std::fs::create_dir_all(dir.join("proj/runs/2024-experiment")).unwrap();
+    std::fs::write(dir.join("proj/plan.json"), "{\"project\": \"mine\"}").unwrap();
+    std::fs::write(dir.join("proj/runs/2024-experiment/data.txt"), "irreplaceable").unwrap();
+    let refused = mpm(
+        &["study", "--quick", "--parts", "single_point", "-o", "proj", "-q"],
+        &dir,
+    );
+    assert!(!refused.status.success(), "{}", text(&refused));
+    assert!(
+        text(&refused).contains("plan.json") && text(&refused).contains("nothing was removed"),
+        "{}",
+        text(&refused)
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("proj/runs/2024-experiment/data.txt")).unwrap(),
+        "irreplaceable"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("proj/plan.json")).unwrap(),
+        "{\"project\": \"mine\"}"
+    );
+
+    // A study of another spec is replaced, its plots with it.
+    ok(mpm(
+        &["study", "--quick", "--parts", "time_step", "-o", "s", "-q"],
+        &dir,
+    ));
+    assert!(names(&dir.join("s")).contains(&"time_step.png".to_string()));
+    std::fs::write(dir.join("s/notes.md"), "mine").unwrap();
+    ok(mpm(
+        &["study", "--quick", "--parts", "single_point", "-o", "s", "-q"],
+        &dir,
+    ));
+    let left = names(&dir.join("s"));
+    assert!(
+        !left.iter().any(|n| n.ends_with(".png")),
+        "the replaced study's plots: {left:?}"
+    );
+    assert!(
+        left.contains(&"notes.md".to_string()),
+        "a file of the user's stays: {left:?}"
+    );
+    assert_eq!(
+        names(&dir.join("s/runs")).len(),
+        3,
+        "the single-point part's three runs"
+    );
+
+    // A file of the user's in runs/: refused, naming it, nothing removed.
+    std::fs::write(dir.join("s/runs/NOTES.txt"), "mine").unwrap();
+    let before = names(&dir.join("s/runs"));
+    let refused = mpm(&["study", "--quick", "--parts", "time_step", "-o", "s", "-q"], &dir);
+    assert!(
+        !refused.status.success() && text(&refused).contains("runs/NOTES.txt"),
+        "{}",
+        text(&refused)
+    );
+    assert_eq!(names(&dir.join("s/runs")), before);
+    assert!(dir.join("s/plan.json").exists() && dir.join("s/report.md").exists());
+    std::fs::remove_file(dir.join("s/runs/NOTES.txt")).unwrap();
+    let before = names(&dir.join("s/runs"));
+
+    // A damaged plan of a finished study: refused, the runs kept.
+    let plan = std::fs::read_to_string(dir.join("s/plan.json")).unwrap();
+    std::fs::write(dir.join("s/plan.json"), &plan[..100]).unwrap();
+    let refused = mpm(&["study", "--quick", "--parts", "single_point", "-o", "s", "-q"], &dir);
+    assert!(
+        !refused.status.success() && text(&refused).contains("plan.json"),
+        "{}",
+        text(&refused)
+    );
+    assert_eq!(names(&dir.join("s/runs")), before);
+}
+
+#[test]
+fn a_value_listed_twice_in_a_spec_is_refused_naming_the_key() {
+    let dir = scratch("study_shards", "twice");
+    let twice = mpm(
+        &[
+            "study",
+            "plan",
+            "--quick",
+            "--parts",
+            "single_point,single_point",
+            "-o",
+            "p",
+        ],
+        &dir,
+    );
+    assert!(
+        !twice.status.success() && text(&twice).contains("parts") && text(&twice).contains("twice"),
+        "{}",
+        text(&twice)
+    );
+    std::fs::write(
+        dir.join("dup.toml"),
+        "parts = [\"time_step\"]\nparticles_per_cell = [2, 2]\n",
+    )
+    .unwrap();
+    let twice = mpm(&["study", "--spec", "dup.toml", "-o", "q"], &dir);
+    assert!(
+        !twice.status.success() && text(&twice).contains("particles_per_cell") && text(&twice).contains("twice"),
+        "{}",
+        text(&twice)
+    );
+    assert!(!dir.join("q/runs").exists(), "nothing run");
+}
+
+#[test]
+fn a_damaged_run_is_run_again_and_a_merge_lists_every_missing_run() {
+    let dir = scratch("study_shards", "damaged");
+    ok(mpm(
+        &["study", "plan", "--quick", "--parts", "time_step", "-o", "p", "-q"],
+        &dir,
+    ));
+    ok(mpm(&["study", "run", "p", "--shard", "1/2", "-q"], &dir));
+    // Runs of shard 2 are missing: exit 3, each named on stderr by its id.
+    let plan = std::fs::read_to_string(dir.join("p/plan.csv")).unwrap();
+    let ids: Vec<&str> = plan.lines().skip(1).map(|l| l.split(',').nth(1).unwrap()).collect();
+    let merged = mpm(&["study", "merge", "p", "-q"], &dir);
+    assert_eq!(merged.status.code(), Some(3), "{}", text(&merged));
+    let stderr = String::from_utf8_lossy(&merged.stderr);
+    for id in ids.iter().skip(1).step_by(2) {
+        assert!(stderr.contains(id), "{id} missing from: {stderr}");
+    }
+    ok(mpm(&["study", "run", "p", "--shard", "2/2", "-q"], &dir));
+    // A completion marker beside a result cut short, and one beside no result: both run again.
+    let cut = dir.join("p/runs").join(ids[0]).join("result.json");
+    let whole = std::fs::read_to_string(&cut).unwrap();
+    std::fs::write(&cut, &whole[..whole.len() / 2]).unwrap();
+    std::fs::remove_file(dir.join("p/runs").join(ids[1]).join("result.json")).unwrap();
+    let again = ok(mpm(&["study", "run", "p", "--shard", "1/1"], &dir));
+    assert!(text(&again).contains(": 2 run now"), "{}", text(&again));
+    assert_eq!(std::fs::read_to_string(&cut).unwrap().len(), whole.len());
+    ok(mpm(&["study", "merge", "p", "-q"], &dir));
+    assert!(!std::fs::read_to_string(dir.join("p/report.md"))
+        .unwrap()
+        .contains("## Runs missing"));
+
+    // A merge that cannot write runs.csv leaves no report describing other runs than those
+    // beside it: the old report goes first, the new one comes last.
+    std::fs::remove_file(dir.join("p/runs.csv")).unwrap();
+    std::fs::create_dir(dir.join("p/runs.csv")).unwrap();
+    let failed = mpm(&["study", "merge", "p", "-q"], &dir);
+    assert!(
+        !failed.status.success() && text(&failed).contains("runs.csv"),
+        "{}",
+        text(&failed)
+    );
+    assert!(!dir.join("p/report.md").exists(), "no stale report");
+    std::fs::remove_dir(dir.join("p/runs.csv")).unwrap();
+    ok(mpm(&["study", "merge", "p", "-q"], &dir));
+    assert!(dir.join("p/report.md").exists());
+}
+
+#[test]
+fn a_shard_or_index_that_cannot_be_exits_with_status_two() {
+    let dir = scratch("study_shards", "usage");
+    ok(mpm(
+        &["study", "plan", "--quick", "--parts", "single_point", "-o", "p", "-q"],
+        &dir,
+    ));
+    for shard in ["0/3", "4/3", "1/0", "a/b", "1/3/5"] {
+        let o = mpm(&["study", "run", "p", "--shard", shard], &dir);
+        assert_eq!(o.status.code(), Some(2), "--shard {shard}: {}", text(&o));
+        assert!(text(&o).contains("K/N"), "{}", text(&o));
+    }
+    let o = mpm(&["study", "run", "p", "--index", "3"], &dir);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("runs 0 to 2"), "{}", text(&o));
+    // plan.csv, removed, is written again by planning again.
+    std::fs::remove_file(dir.join("p/plan.csv")).unwrap();
+    ok(mpm(
+        &["study", "plan", "--quick", "--parts", "single_point", "-o", "p", "-q"],
+        &dir,
+    ));
+    assert_eq!(
+        std::fs::read_to_string(dir.join("p/plan.csv")).unwrap().lines().count(),
+        4
+    );
+}

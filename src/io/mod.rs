@@ -16,7 +16,7 @@
 //! the readers ([`read_matrix_market`], [`csv::read_csv`]) expect gives an
 //! [`std::io::ErrorKind::InvalidData`] error whose message says what is wrong.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::MpmError;
 use crate::operators::{Operator, Operators};
@@ -67,7 +67,7 @@ pub fn write_operators(ops: &Operators, dir: &Path) -> crate::error::Result<()> 
 }
 
 /// Writes `path` whole or not at all: `body` writes into a new temporary file beside `path`
-/// (`.NAME.PID-N.tmp`, created exclusively, buffered), which is flushed, synced to disk and
+/// (`.NAME.PID-N-R.tmp`, created exclusively, buffered), which is flushed, synced to disk and
 /// renamed over `path`; the folder is then synced too, so that after a crash `path` holds
 /// either its previous contents or the whole new file. The temporary file is removed when
 /// anything fails. Every whole-file output of the crate goes through here (snapshots, the
@@ -79,27 +79,13 @@ pub(crate) fn write_atomically(
     path: &Path,
     body: impl FnOnce(&mut std::io::BufWriter<&std::fs::File>) -> std::io::Result<()>,
 ) -> crate::error::Result<()> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
     let file_name = path.file_name().ok_or_else(|| {
         io_error(
             path,
             std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path does not name a file"),
         )
     })?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(file_name);
-    tmp_name.push(format!(
-        ".{}-{}.tmp",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let tmp = path.with_file_name(tmp_name);
-    let file = std::fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&tmp)
-        .map_err(|e| io_error(path, e))?;
+    let (tmp, file) = create_temporary(path, file_name)?;
     let written = (|| {
         let mut w = std::io::BufWriter::with_capacity(1 << 16, &file);
         body(&mut w)?;
@@ -122,6 +108,48 @@ pub(crate) fn write_atomically(
         let _ = d.sync_all();
     }
     Ok(())
+}
+
+/// A new temporary file `.NAME.PID-N-R.tmp` beside `path`, created exclusively: `PID` this
+/// process, `N` a counter, `R` 16 random hexadecimal digits, so that processes of equal ids on
+/// machines (or containers) sharing a folder do not meet; a name taken is tried again.
+fn create_temporary(path: &Path, file_name: &std::ffi::OsStr) -> crate::error::Result<(PathBuf, std::fs::File)> {
+    use std::hash::{BuildHasher, Hasher};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static COUNTER: AtomicUsize = AtomicUsize::new(0);
+    let mut attempt = 0;
+    loop {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        // The standard library's hasher keys are random per process.
+        let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+        h.write_usize(n);
+        h.write_u128(
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos()),
+        );
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(file_name);
+        tmp_name.push(format!(".{}-{n}-{:016x}.tmp", std::process::id(), h.finish()));
+        let tmp = path.with_file_name(tmp_name);
+        match std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp) {
+            Ok(file) => return Ok((tmp, file)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 8 => attempt += 1,
+            Err(e) => return Err(io_error(path, e)),
+        }
+    }
+}
+
+/// `NAME` when `entry` is `.NAME.PID-N-R.tmp` (or `.NAME.PID-N.tmp` of earlier versions), a
+/// temporary file of the atomic writer.
+pub(crate) fn temporary_of(entry: &str) -> Option<&str> {
+    let inner = entry.strip_prefix('.')?.strip_suffix(".tmp")?;
+    let (name, serial) = inner.rsplit_once('.')?;
+    let mut parts = serial.split('-');
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    let (pid, n, random) = (parts.next()?, parts.next()?, parts.next());
+    let random_ok = random.is_none_or(|r| r.len() == 16 && r.bytes().all(|b| b.is_ascii_hexdigit()));
+    (digits(pid) && digits(n) && random_ok && parts.next().is_none()).then_some(name)
 }
 
 /// Wraps an I/O error with the file it concerns.
@@ -202,4 +230,49 @@ pub fn read_bounded_text(path: &Path, max_bytes: u64, what: &str) -> crate::erro
             ),
         )
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn temporary_names_are_told_apart_from_other_files() {
+        for (entry, name) in [
+            (".report.csv.12-0-0123456789abcdef.tmp", "report.csv"),
+            (".run.json.4242-17.tmp", "run.json"),
+            (".a.b.c.1-2-ffffffffffffffff.tmp", "a.b.c"),
+        ] {
+            assert_eq!(temporary_of(entry), Some(name), "{entry}");
+        }
+        for entry in [
+            "report.csv",
+            ".report.csv.tmp",
+            ".report.csv.12.tmp",
+            ".report.csv.12-x.tmp",
+            ".report.csv.12-0-0123.tmp",
+            ".report.csv.12-0-0123456789abcdeg.tmp",
+            ".report.csv.12-0-0123456789abcdef-1.tmp",
+            "report.csv.12-0.tmp",
+        ] {
+            assert_eq!(temporary_of(entry), None, "{entry}");
+        }
+    }
+
+    #[test]
+    fn temporary_files_of_one_name_never_meet() {
+        let dir = std::env::temp_dir().join(format!("sparse-mpm-io-temporary-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("x.json");
+        let made: Vec<PathBuf> = (0..50)
+            .map(|_| create_temporary(&path, std::ffi::OsStr::new("x.json")).unwrap().0)
+            .collect();
+        let distinct: std::collections::BTreeSet<&PathBuf> = made.iter().collect();
+        assert_eq!(distinct.len(), made.len());
+        for p in &made {
+            let name = p.file_name().unwrap().to_string_lossy();
+            assert_eq!(temporary_of(&name), Some("x.json"), "{name}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -500,9 +500,16 @@ impl RunFiles<'_> {
 /// state last, so a folder without it is an unfinished checkpoint).
 fn write_run_checkpoint(sim: &Simulation, state: &RunState, out: &Path, claim: &mut OutputClaim) -> Result<PathBuf> {
     let name = format!("checkpoints/step_{:08}", sim.steps());
+    let dir = out.join(&name);
+    // A checkpoint folder of this step that the manifest does not list is not this run's.
+    if std::fs::symlink_metadata(&dir).is_ok() && !claim.lists(&name) {
+        return Err(MpmError::OutputNotOwned {
+            path: out.to_path_buf(),
+            names: vec![name],
+        });
+    }
     claim.add("checkpoints")?;
     claim.add(&name)?;
-    let dir = out.join(&name);
     create_dir(&dir)?;
     sim.write_checkpoint(&dir.join("simulation.ckpt"))?;
     let record = RunState {
@@ -511,12 +518,12 @@ fn write_run_checkpoint(sim: &Simulation, state: &RunState, out: &Path, claim: &
     };
     let json = serde_json::to_string_pretty(&record).expect("the run state always serializes");
     crate::io::write_atomically(&dir.join("run.json"), |w| std::io::Write::write_all(w, json.as_bytes()))?;
-    // Temporary files of an earlier, interrupted write of this checkpoint (`.NAME.PID-N.tmp`).
+    // Temporary files of an earlier, interrupted write of this checkpoint (`.NAME.PID-N-R.tmp`).
     if let Ok(entries) = std::fs::read_dir(&dir) {
         for entry in entries.filter_map(|e| e.ok()) {
             let name = entry.file_name();
             let name = name.to_string_lossy();
-            if name.starts_with('.') && name.ends_with(".tmp") {
+            if crate::io::temporary_of(&name).is_some_and(|of| output::CHECKPOINT_FILES.contains(&of)) {
                 let path = entry.path();
                 std::fs::remove_file(&path).map_err(|source| MpmError::Io { path, source })?;
             }

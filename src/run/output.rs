@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 
 use super::OutputPolicy;
 use crate::error::{MpmError, Result};
+use crate::io::temporary_of;
 
 /// The manifest of a run's output folder: the names of the files the run wrote there.
 pub const MANIFEST: &str = "manifest.json";
@@ -224,23 +225,16 @@ fn read_manifest(out: &Path) -> Result<Option<Vec<String>>> {
     Ok(Some(manifest.files))
 }
 
-/// `NAME` when `entry` is `.NAME.PID-N.tmp`, a temporary file of the atomic writer.
-pub(crate) fn temporary_of(entry: &str) -> Option<&str> {
-    let inner = entry.strip_prefix('.')?.strip_suffix(".tmp")?;
-    let (name, serial) = inner.rsplit_once('.')?;
-    let (pid, n) = serial.split_once('-')?;
-    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    (digits(pid) && digits(n)).then_some(name)
-}
+/// The files a run writes into a checkpoint folder `checkpoints/step_N`.
+pub(crate) const CHECKPOINT_FILES: [&str; 2] = ["simulation.ckpt", "run.json"];
 
-/// Removes from `out` the files `listed` names (checkpoints before their folder), the
-/// temporary files of their interrupted writes, and the manifest.
+/// Removes from `out` the files `listed` names (a checkpoint's own files before its folder,
+/// checkpoints before their folder), the temporary files of their interrupted writes, and the
+/// manifest. A folder goes only when it is empty then: what else was put there stays.
 fn remove_listed(out: &Path, listed: &[String], entries: &[String]) -> Result<()> {
-    let remove = |path: PathBuf, folder: bool| {
+    let remove = |path: PathBuf| {
         let removed = match std::fs::symlink_metadata(&path) {
             Err(_) => return Ok(()),
-            Ok(meta) if meta.is_dir() && folder => std::fs::remove_dir_all(&path),
-            // The checkpoints folder goes only when empty: anything else put there stays.
             Ok(meta) if meta.is_dir() => match std::fs::remove_dir(&path) {
                 Err(e) if e.kind() == std::io::ErrorKind::DirectoryNotEmpty => Ok(()),
                 other => other,
@@ -252,15 +246,33 @@ fn remove_listed(out: &Path, listed: &[String], entries: &[String]) -> Result<()
     let mut ordered: Vec<&String> = listed.iter().collect();
     ordered.sort_by_key(|n| n.as_str() == "checkpoints");
     for name in ordered {
-        remove(out.join(name), is_checkpoint(name))?;
+        let path = out.join(name);
+        if is_checkpoint(name) && path.is_dir() && !path.is_symlink() {
+            let inside: Vec<String> = std::fs::read_dir(&path)
+                .map_err(|source| MpmError::Io {
+                    path: path.clone(),
+                    source,
+                })?
+                .filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect();
+            for entry in inside {
+                let own = CHECKPOINT_FILES.contains(&entry.as_str())
+                    || temporary_of(&entry).is_some_and(|of| CHECKPOINT_FILES.contains(&of));
+                if own {
+                    remove(path.join(entry))?;
+                }
+            }
+        }
+        remove(path)?;
     }
-    // `.NAME.PID-N.tmp` of a listed NAME (the atomic writer's temporary files).
+    // `.NAME.PID-N-R.tmp` of a listed NAME (the atomic writer's temporary files).
     for entry in entries {
         if temporary_of(entry).is_some_and(|name| name == MANIFEST || listed.iter().any(|l| l == name)) {
-            remove(out.join(entry), false)?;
+            remove(out.join(entry))?;
         }
     }
-    remove(out.join(MANIFEST), false)
+    remove(out.join(MANIFEST))
 }
 
 #[cfg(test)]

@@ -138,9 +138,8 @@ pub fn resume_run(
             let name = PathBuf::from(entry.file_name());
             let text = name.to_string_lossy();
             let after = text.starts_with("particles_") && text.ends_with(".vtp") && !kept.contains(&name);
-            // Only what the run wrote (its manifest lists it), and the atomic writer's `.NAME.PID-N.tmp`.
-            let temporary =
-                super::output::temporary_of(&text).is_some_and(|of| of == super::MANIFEST || claim.lists(of));
+            // Only what the run wrote (its manifest lists it), and the atomic writer's `.NAME.PID-N-R.tmp`.
+            let temporary = crate::io::temporary_of(&text).is_some_and(|of| of == super::MANIFEST || claim.lists(of));
             if (after && claim.lists(&text)) || temporary {
                 let path = out.join(&name);
                 std::fs::remove_file(&path).map_err(|source| MpmError::Io { path, source })?;

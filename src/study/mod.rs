@@ -270,6 +270,26 @@ impl StudySpec {
         if self.particles_per_cell.iter().any(|&n| n == 0 || n > 8) {
             return bad("particles_per_cell", "must lie between 1 and 8");
         }
+        // A value listed twice would plan the same run twice (one run folder for two entries).
+        fn twice<T: PartialEq + std::fmt::Debug>(values: &[T]) -> Option<String> {
+            (1..values.len()).find_map(|j| values[..j].contains(&values[j]).then(|| format!("{:?}", values[j])))
+        }
+        for (key, repeated) in [
+            ("parts", twice(&self.parts)),
+            ("masses", twice(&self.masses)),
+            ("shapes", twice(&self.shapes)),
+            ("bar_cells", twice(&self.bar_cells)),
+            ("vortex_cells", twice(&self.vortex_cells)),
+            ("cantilever_cells", twice(&self.cantilever_cells)),
+            ("particles_per_cell", twice(&self.particles_per_cell)),
+            ("stabilizations", twice(&self.stabilizations)),
+            ("wave_cells", twice(&self.wave_cells)),
+            ("impulse_cells", twice(&self.impulse_cells)),
+        ] {
+            if let Some(value) = repeated {
+                return bad(key, &format!("lists {value} twice: give each value once"));
+            }
+        }
         Ok(())
     }
 

@@ -17,7 +17,7 @@ pub(super) fn write_runs_csv(runs: &[StudyRun], path: &Path) -> Result<()> {
         path: path.to_path_buf(),
         source: std::io::Error::other(e.to_string()),
     };
-    let mut w = csv::Writer::from_path(path).map_err(io)?;
+    let mut w = csv::Writer::from_writer(Vec::new());
     let mut header = vec![
         "part",
         "problem",
@@ -89,8 +89,9 @@ pub(super) fn write_runs_csv(runs: &[StudyRun], path: &Path) -> Result<()> {
         }
         w.write_record(&row).map_err(io)?;
     }
-    w.flush().map_err(|source| MpmError::Io {
+    let bytes = w.into_inner().map_err(|e| MpmError::Io {
         path: path.to_path_buf(),
-        source,
-    })
+        source: std::io::Error::other(e.to_string()),
+    })?;
+    crate::io::write_atomically(path, |f| std::io::Write::write_all(f, &bytes))
 }

@@ -172,7 +172,21 @@ impl StudyPlan {
                 cells: p.cells,
                 choices: p.choices,
             })
-            .collect();
+            .collect::<Vec<PlannedRun>>();
+        let mut seen = std::collections::HashMap::new();
+        for r in &runs {
+            if let Some(first) = seen.insert(r.id.as_str(), r) {
+                return Err(MpmError::InvalidScene {
+                    key: "study".into(),
+                    reason: format!(
+                        "runs {} and {} are the same run ({}): a key of the spec lists a value twice",
+                        first.index,
+                        r.index,
+                        r.describe()
+                    ),
+                });
+            }
+        }
         Ok(StudyPlan {
             format: PLAN_FORMAT.into(),
             version: VERSION.into(),
@@ -218,8 +232,18 @@ pub fn plan_study(spec: &StudySpec, dir: &Path) -> Result<StudyPlan> {
                 "the folder holds the plan of another spec: plan it in another folder, or remove the folder".into(),
             ));
         }
+        if !dir.join("plan.csv").is_file() {
+            write_plan_csv(&existing, dir)?;
+        }
         return Ok(existing);
     }
+    write_plan_csv(&plan, dir)?;
+    write_json(&path, &plan)?;
+    Ok(plan)
+}
+
+/// `plan.csv`: a row per run of `plan` (index, id, part, problem, label, cells).
+fn write_plan_csv(plan: &StudyPlan, dir: &Path) -> Result<()> {
     let mut csv = String::from("index,id,part,problem,label,cells\n");
     for r in &plan.runs {
         csv.push_str(&format!(
@@ -232,9 +256,34 @@ pub fn plan_study(spec: &StudySpec, dir: &Path) -> Result<StudyPlan> {
             r.cells
         ));
     }
-    crate::io::write_atomically(&dir.join("plan.csv"), |w| std::io::Write::write_all(w, csv.as_bytes()))?;
-    write_json(&path, &plan)?;
-    Ok(plan)
+    crate::io::write_atomically(&dir.join("plan.csv"), |w| std::io::Write::write_all(w, csv.as_bytes()))
+}
+
+/// The crate version that planned `dir/plan.json` when it is a study plan of any version,
+/// `None` when there is no such file or it is not a study plan.
+pub(super) fn plan_version(dir: &Path) -> Option<String> {
+    let text = crate::io::read_bounded_text(&dir.join("plan.json"), MAX_RECORD_BYTES, "study plan").ok()?;
+    let value: serde_json::Value = serde_json::from_str(&text).ok()?;
+    (value.get("format")?.as_str()? == PLAN_FORMAT)
+        .then(|| value.get("version")?.as_str().map(str::to_string))
+        .flatten()
+}
+
+/// Whether `name` is a file a run writes into its folder `runs/ID/` (or a temporary file of
+/// one's interrupted write).
+pub(super) fn is_run_file(name: &str) -> bool {
+    const FILES: [&str; 3] = ["params.json", "result.json", "complete"];
+    FILES.contains(&name) || crate::io::temporary_of(name).is_some_and(|of| FILES.contains(&of))
+}
+
+/// Whether `name` is a run id (16 lower-case hexadecimal digits).
+pub(super) fn is_run_id(name: &str) -> bool {
+    name.len() == 16 && name.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+}
+
+/// The crate version that plans, runs and merges.
+pub(super) fn version() -> &'static str {
+    VERSION
 }
 
 /// Reads `dir/plan.json`, checking that this crate version planned it and that its runs are
@@ -401,7 +450,10 @@ pub fn run_share(dir: &Path, share: Share, mut progress: impl FnMut(&StudyProgre
         if i >= plan.runs.len() {
             return Err(MpmError::InvalidOption {
                 option: "--index",
-                reason: format!("{i}: the plan has runs 0 to {}", plan.runs.len().saturating_sub(1)),
+                reason: match plan.runs.len() {
+                    0 => format!("{i}: the plan has no runs"),
+                    len => format!("{i}: the plan has runs 0 to {}", len - 1),
+                },
             });
         }
     }
@@ -422,6 +474,12 @@ pub fn run_share(dir: &Path, share: Share, mut progress: impl FnMut(&StudyProgre
         }
         let folder = run_dir(dir, &run.id);
         std::fs::create_dir_all(&folder).map_err(io_error(&folder))?;
+        // A marker left beside a result that is missing or not whole: the run is done again.
+        let marker = folder.join("complete");
+        match std::fs::remove_file(&marker) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io_error(&marker)(e)),
+            _ => {}
+        }
         write_json(&folder.join("params.json"), run)?;
         let outcome = run.planned().run().map_err(|e| e.to_string());
         summary.failed += usize::from(outcome.is_err());
@@ -446,25 +504,32 @@ pub fn run_share(dir: &Path, share: Share, mut progress: impl FnMut(&StudyProgre
     Ok(summary)
 }
 
-/// The outcome of `run` when it is complete in `dir`, `None` when it is not.
+/// The outcome of `run` when it is complete in `dir`, `None` when it is not: no completion
+/// marker, or a marker beside a result that is missing or not a whole result (a damaged run is
+/// run again).
 ///
 /// # Errors
-/// [`MpmError::Io`] naming the result file when it is not a result, or one of another crate
-/// version, plan or run.
+/// [`MpmError::Io`] naming the result file when it is a result of another crate version, plan
+/// or run (runs of different studies are not mixed), or cannot be read.
 fn read_result(dir: &Path, plan: &StudyPlan, run: &PlannedRun) -> Result<Option<std::result::Result<Outcome, String>>> {
     let folder = run_dir(dir, &run.id);
     if !folder.join("complete").is_file() {
         return Ok(None);
     }
     let path = folder.join("result.json");
-    let text = crate::io::read_bounded_text(&path, MAX_RECORD_BYTES, "study run")?;
-    let record: RunRecord =
-        serde_json::from_str(&text).map_err(|e| study_error(&path, format!("not a study run's result: {e}")))?;
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let text = match crate::io::read_bounded_text(&path, MAX_RECORD_BYTES, "study run") {
+        Ok(text) => text,
+        Err(MpmError::Io { source, .. }) if source.kind() == std::io::ErrorKind::InvalidData => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let Ok(record) = serde_json::from_str::<RunRecord>(&text) else {
+        return Ok(None);
+    };
     if record.format != RESULT_FORMAT {
-        return Err(study_error(
-            &path,
-            format!("`{}` is not `{RESULT_FORMAT}`", record.format),
-        ));
+        return Ok(None);
     }
     if record.version != plan.version {
         return Err(study_error(

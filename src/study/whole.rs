@@ -6,7 +6,8 @@ use std::path::Path;
 use super::report::section;
 use super::runs_csv::write_runs_csv;
 use super::{
-    merge_study, plan_study, read_plan, run_share, Share, StudyPlan, StudyProgress, StudyRun, StudySpec, StudySummary,
+    merge_study, plan_study, read_plan, run_share, shard, Share, StudyPlan, StudyProgress, StudyRun, StudySpec,
+    StudySummary,
 };
 use crate::error::{MpmError, Result};
 
@@ -14,29 +15,96 @@ use crate::error::{MpmError, Result};
 /// needed): the plan ([`plan_study`]), every run ([`run_share`] with [`Share::All`]) and the
 /// merge ([`merge_study`]) in one process. A run that fails (for example a singular consistent
 /// mass with one particle per cell) is recorded with its error and left out of the plots; the
-/// study goes on. Runs already complete in `out` from the same plan are not run again; the
-/// plan and runs of another spec or crate version there are replaced.
+/// study goes on. Runs already complete in `out` from the same plan are not run again. The plan
+/// and runs of another spec or crate version there are replaced: only the files a study writes
+/// are removed, and nothing at all when `runs/` holds anything else.
 ///
 /// # Errors
-/// [`MpmError::Io`] when the folder or a file cannot be written; [`MpmError::InvalidScene`]
-/// for an invalid spec.
+/// [`MpmError::Io`] when the folder or a file cannot be written, when `out/plan.json` is not a
+/// study plan (damaged, edited, or another program's), or when `out/runs/` holds files a study
+/// does not write; [`MpmError::InvalidScene`] for an invalid spec.
 pub fn run_study(spec: &StudySpec, out: &Path, progress: impl FnMut(&StudyProgress)) -> Result<StudySummary> {
     let fresh = StudyPlan::of(spec)?;
-    if out.join("plan.json").exists() && read_plan(out).map_or(true, |p| p.spec_digest != fresh.spec_digest) {
-        for name in ["plan.json", "plan.csv"] {
-            let path = out.join(name);
-            std::fs::remove_file(&path)
-                .or_else(ignore_missing)
-                .map_err(|source| MpmError::Io { path, source })?;
+    if std::fs::symlink_metadata(out.join("plan.json")).is_ok() {
+        match read_plan(out) {
+            Ok(plan) if plan.spec_digest == fresh.spec_digest => {}
+            Ok(_) => remove_previous_study(out)?,
+            Err(_) if shard::plan_version(out).is_some_and(|v| v != shard::version()) => remove_previous_study(out)?,
+            Err(e) => {
+                return Err(crate::io::invalid_data(
+                    &out.join("plan.json"),
+                    format!("{e}; nothing was removed: give another --out, or remove the folder"),
+                ))
+            }
         }
-        let runs = out.join("runs");
-        std::fs::remove_dir_all(&runs)
-            .or_else(ignore_missing)
-            .map_err(|source| MpmError::Io { path: runs, source })?;
     }
     plan_study(spec, out)?;
     run_share(out, Share::All, progress)?;
     Ok(merge_study(out)?.study)
+}
+
+/// Removes the plan and the runs of the study in `out` (another spec's or crate version's):
+/// `plan.json`, `plan.csv` and `runs/ID/` with the files a run writes. Anything else in `runs/`
+/// is an error naming it, and then nothing is removed. The report, `runs.csv` and the plots
+/// stay until the merge replaces them.
+fn remove_previous_study(out: &Path) -> Result<()> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| MpmError::Io { path, source }
+    };
+    let list = |dir: &Path| -> Result<Vec<String>> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .map_err(io(dir))?
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        Ok(names)
+    };
+    let runs = out.join("runs");
+    let mut files = Vec::new();
+    let mut folders = Vec::new();
+    if std::fs::symlink_metadata(&runs).is_ok_and(|m| m.is_dir()) {
+        let mut foreign = Vec::new();
+        for id in list(&runs)? {
+            let folder = runs.join(&id);
+            let is_folder = std::fs::symlink_metadata(&folder).is_ok_and(|m| m.is_dir());
+            if !(shard::is_run_id(&id) && is_folder) {
+                foreign.push(format!("runs/{id}"));
+                continue;
+            }
+            for name in list(&folder)? {
+                if shard::is_run_file(&name) && folder.join(&name).is_file() {
+                    files.push(folder.join(&name));
+                } else {
+                    foreign.push(format!("runs/{id}/{name}"));
+                }
+            }
+            folders.push(folder);
+        }
+        if !foreign.is_empty() {
+            return Err(crate::io::invalid_data(
+                &runs,
+                format!(
+                    "the study folder's runs/ holds {} that a study does not write ({}): nothing was removed; move                      them, or give another --out",
+                    if foreign.len() == 1 { "a file" } else { "files" },
+                    foreign.iter().take(5).cloned().collect::<Vec<_>>().join(", ")
+                ),
+            ));
+        }
+        folders.push(runs);
+    }
+    for path in files {
+        std::fs::remove_file(&path).or_else(ignore_missing).map_err(io(&path))?;
+    }
+    for path in folders {
+        std::fs::remove_dir(&path).or_else(ignore_missing).map_err(io(&path))?;
+    }
+    for name in ["plan.json", "plan.csv"] {
+        let path = out.join(name);
+        std::fs::remove_file(&path).or_else(ignore_missing).map_err(io(&path))?;
+    }
+    Ok(())
 }
 
 fn ignore_missing(e: std::io::Error) -> std::io::Result<()> {
@@ -47,6 +115,19 @@ fn ignore_missing(e: std::io::Error) -> std::io::Result<()> {
     }
 }
 
+/// The plots `out/report.md` embeds (`![…](NAME.png)`, plain file names only).
+fn plots_of_report(out: &Path) -> Vec<String> {
+    let Ok(text) = crate::io::read_bounded_text(&out.join("report.md"), 64 << 20, "study report") else {
+        return Vec::new();
+    };
+    text.split("](")
+        .skip(1)
+        .filter_map(|rest| rest.split_once(')').map(|(name, _)| name))
+        .filter(|name| name.ends_with(".png") && !name.contains(['/', '\\']) && !name.starts_with('.'))
+        .map(str::to_string)
+        .collect()
+}
+
 /// Writes `runs.csv`, the plots and `report.md` of `runs` (in plan order) into `out`, listing
 /// the runs that failed and those `missing` (described).
 pub(super) fn write_study(
@@ -55,6 +136,16 @@ pub(super) fn write_study(
     missing: &[String],
     out: &Path,
 ) -> Result<StudySummary> {
+    // The old report goes first, the new one is written last: a merge that fails or is
+    // stopped half-way leaves no report beside runs.csv and plots it does not describe.
+    let old_plots = plots_of_report(out);
+    let report_path = out.join("report.md");
+    std::fs::remove_file(&report_path)
+        .or_else(ignore_missing)
+        .map_err(|source| MpmError::Io {
+            path: report_path.clone(),
+            source,
+        })?;
     let csv = out.join("runs.csv");
     write_runs_csv(&runs, &csv)?;
     let mut plots = Vec::new();
@@ -100,11 +191,16 @@ pub(super) fn write_study(
             writeln!(report, "- {m}").ok();
         }
     }
-    let report_path = out.join("report.md");
-    std::fs::write(&report_path, report).map_err(|source| MpmError::Io {
-        path: report_path.clone(),
-        source,
-    })?;
+    // Plots of the report replaced that this one does not draw (another spec's parts).
+    for name in old_plots {
+        let path = out.join(&name);
+        if !plots.iter().any(|p: &std::path::PathBuf| p == &path) {
+            std::fs::remove_file(&path)
+                .or_else(ignore_missing)
+                .map_err(|source| MpmError::Io { path, source })?;
+        }
+    }
+    crate::io::write_atomically(&report_path, |w| std::io::Write::write_all(w, report.as_bytes()))?;
     Ok(StudySummary {
         runs,
         report: report_path,

@@ -62,9 +62,10 @@ enum StudyAction {
             long,
             value_name = "K/N",
             conflicts_with = "index",
-            required_unless_present = "index"
+            required_unless_present = "index",
+            value_parser = parse_shard
         )]
-        shard: Option<String>,
+        shard: Option<Share>,
         /// The one run of this 0-based plan index.
         #[arg(long, value_name = "I")]
         index: Option<usize>,
@@ -85,6 +86,17 @@ enum StudyAction {
         quiet: bool,
     },
 }
+
+/// `--shard K/N`, checked while the command line is read (a bad value exits with status 2).
+fn parse_shard(text: &str) -> Result<Share, String> {
+    Share::parse_shard(text).map_err(|e| match e {
+        sparse_mpm::MpmError::InvalidOption { reason, .. } => reason,
+        other => other.to_string(),
+    })
+}
+
+/// The exit status of a command line that asks for what cannot be (as clap's own errors).
+const USAGE: u8 = 2;
 
 /// The spec the options describe.
 fn spec_of(args: &SpecArgs) -> Result<StudySpec, String> {
@@ -179,12 +191,21 @@ pub(crate) fn study(args: &StudyArgs) -> Result<u8, String> {
             quiet,
         }) => {
             let share = match (shard, index) {
-                (Some(text), _) => Share::parse_shard(text).map_err(|e| e.to_string())?,
+                (Some(share), _) => *share,
                 (None, Some(i)) => Share::Index(*i),
                 (None, None) => unreachable!("clap requires --shard or --index"),
             };
             let bar = progress_bar(*quiet);
-            let s = run_share(dir, share, show(&bar)).map_err(|e| e.to_string())?;
+            let s = match run_share(dir, share, show(&bar)) {
+                Ok(s) => s,
+                // An index beyond the plan is a bad command line, told apart from a failed run.
+                Err(e @ sparse_mpm::MpmError::InvalidOption { option: "--index", .. }) => {
+                    bar.finish_and_clear();
+                    eprintln!("error: {e}");
+                    return Ok(USAGE);
+                }
+                Err(e) => return Err(e.to_string()),
+            };
             bar.finish_and_clear();
             if !quiet {
                 println!(
@@ -216,10 +237,12 @@ pub(crate) fn study(args: &StudyArgs) -> Result<u8, String> {
             }
             if !m.missing.is_empty() {
                 eprintln!(
-                    "{} runs are missing (listed in the report), the first: {}",
-                    m.missing.len(),
-                    m.missing[0].describe()
+                    "{} of the plan's runs are missing (also listed in the report):",
+                    m.missing.len()
                 );
+                for r in &m.missing {
+                    eprintln!("  {} (runs/{}): {}", r.index, r.id, r.describe());
+                }
                 if !allow_missing {
                     return Ok(MISSING_RUNS);
                 }

@@ -103,7 +103,7 @@
 //!
 //! # Never half-written
 //!
-//! Every file is written to a temporary file (`.NAME.PID-N.tmp`) in the same directory, synced
+//! Every file is written to a temporary file (`.NAME.PID-N-R.tmp`) in the same directory, synced
 //! to disk and renamed to `NAME`, so a run that is stopped at any moment, or a machine that
 //! loses power, leaves either the previous complete file or the new complete one, never a
 //! truncated one (the temporary file is removed when writing fails).
