@@ -40,18 +40,23 @@ pub enum Integrator {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Newmark {
-    /// `β` in (0, ½].
+    /// `β` in (0, ½], with `2β ≥ γ` (stable for every `Δt`).
     pub beta: f64,
     /// `γ` in [½, 1].
     pub gamma: f64,
     /// Converged when `‖r‖ ≤ tolerance · ‖|f_ext| + |f_int| + (|M u| + |M c|)/(β Δt²)‖` on the free
     /// degrees of freedom (`c = Δt v_n + Δt² (½ − β) a_n`: the size of each term of
-    /// `r = f_ext + f_int − M (u − c)/(β Δt²)`), or the increment `‖δu‖ ≤ tolerance · ‖u‖`; in
-    /// (0, 1).
+    /// `r = f_ext + f_int − M (u − c)/(β Δt²)`), or when the increment `‖δu‖ ≤ tolerance · ‖u‖`
+    /// with that relative residual within `√tolerance` (a residual held up by round-off); in
+    /// [`MIN_TOLERANCE`], 1).
     pub tolerance: f64,
     /// Newton iterations allowed per step (1 to 1000).
     pub max_iterations: usize,
 }
+
+/// The smallest relative tolerance of the Newton iterations: about a hundred times the
+/// round-off of `f64`.
+pub const MIN_TOLERANCE: f64 = 1e-14;
 
 impl Default for Newmark {
     fn default() -> Self {
@@ -83,10 +88,27 @@ impl Newmark {
                 format!("{}: γ must lie in [0.5, 1]", self.gamma),
             );
         }
-        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+        if self.gamma > 2.0 * self.beta {
+            return bad(
+                "integrator.newmark.beta",
+                format!(
+                    "β = {}, γ = {}: Newmark's rule is stable for every Δt only when 2β ≥ γ ≥ ½, and this engine \
+                     has no stable-step limit for it; give β ≥ γ/2 = {} (β = 0.25, γ = 0.5 is the average \
+                     acceleration rule)",
+                    self.beta,
+                    self.gamma,
+                    self.gamma / 2.0
+                ),
+            );
+        }
+        if !(self.tolerance >= MIN_TOLERANCE && self.tolerance < 1.0) {
             return bad(
                 "integrator.newmark.tolerance",
-                format!("{}: the relative tolerance must lie in (0, 1)", self.tolerance),
+                format!(
+                    "{}: the relative tolerance must lie in [{MIN_TOLERANCE:e}, 1) (a residual relative to the \
+                     size of its terms does not fall much below round-off)",
+                    self.tolerance
+                ),
             );
         }
         if !(1..=1000).contains(&self.max_iterations) {

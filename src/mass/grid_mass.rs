@@ -279,6 +279,39 @@ impl GridMass {
         Some(BoundingMass { matrix, preconditioner })
     }
 
+    /// The mass matrix the solve of `role` stands for, over all nodes:
+    ///
+    /// ```text
+    /// lumped, or after a fall-back to lumped            diag(m_L)
+    /// consistent, blended (factorized)                  g M_s + (1 − g) diag(m_L)
+    ///     g = 1 (consistent) or γ (blended), times (1 − ε) after a regularisation
+    /// conjugate gradient                                M_s
+    /// truncated series                                  M (the plain matrix it is defined with)
+    /// ```
+    ///
+    /// with `M_s` the stabilised consistent mass (the plain `M` without a stabilisation).
+    pub(crate) fn solved_matrix(&self, role: Role) -> CscMatrix<f64> {
+        let diagonal = |scale: f64| lumped_matrix(&self.lumped, scale);
+        let solver = self.solver(role);
+        if matches!(solver.outcome, SolveOutcome::FellBackToLumped { .. }) {
+            return diagonal(1.0);
+        }
+        let matrix = match self.scheme(role) {
+            MassScheme::Lumped => None,
+            MassScheme::Consistent | MassScheme::Blended { .. } => solver.gamma.and_then(|g| {
+                let m = self.matrices.factorized_csc()?;
+                Some(if g == 1.0 {
+                    m.clone()
+                } else {
+                    &(m * g) + &diagonal(1.0 - g)
+                })
+            }),
+            MassScheme::Iterative { .. } => self.matrices.factorized_csc().cloned(),
+            MassScheme::TruncatedSeries { .. } => self.matrices.plain_csc().map(|m| m.into_owned()),
+        };
+        matrix.unwrap_or_else(|| diagonal(1.0))
+    }
+
     /// The options in force.
     pub fn options(&self) -> MassOptions {
         self.options
@@ -544,4 +577,16 @@ impl BoundingMass<'_> {
     pub(crate) fn diagonal(&self) -> &[f64] {
         self.preconditioner
     }
+}
+
+/// `scale · diag(m_L)`.
+pub(crate) fn lumped_matrix(lumped: &[f64], scale: f64) -> CscMatrix<f64> {
+    let n = lumped.len();
+    let mut coo = nalgebra_sparse::CooMatrix::new(n, n);
+    for (i, &m) in lumped.iter().enumerate() {
+        if m != 0.0 {
+            coo.push(i, i, scale * m);
+        }
+    }
+    CscMatrix::from(&coo)
 }

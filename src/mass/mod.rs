@@ -40,6 +40,7 @@ mod stencil;
 
 pub(crate) use cholesky::SparseCholesky;
 pub use diagnostics::{solve_condition_number, MassDiagnostics, TINY_MASS_FRACTION};
+pub(crate) use grid_mass::lumped_matrix;
 pub use grid_mass::{GridMass, Role};
 pub(crate) use matrices::csc_times;
 pub use options::{

@@ -14,9 +14,11 @@
 //!          v_p ← v_p + Nᵀ (v_{n+1} − v_n) (FLIP), Nᵀ v_{n+1} (PIC), or a blend
 //! ```
 //!
-//! `M` is the mass of the acceleration scheme as a matrix: `diag(m_L)` (lumped), the consistent
-//! mass with its stabilisation (consistent, conjugate gradient, truncated series), or
-//! `(1 − γ) M_L + γ M` (blended). The free degrees of freedom are the nodes of positive lumped
+//! `M` is the matrix the acceleration solve of (7) stands for (`GridMass::solved_matrix`):
+//! `diag(m_L)` (lumped, or after a fall-back to lumped), the consistent mass with its
+//! stabilisation (consistent, conjugate gradient), the plain one (truncated series), or
+//! `g M_s + (1 − g) diag(m_L)` (blended, and after a regularisation), so that `a_n` of (7) and
+//! the Newmark residual use one mass. The free degrees of freedom are the nodes of positive lumped
 //! mass less the prescribed components, where `u = Δt v̄` (`a = 0`). The Newton iterations and the
 //! relative residual are reported in the acceleration solve's columns of the step report.
 
@@ -27,37 +29,8 @@ use super::{Cache, Simulation, StepReport, TimeStep, Transfer};
 use crate::error::{MpmError, Result};
 use crate::implicit::{displacement_gradients, gradient_operator, internal_force_and_tangent, Newmark};
 use crate::kernels::KineticEnergies;
-use crate::mass::{GridMass, MassScheme, SolveOutcome, SolveReport};
+use crate::mass::{lumped_matrix, Role, SingularityPolicy, SolveOutcome, SolveReport};
 use crate::material::Material;
-
-/// `M` of the Newmark residual (n × n, the same for both components).
-fn newmark_mass(mass: &GridMass, n: usize) -> CscMatrix<f64> {
-    let lumped = mass.lumped();
-    let diagonal = |scale: f64| {
-        let mut coo = CooMatrix::new(n, n);
-        for (i, &m) in lumped.iter().enumerate() {
-            if m != 0.0 {
-                coo.push(i, i, scale * m);
-            }
-        }
-        CscMatrix::from(&coo)
-    };
-    let consistent = || -> Option<CscMatrix<f64>> {
-        mass.stabilized_matrix()
-            .cloned()
-            .or_else(|| mass.consistent_matrix().map(|m| m.into_owned()))
-    };
-    match mass.options().acceleration {
-        MassScheme::Lumped => diagonal(1.0),
-        MassScheme::Blended { gamma } => match consistent() {
-            Some(m) => &(&m * gamma) + &diagonal(1.0 - gamma),
-            None => diagonal(1.0),
-        },
-        MassScheme::Consistent | MassScheme::Iterative { .. } | MassScheme::TruncatedSeries { .. } => {
-            consistent().unwrap_or_else(|| diagonal(1.0))
-        }
-    }
-}
 
 /// `y = M x` for both components stacked (x values, then y values).
 fn mass_times(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
@@ -77,6 +50,26 @@ fn admissible(ops: &crate::operators::Operators, u: &[f64]) -> bool {
         .all(|h| (1.0 + h[0]) * (1.0 + h[3]) - h[1] * h[2] > 0.0)
 }
 
+/// What to change when the Newton iterations of a step do not converge, from their relative
+/// residuals (`small_increment`: the last increment was below the tolerance).
+fn newton_advice(residuals: &[f64], small_increment: bool) -> String {
+    let last = residuals.last().copied().unwrap_or(f64::INFINITY);
+    let earlier = residuals.len().checked_sub(4).map(|i| residuals[i]);
+    let stagnant = earlier.is_some_and(|e| last > 0.1 * e);
+    if small_increment {
+        "the increments vanish while the residual does not (the iterate ran away, or the Newton matrix is \
+         nearly singular: a singular mass with `schemes.mass.singularity`?): take a smaller time.dt"
+            .into()
+    } else if stagnant && last < 1e-6 {
+        format!(
+            "the residual stalls near {last:.1e}, the round-off of this problem: raise \
+             schemes.integrator.newmark.tolerance above it"
+        )
+    } else {
+        "take a smaller time.dt, or raise schemes.integrator.newmark.max_iterations".into()
+    }
+}
+
 fn norm(v: impl Iterator<Item = f64>) -> f64 {
     v.map(|x| x * x).sum::<f64>().sqrt()
 }
@@ -92,7 +85,8 @@ impl Simulation {
             });
         };
         let dt = dt.min(max_dt);
-        let step = self.state.steps;
+        // The step's number as report.csv and the other step errors count (from 1).
+        let step = self.state.steps + 1;
         let Simulation {
             setup,
             options,
@@ -116,16 +110,27 @@ impl Simulation {
         let (f_int0, _) = internal_force_and_tangent(ops, &g, p, &materials, &vec![0.0; 2 * n])?;
         let force = stack(&nodes.force.x, &nodes.force.y);
         let f_ext: Vec<f64> = force.iter().zip(&f_int0).map(|(f, i)| f - i).collect();
-        let m = newmark_mass(mass, n);
-        // Free degrees of freedom: nodes with mass, less the prescribed components.
-        let mut free = vec![true; 2 * n];
-        let mut u = vec![0.0; 2 * n];
-        for i in 0..n {
-            if mass.lumped()[i] <= 0.0 {
-                free[i] = false;
-                free[n + i] = false;
+        let mut m = mass.solved_matrix(Role::Acceleration);
+        let mut outcome = base_solve.outcome;
+        // Free degrees of freedom: nodes with mass, and nodes without mass whose shape function
+        // has a gradient at a particle (a particle on the edge of the node's support: N = 0,
+        // ∇N ≠ 0), which the particles' strain sees; less the prescribed components.
+        let mut free = vec![false; 2 * n];
+        for (i, &m) in mass.lumped().iter().enumerate() {
+            free[i] = m > 0.0;
+        }
+        for q in 0..p.len() {
+            for (node, _, gx, gy) in ops.column(q) {
+                if gx != 0.0 || gy != 0.0 {
+                    free[node] = true;
+                }
             }
         }
+        for i in 0..n {
+            free[n + i] = free[i];
+        }
+        let massless = |k: usize| mass.lumped()[k % n] <= 0.0;
+        let mut u = vec![0.0; 2 * n];
         let (beta, gamma) = (newmark.beta, newmark.gamma);
         for k in 0..2 * n {
             if free[k] {
@@ -173,6 +178,7 @@ impl Simulation {
                 })
                 .collect()
         };
+        let start = u.clone();
         let mut iterations = 0;
         let mut relative = f64::INFINITY;
         let mut solver = std::mem::take(&mut scratch.newton);
@@ -211,18 +217,29 @@ impl Simulation {
                 0.0
             };
             scratch.newton_residuals.push(relative);
-            if relative <= newmark.tolerance || small_increment || dofs.is_empty() {
-                break;
-            }
-            if iterations >= newmark.max_iterations {
+            if !relative.is_finite() || !u.iter().all(|x| x.is_finite()) {
                 scratch.newton = solver;
                 return Err(MpmError::NewtonFailed {
                     step,
                     iterations,
                     residual: relative,
-                    reason: "take a smaller time.dt, or raise schemes.integrator.newmark.max_iterations or its \
-                             tolerance"
-                        .into(),
+                    reason: "the iterate is not finite: take a smaller time.dt".into(),
+                });
+            }
+            // A small increment ends the iterations only with a residual within √tolerance:
+            // one held up by round-off, not an iterate that ran away (where every increment is
+            // small beside a huge `u`).
+            let stalled = small_increment && relative <= newmark.tolerance.sqrt();
+            if relative <= newmark.tolerance || stalled || dofs.is_empty() {
+                break;
+            }
+            if small_increment || iterations >= newmark.max_iterations {
+                scratch.newton = solver;
+                return Err(MpmError::NewtonFailed {
+                    step,
+                    iterations,
+                    residual: relative,
+                    reason: newton_advice(&scratch.newton_residuals, small_increment),
                 });
             }
             // (K + M / (β Δt²)) on the free degrees of freedom.
@@ -243,12 +260,44 @@ impl Simulation {
             let jacobian = CscMatrix::from(&coo);
             let mut delta = r;
             if let Err(reason) = solver.solve(&jacobian, &mut delta) {
+                // K and M share a null vector (a consistent mass without stabilisation and
+                // stiffness without its zero-energy modes held): the mass's singularity policy
+                // applies to the Newton matrix too, and the step starts again.
+                let substitute = match (options.mass.singularity, outcome) {
+                    (_, SolveOutcome::FellBackToLumped { .. }) => None,
+                    (SingularityPolicy::FallbackToLumped, _) => Some((
+                        lumped_matrix(mass.lumped(), 1.0),
+                        SolveOutcome::FellBackToLumped {
+                            node: None,
+                            relative_pivot: f64::NAN,
+                        },
+                    )),
+                    (SingularityPolicy::Regularize { epsilon }, SolveOutcome::Solved) => Some((
+                        &(&m * (1.0 - epsilon)) + &lumped_matrix(mass.lumped(), epsilon),
+                        SolveOutcome::Regularized { node: None, epsilon },
+                    )),
+                    _ => None,
+                };
+                if let Some((replacement, substituted)) = substitute {
+                    m = replacement;
+                    outcome = substituted;
+                    u.clone_from(&start);
+                    iterations = 0;
+                    relative = f64::INFINITY;
+                    small_increment = false;
+                    scratch.newton_residuals.clear();
+                    continue;
+                }
                 scratch.newton = solver;
                 return Err(MpmError::NewtonFailed {
                     step,
                     iterations,
                     residual: relative,
-                    reason,
+                    reason: format!(
+                        "{reason}: the Newton matrix K + M/(β Δt²) is singular (a consistent mass without \
+                         schemes.mass.stabilization and few particles per cell?); give schemes.mass.singularity = \
+                         \"fallback_to_lumped\" or {{ regularize = {{ epsilon = 0.1 }} }}, or a stabilisation"
+                    ),
                 });
             }
             // Backtracking: the Newton step halved until no particle inverts.
@@ -274,14 +323,13 @@ impl Simulation {
         }
         scratch.newton = solver;
         // (9)
+        // Nodes without mass carry no acceleration; their velocity is their displacement rate.
         let a1 = accel(&u);
         let mut v1: Vec<f64> = (0..2 * n)
-            .map(|k| {
-                if free[k] {
-                    vn[k] + dt * ((1.0 - gamma) * an[k] + gamma * a1[k])
-                } else {
-                    0.0
-                }
+            .map(|k| match (free[k], massless(k)) {
+                (true, false) => vn[k] + dt * ((1.0 - gamma) * an[k] + gamma * a1[k]),
+                (true, true) => u[k] / dt,
+                (false, _) => 0.0,
             })
             .collect();
         for (c, i, v) in prescribed.each() {
@@ -290,7 +338,38 @@ impl Simulation {
         let energy = |v: &[f64]| 0.5 * v.iter().zip(mass_times(&m, v)).map(|(a, b)| a * b).sum::<f64>();
         let kinetic_before = p.kinetic_energy();
         let (k_projected, k_updated) = (energy(&vn), energy(&v1));
-        // (10)
+        // (10), after checking that every particle stays where the shape functions accept it.
+        let allowed = options.shape.allowed_region(&setup.grid);
+        for q in 0..p.len() {
+            let mut moved = [p.x[q], p.y[q]];
+            for (node, w, _, _) in ops.column(q) {
+                moved[0] += w * u[node];
+                moved[1] += w * u[n + node];
+            }
+            let inside =
+                moved[0] >= allowed[0] && moved[0] <= allowed[1] && moved[1] >= allowed[2] && moved[1] <= allowed[3];
+            if !inside {
+                return Err(MpmError::NewtonFailed {
+                    step,
+                    iterations,
+                    residual: relative,
+                    reason: format!(
+                        "the converged step moves particle {q} from ({:.6}, {:.6}) to ({:.6}, {:.6}), outside the \
+                         region [{}, {}] x [{}, {}] where the {} shape functions accept particles: take a smaller \
+                         time.dt",
+                        p.x[q],
+                        p.y[q],
+                        moved[0],
+                        moved[1],
+                        allowed[0],
+                        allowed[1],
+                        allowed[2],
+                        allowed[3],
+                        options.shape.name()
+                    ),
+                });
+            }
+        }
         let h = displacement_gradients(ops, &u);
         let transfer = options.transfer;
         let p = &mut state.particles;
@@ -348,7 +427,7 @@ impl Simulation {
         scratch.sums = None;
         let newton = SolveReport {
             scheme: base_solve.scheme,
-            outcome: SolveOutcome::Solved,
+            outcome,
             iterations,
             relative_residual: relative,
         };

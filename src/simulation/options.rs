@@ -188,12 +188,23 @@ impl Options {
         }
         if let Integrator::Newmark(newmark) = self.integrator {
             newmark.validate()?;
-            if !matches!(self.time_step, TimeStep::Fixed { .. }) {
+            let TimeStep::Fixed { dt } = self.time_step else {
                 return Err(MpmError::InvalidOption {
                     option: "integrator",
                     reason: "the Newmark integrator takes a fixed time step (time.dt): it has no stable-step limit \
                              to follow"
                         .into(),
+                });
+            };
+            // The Newton matrix holds M / (β Δt²): it must be a number.
+            let inertia = 1.0 / (newmark.beta * dt * dt);
+            if !(inertia.is_finite() && inertia.is_normal()) {
+                return Err(MpmError::InvalidOption {
+                    option: "time.dt",
+                    reason: format!(
+                        "{dt:e} with the Newmark integrator: 1/(β Δt²) = {inertia:e} is not a usable number; give a \
+                         time step of at least 1e-150"
+                    ),
                 });
             }
             if !matches!(self.transfer, Transfer::Pic | Transfer::Flip | Transfer::Blend { .. }) {

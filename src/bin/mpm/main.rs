@@ -455,9 +455,14 @@ fn check(args: &CheckArgs) -> Result<(), String> {
         sim.bodies().len()
     );
     let schemes = &scene.schemes;
+    // The Newmark step has its own order of operations: the update scheme is not used.
+    let update = match schemes.integrator {
+        sparse_mpm::simulation::Integrator::Explicit => schemes.update.to_string(),
+        sparse_mpm::simulation::Integrator::Newmark(_) => "— (Newmark)".to_string(),
+    };
     println!(
-        "shape {:#}, update {}, transfer {:#}, mass velocity {:#} / acceleration {:#}",
-        schemes.shape, schemes.update, schemes.transfer, schemes.mass.velocity, schemes.mass.acceleration
+        "shape {:#}, update {update}, transfer {:#}, mass velocity {:#} / acceleration {:#}",
+        schemes.shape, schemes.transfer, schemes.mass.velocity, schemes.mass.acceleration
     );
     match schemes.integrator {
         sparse_mpm::simulation::Integrator::Explicit => {
@@ -465,7 +470,8 @@ fn check(args: &CheckArgs) -> Result<(), String> {
         }
         sparse_mpm::simulation::Integrator::Newmark(n) => println!(
             "integrator Newmark (β = {}, γ = {}), Newton to a relative residual of {:e} in at most {} iterations; no \
-             stable-step limit",
+             stable-step limit; schemes.update and schemes.position_update are not used (the particles move by \
+             the converged grid displacement)",
             n.beta, n.gamma, n.tolerance, n.max_iterations
         ),
     }
