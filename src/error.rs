@@ -235,13 +235,23 @@ pub enum MpmError {
          iteration(s) (relative residual {residual:.3e}): {reason}"
     )]
     NewtonFailed {
-        /// The step (0-based count of steps taken before it).
+        /// The step (counted from 1, as report.csv).
         step: usize,
         /// Newton iterations done.
         iterations: usize,
         /// The last relative residual.
         residual: f64,
         /// What went wrong and what to change.
+        reason: String,
+    },
+    /// An implicit step that cannot be taken as it is: its Newton matrix is singular, or its
+    /// converged displacement would carry a particle where the shape functions do not reach.
+    /// Nothing of the step is applied.
+    #[error("step {step}: the Newmark step cannot be taken: {reason}")]
+    StepRejected {
+        /// The step (counted from 1, as report.csv).
+        step: usize,
+        /// Why, and what to change.
         reason: String,
     },
     /// The output folder is in use by another run (it holds the folder's lock).

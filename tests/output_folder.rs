@@ -152,12 +152,36 @@ fn a_checkpoint_folder_no_manifest_lists_is_not_written_over() {
         &dir,
     );
     assert!(!second.status.success(), "{}", text(&second));
-    assert!(text(&second).contains("checkpoints/step_00000010"), "{}", text(&second));
+    assert!(
+        text(&second).contains("checkpoints/step_00000010") && text(&second).contains("nothing was removed"),
+        "{}",
+        text(&second)
+    );
     assert_eq!(
         std::fs::read(dir.join("o/checkpoints/step_00000010/simulation.ckpt")).unwrap(),
         copied,
         "the unlisted checkpoint is not written over"
     );
+    assert!(dir.join("o/report.csv").exists(), "nothing was removed");
+}
+
+#[test]
+fn a_checkpoint_folder_holding_only_a_users_file_is_used_again() {
+    let dir = scratch("output", "user_file_in_checkpoint");
+    let args = ["run", "--out", "o", "--steps", "30", "--checkpoint-every", "10", "-q"];
+    let first = mpm(&args, &dir);
+    assert!(first.status.success(), "{}", text(&first));
+    std::fs::write(dir.join("o/checkpoints/step_00000010/notes.txt"), "mine").unwrap();
+    for _ in 0..2 {
+        let again = mpm(&[&args[..], &["--overwrite"]].concat(), &dir);
+        assert!(again.status.success(), "{}", text(&again));
+        assert_one_run(&dir.join("o"), 30);
+        assert!(dir.join("o/checkpoints/step_00000010/simulation.ckpt").exists());
+        assert_eq!(
+            std::fs::read_to_string(dir.join("o/checkpoints/step_00000010/notes.txt")).unwrap(),
+            "mine"
+        );
+    }
 }
 
 #[test]

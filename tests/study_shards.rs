@@ -266,19 +266,23 @@ fn a_study_replaces_only_what_a_study_wrote_and_refuses_a_folder_it_did_not_writ
     ));
     assert!(names(&dir.join("s")).contains(&"time_step.png".to_string()));
     std::fs::write(dir.join("s/notes.md"), "mine").unwrap();
+    // A picture of the user's, linked from the report: not the study's, so it stays.
+    std::fs::write(dir.join("s/setup.png"), "mine").unwrap();
+    let mut linked = std::fs::read_to_string(dir.join("s/report.md")).unwrap();
+    linked.push_str("\n![setup](setup.png)\n");
+    std::fs::write(dir.join("s/report.md"), linked).unwrap();
     ok(mpm(
         &["study", "--quick", "--parts", "single_point", "-o", "s", "-q"],
         &dir,
     ));
     let left = names(&dir.join("s"));
     assert!(
-        !left.iter().any(|n| n.ends_with(".png")),
+        !left.iter().any(|n| n.ends_with(".png") && n != "setup.png"),
         "the replaced study's plots: {left:?}"
     );
-    assert!(
-        left.contains(&"notes.md".to_string()),
-        "a file of the user's stays: {left:?}"
-    );
+    for kept in ["notes.md", "setup.png"] {
+        assert!(left.contains(&kept.to_string()), "a file of the user's stays: {left:?}");
+    }
     assert_eq!(
         names(&dir.join("s/runs")).len(),
         3,

@@ -306,8 +306,10 @@ impl GridMass {
                     &(m * g) + &diagonal(1.0 - g)
                 })
             }),
-            MassScheme::Iterative { .. } => self.matrices.factorized_csc().cloned(),
-            MassScheme::TruncatedSeries { .. } => self.matrices.plain_csc().map(|m| m.into_owned()),
+            // What the iterations multiply by, in compressed columns or in stencil form.
+            scheme @ (MassScheme::Iterative { .. } | MassScheme::TruncatedSeries { .. }) => {
+                self.matrices.operator(scheme).map(|op| op.to_csc())
+            }
         };
         matrix.unwrap_or_else(|| diagonal(1.0))
     }

@@ -43,6 +43,14 @@ pub(super) enum MassOperator<'a> {
 }
 
 impl<'a> MassOperator<'a> {
+    /// The matrix in compressed columns.
+    pub(super) fn to_csc(self) -> CscMatrix<f64> {
+        match self {
+            MassOperator::Csc(m) => (*m).clone(),
+            MassOperator::Stencil(s) => s.to_csc(),
+        }
+    }
+
     /// `y = M x` over all nodes.
     pub(super) fn mul(&self, x: &[f64]) -> Vec<f64> {
         match self {

@@ -501,12 +501,15 @@ impl RunFiles<'_> {
 fn write_run_checkpoint(sim: &Simulation, state: &RunState, out: &Path, claim: &mut OutputClaim) -> Result<PathBuf> {
     let name = format!("checkpoints/step_{:08}", sim.steps());
     let dir = out.join(&name);
-    // A checkpoint folder of this step that the manifest does not list is not this run's.
-    if std::fs::symlink_metadata(&dir).is_ok() && !claim.lists(&name) {
-        return Err(MpmError::OutputNotOwned {
-            path: out.to_path_buf(),
-            names: vec![name],
-        });
+    // A checkpoint folder of this step that the manifest does not list, with checkpoint files
+    // in it, is another run's (`--overwrite` refuses those before it removes anything; this
+    // holds for one that appeared since). One that holds only a user's files is used.
+    if !claim.lists(&name) && output::holds_checkpoint_files(&dir) {
+        return Err(crate::io::invalid_data(
+            &dir,
+            "holds a checkpoint this run's manifest does not list (another run's): it is not written over; move it \
+             away and resume from the last checkpoint",
+        ));
     }
     claim.add("checkpoints")?;
     claim.add(&name)?;

@@ -123,9 +123,19 @@ impl OutputClaim {
             OutputPolicy::RefuseNonEmpty => Ok(claim),
             OutputPolicy::Overwrite => {
                 let listed = read_manifest(out)?.unwrap_or_default();
+                // Checkpoint folders with checkpoint files in them, inside `checkpoints/`.
+                let checkpoints: Vec<String> = std::fs::read_dir(out.join("checkpoints"))
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|e| e.ok())
+                    .map(|e| format!("checkpoints/{}", e.file_name().to_string_lossy()))
+                    .filter(|name| is_checkpoint(name) && holds_checkpoint_files(&out.join(name)))
+                    .collect();
                 let not_listed: Vec<String> = entries
                     .iter()
-                    .filter(|n| in_the_way(n) && !listed.contains(n))
+                    .filter(|n| in_the_way(n))
+                    .chain(&checkpoints)
+                    .filter(|n| !listed.contains(n))
                     .take(5)
                     .cloned()
                     .collect();
@@ -223,6 +233,13 @@ fn read_manifest(out: &Path) -> Result<Option<Vec<String>>> {
         )));
     }
     Ok(Some(manifest.files))
+}
+
+/// Whether the folder `dir` holds a checkpoint file ([`CHECKPOINT_FILES`]).
+pub(crate) fn holds_checkpoint_files(dir: &Path) -> bool {
+    CHECKPOINT_FILES
+        .iter()
+        .any(|f| std::fs::symlink_metadata(dir.join(f)).is_ok())
 }
 
 /// The files a run writes into a checkpoint folder `checkpoints/step_N`.

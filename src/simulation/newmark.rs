@@ -32,6 +32,113 @@ use crate::kernels::KineticEnergies;
 use crate::mass::{lumped_matrix, Role, SingularityPolicy, SolveOutcome, SolveReport};
 use crate::material::Material;
 
+/// The nodes without mass in a particle's support, each following the nodes with mass as the
+/// mean of its particles' interpolated values (the explicit step's extension,
+/// `transfer::extend_to_massless_nodes`, applied to the displacement):
+///
+/// ```text
+/// u_I = (1/|P_I|) Σ_{p ∈ P_I} Σ_J N_Jp u_J     P_I = {p : I in the support of p}
+/// ```
+///
+/// so that a rigid motion stays rigid at the particles whose support reaches past the body. In
+/// the Newton iterations they are eliminated: `u = T ũ`, the system `Tᵀ J T δũ = Tᵀ r`.
+struct MasslessFollow {
+    /// For each node without mass in some support, `(node, weight)` of the nodes it follows.
+    weights: std::collections::BTreeMap<usize, Vec<(usize, f64)>>,
+}
+
+impl MasslessFollow {
+    fn new(ops: &crate::operators::Operators, lumped: &[f64]) -> Self {
+        let mut sums: std::collections::BTreeMap<usize, (usize, std::collections::BTreeMap<usize, f64>)> =
+            Default::default();
+        for q in 0..ops.num_particles() {
+            for (node, _, _, _) in ops.column(q) {
+                if lumped[node] > 0.0 {
+                    continue;
+                }
+                let (count, acc) = sums.entry(node).or_default();
+                *count += 1;
+                for (j, w, _, _) in ops.column(q) {
+                    if w != 0.0 {
+                        *acc.entry(j).or_default() += w;
+                    }
+                }
+            }
+        }
+        let weights = sums
+            .into_iter()
+            .map(|(node, (count, acc))| (node, acc.into_iter().map(|(j, w)| (j, w / count as f64)).collect()))
+            .collect();
+        MasslessFollow { weights }
+    }
+
+    /// Whether node `i` (without mass) is in a particle's support.
+    fn follows(&self, i: usize) -> bool {
+        self.weights.contains_key(&i)
+    }
+
+    /// Sets `u` of the free components of the nodes without mass from the nodes they follow.
+    fn apply(&self, u: &mut [f64], free: &[bool]) {
+        let n = u.len() / 2;
+        for (&i, list) in &self.weights {
+            for c in 0..2 {
+                if free[c * n + i] {
+                    u[c * n + i] = list.iter().map(|&(j, w)| w * u[c * n + j]).sum();
+                }
+            }
+        }
+    }
+
+    /// `T` (free degrees of freedom × free components of nodes with mass), `None` when no node
+    /// without mass is free (then `T = I`).
+    fn reduction(&self, dofs: &[usize], free: &[bool], n: usize) -> Option<CscMatrix<f64>> {
+        if !dofs.iter().any(|&k| self.follows(k % n)) {
+            return None;
+        }
+        let mut column = vec![usize::MAX; 2 * n];
+        let mut columns = 0;
+        for &k in dofs {
+            if !self.follows(k % n) {
+                column[k] = columns;
+                columns += 1;
+            }
+        }
+        let mut coo = CooMatrix::new(dofs.len(), columns);
+        for (row, &k) in dofs.iter().enumerate() {
+            match self.weights.get(&(k % n)) {
+                None => coo.push(row, column[k], 1.0),
+                Some(list) => {
+                    let c = k / n;
+                    for &(j, w) in list {
+                        if free[c * n + j] && column[c * n + j] != usize::MAX {
+                            coo.push(row, column[c * n + j], w);
+                        }
+                    }
+                }
+            }
+        }
+        Some(CscMatrix::from(&coo))
+    }
+}
+
+/// `T x`.
+fn times(t: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; t.nrows()];
+    for (i, j, &v) in t.triplet_iter() {
+        y[i] += v * x[j];
+    }
+    y
+}
+
+/// `Tᵀ x`.
+fn transpose_times(t: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; t.ncols()];
+    for (i, j, &v) in t.triplet_iter() {
+        y[j] += v * x[i];
+    }
+    y
+}
+
 /// `y = M x` for both components stacked (x values, then y values).
 fn mass_times(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
     let n = m.nrows();
@@ -112,24 +219,18 @@ impl Simulation {
         let f_ext: Vec<f64> = force.iter().zip(&f_int0).map(|(f, i)| f - i).collect();
         let mut m = mass.solved_matrix(Role::Acceleration);
         let mut outcome = base_solve.outcome;
-        // Free degrees of freedom: nodes with mass, and nodes without mass whose shape function
-        // has a gradient at a particle (a particle on the edge of the node's support: N = 0,
-        // ∇N ≠ 0), which the particles' strain sees; less the prescribed components.
-        let mut free = vec![false; 2 * n];
-        for (i, &m) in mass.lumped().iter().enumerate() {
-            free[i] = m > 0.0;
-        }
-        for q in 0..p.len() {
-            for (node, _, gx, gy) in ops.column(q) {
-                if gx != 0.0 || gy != 0.0 {
-                    free[node] = true;
-                }
-            }
-        }
-        for i in 0..n {
-            free[n + i] = free[i];
-        }
+        // Free degrees of freedom: nodes with mass, and the nodes without mass in a particle's
+        // support (a particle on the edge of the node's support: N = 0, ∇N ≠ 0), which the
+        // particles' strain sees; less the prescribed components. A node without mass follows
+        // the nodes with mass (`follow`, below), as the explicit step's extension has it.
         let massless = |k: usize| mass.lumped()[k % n] <= 0.0;
+        let follow = MasslessFollow::new(ops, mass.lumped());
+        let mut free = vec![false; 2 * n];
+        for i in 0..n {
+            let node_free = !massless(i) || follow.follows(i);
+            free[i] = node_free;
+            free[n + i] = node_free;
+        }
         let mut u = vec![0.0; 2 * n];
         let (beta, gamma) = (newmark.beta, newmark.gamma);
         for k in 0..2 * n {
@@ -153,7 +254,10 @@ impl Simulation {
                 }
             }
         }
+        follow.apply(&mut u, &free);
         let dofs: Vec<usize> = (0..2 * n).filter(|&k| free[k]).collect();
+        // u = T ũ on the free degrees of freedom: ũ the free components of nodes with mass.
+        let reduction = follow.reduction(&dofs, &free, n);
         let predicted: Vec<f64> = (0..2 * n)
             .map(|k| {
                 if free[k] {
@@ -211,6 +315,17 @@ impl Simulation {
                 dofs.iter()
                     .map(|&k| f_ext[k].abs() + f_int[k].abs() + inertia * (mu[k].abs() + mc[k].abs())),
             );
+            let (r, scale) = match &reduction {
+                None => (r, scale),
+                Some(t) => {
+                    // Tᵀ r, and the scale carried the same way (T's weights are positive).
+                    let terms: Vec<f64> = dofs
+                        .iter()
+                        .map(|&k| f_ext[k].abs() + f_int[k].abs() + inertia * (mu[k].abs() + mc[k].abs()))
+                        .collect();
+                    (transpose_times(t, &r), norm(transpose_times(t, &terms).into_iter()))
+                }
+            };
             relative = if scale > 0.0 {
                 norm(r.iter().copied()) / scale
             } else {
@@ -257,13 +372,20 @@ impl Simulation {
                     }
                 }
             }
-            let jacobian = CscMatrix::from(&coo);
+            let mut jacobian = CscMatrix::from(&coo);
+            if let Some(t) = &reduction {
+                jacobian = &(&t.transpose() * &jacobian) * t;
+            }
             let mut delta = r;
-            if let Err(reason) = solver.solve(&jacobian, &mut delta) {
+            let solved = solver.solve(&jacobian, &mut delta);
+            if let (Ok(()), Some(t)) = (&solved, &reduction) {
+                delta = times(t, &delta);
+            }
+            if let Err(reason) = solved {
                 // K and M share a null vector (a consistent mass without stabilisation and
                 // stiffness without its zero-energy modes held): the mass's singularity policy
                 // applies to the Newton matrix too, and the step starts again.
-                let substitute = match (options.mass.singularity, outcome) {
+                let substitute = match (options.mass.singularity, &outcome) {
                     (_, SolveOutcome::FellBackToLumped { .. }) => None,
                     (SingularityPolicy::FallbackToLumped, _) => Some((
                         lumped_matrix(mass.lumped(), 1.0),
@@ -289,15 +411,18 @@ impl Simulation {
                     continue;
                 }
                 scratch.newton = solver;
-                return Err(MpmError::NewtonFailed {
+                let advice = if matches!(outcome, SolveOutcome::Solved)
+                    && options.mass.singularity == SingularityPolicy::Error
+                {
+                    " (a consistent mass without schemes.mass.stabilization and few particles per cell?); give \
+                     schemes.mass.singularity = \"fallback_to_lumped\" or { regularize = { epsilon = 0.1 } }, or a \
+                     stabilisation"
+                } else {
+                    "; take a smaller time.dt"
+                };
+                return Err(MpmError::StepRejected {
                     step,
-                    iterations,
-                    residual: relative,
-                    reason: format!(
-                        "{reason}: the Newton matrix K + M/(β Δt²) is singular (a consistent mass without \
-                         schemes.mass.stabilization and few particles per cell?); give schemes.mass.singularity = \
-                         \"fallback_to_lumped\" or {{ regularize = {{ epsilon = 0.1 }} }}, or a stabilisation"
-                    ),
+                    reason: format!("{reason}: the Newton matrix K + M/(β Δt²) is singular{advice}"),
                 });
             }
             // Backtracking: the Newton step halved until no particle inverts.
@@ -349,10 +474,8 @@ impl Simulation {
             let inside =
                 moved[0] >= allowed[0] && moved[0] <= allowed[1] && moved[1] >= allowed[2] && moved[1] <= allowed[3];
             if !inside {
-                return Err(MpmError::NewtonFailed {
+                return Err(MpmError::StepRejected {
                     step,
-                    iterations,
-                    residual: relative,
                     reason: format!(
                         "the converged step moves particle {q} from ({:.6}, {:.6}) to ({:.6}, {:.6}), outside the \
                          region [{}, {}] x [{}, {}] where the {} shape functions accept particles: take a smaller \

@@ -271,20 +271,30 @@ impl StudySpec {
             return bad("particles_per_cell", "must lie between 1 and 8");
         }
         // A value listed twice would plan the same run twice (one run folder for two entries).
-        fn twice<T: PartialEq + std::fmt::Debug>(values: &[T]) -> Option<String> {
-            (1..values.len()).find_map(|j| values[..j].contains(&values[j]).then(|| format!("{:?}", values[j])))
+        // Each value as the spec spells it.
+        fn twice<T: PartialEq>(values: &[T], spell: impl Fn(&T) -> String) -> Option<String> {
+            (1..values.len()).find_map(|j| values[..j].contains(&values[j]).then(|| spell(&values[j])))
         }
+        let number = |c: &usize| c.to_string();
         for (key, repeated) in [
-            ("parts", twice(&self.parts)),
-            ("masses", twice(&self.masses)),
-            ("shapes", twice(&self.shapes)),
-            ("bar_cells", twice(&self.bar_cells)),
-            ("vortex_cells", twice(&self.vortex_cells)),
-            ("cantilever_cells", twice(&self.cantilever_cells)),
-            ("particles_per_cell", twice(&self.particles_per_cell)),
-            ("stabilizations", twice(&self.stabilizations)),
-            ("wave_cells", twice(&self.wave_cells)),
-            ("impulse_cells", twice(&self.impulse_cells)),
+            ("parts", twice(&self.parts, |p| format!("\"{}\"", p.name()))),
+            (
+                "masses",
+                twice(&self.masses, |m| {
+                    format!(
+                        "{{ velocity = \"{:#}\", acceleration = \"{:#}\" }}",
+                        m.velocity, m.acceleration
+                    )
+                }),
+            ),
+            ("shapes", twice(&self.shapes, |s| format!("\"{s:#}\""))),
+            ("bar_cells", twice(&self.bar_cells, number)),
+            ("vortex_cells", twice(&self.vortex_cells, number)),
+            ("cantilever_cells", twice(&self.cantilever_cells, number)),
+            ("particles_per_cell", twice(&self.particles_per_cell, number)),
+            ("stabilizations", twice(&self.stabilizations, |s| format!("\"{s:#}\""))),
+            ("wave_cells", twice(&self.wave_cells, number)),
+            ("impulse_cells", twice(&self.impulse_cells, number)),
         ] {
             if let Some(value) = repeated {
                 return bad(key, &format!("lists {value} twice: give each value once"));

@@ -31,10 +31,14 @@ pub fn run_study(spec: &StudySpec, out: &Path, progress: impl FnMut(&StudyProgre
             Ok(_) => remove_previous_study(out)?,
             Err(_) if shard::plan_version(out).is_some_and(|v| v != shard::version()) => remove_previous_study(out)?,
             Err(e) => {
+                let reason = match e {
+                    MpmError::Io { source, .. } => source.to_string(),
+                    other => other.to_string(),
+                };
                 return Err(crate::io::invalid_data(
                     &out.join("plan.json"),
-                    format!("{e}; nothing was removed: give another --out, or remove the folder"),
-                ))
+                    format!("{reason}; nothing was removed: give another --out, or remove the folder"),
+                ));
             }
         }
     }
@@ -86,7 +90,7 @@ fn remove_previous_study(out: &Path) -> Result<()> {
             return Err(crate::io::invalid_data(
                 &runs,
                 format!(
-                    "the study folder's runs/ holds {} that a study does not write ({}): nothing was removed; move                      them, or give another --out",
+                    "the study folder's runs/ holds {} that a study does not write ({}): nothing was removed; move them, or give another --out",
                     if foreign.len() == 1 { "a file" } else { "files" },
                     foreign.iter().take(5).cloned().collect::<Vec<_>>().join(", ")
                 ),
@@ -115,16 +119,19 @@ fn ignore_missing(e: std::io::Error) -> std::io::Result<()> {
     }
 }
 
-/// The plots `out/report.md` embeds (`![…](NAME.png)`, plain file names only).
-fn plots_of_report(out: &Path) -> Vec<String> {
-    let Ok(text) = crate::io::read_bounded_text(&out.join("report.md"), 64 << 20, "study report") else {
+/// The list of the plots a merge drew, beside its report: the next merge removes those it does
+/// not draw again, and nothing else.
+const PLOTS_FILE: &str = "plots.json";
+
+/// The plots the last merge in `out` drew (`plots.json`; plain `NAME.png` names only).
+fn plots_drawn_before(out: &Path) -> Vec<String> {
+    let Ok(text) = crate::io::read_bounded_text(&out.join(PLOTS_FILE), 1 << 20, "study plot list") else {
         return Vec::new();
     };
-    text.split("](")
-        .skip(1)
-        .filter_map(|rest| rest.split_once(')').map(|(name, _)| name))
+    serde_json::from_str::<Vec<String>>(&text)
+        .unwrap_or_default()
+        .into_iter()
         .filter(|name| name.ends_with(".png") && !name.contains(['/', '\\']) && !name.starts_with('.'))
-        .map(str::to_string)
         .collect()
 }
 
@@ -138,7 +145,7 @@ pub(super) fn write_study(
 ) -> Result<StudySummary> {
     // The old report goes first, the new one is written last: a merge that fails or is
     // stopped half-way leaves no report beside runs.csv and plots it does not describe.
-    let old_plots = plots_of_report(out);
+    let old_plots = plots_drawn_before(out);
     let report_path = out.join("report.md");
     std::fs::remove_file(&report_path)
         .or_else(ignore_missing)
@@ -191,7 +198,13 @@ pub(super) fn write_study(
             writeln!(report, "- {m}").ok();
         }
     }
-    // Plots of the report replaced that this one does not draw (another spec's parts).
+    let names: Vec<String> = plots
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    let list = serde_json::to_string_pretty(&names).expect("names always serialize");
+    crate::io::write_atomically(&out.join(PLOTS_FILE), |w| std::io::Write::write_all(w, list.as_bytes()))?;
+    // Plots the last merge drew that this one does not (another spec's parts).
     for name in old_plots {
         let path = out.join(&name);
         if !plots.iter().any(|p: &std::path::PathBuf| p == &path) {
