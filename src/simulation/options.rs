@@ -207,6 +207,20 @@ impl Options {
                     ),
                 });
             }
+            // The series approximates M⁻¹ without standing for a mass: with a few terms its a_n
+            // is far from M⁻¹ f, and the trapezoidal rule, which conserves energy only with the
+            // a_n of its own M, gained energy 890-fold in a step (GIMP, series:2).
+            if let crate::mass::MassScheme::TruncatedSeries { .. } = self.mass.acceleration {
+                return Err(MpmError::InvalidOption {
+                    option: "integrator",
+                    reason: format!(
+                        "the Newmark integrator solves with the mass itself, and the truncated series ({:#}) in \
+                         schemes.mass.acceleration only approximates its inverse; give \"consistent\", \"cg\", a \
+                         blend or \"lumped\" there (the series may stay in schemes.mass.velocity)",
+                        self.mass.acceleration
+                    ),
+                });
+            }
             if !matches!(self.transfer, Transfer::Pic | Transfer::Flip | Transfer::Blend { .. }) {
                 return Err(MpmError::InvalidOption {
                     option: "integrator",
