@@ -740,3 +740,22 @@ fn the_truncated_series_is_refused_in_the_acceleration_solve_of_newmark() {
         );
     }
 }
+
+#[test]
+fn a_refused_or_unconverged_implicit_step_changes_nothing_and_the_run_goes_on() {
+    let scene = disks_newmark(0.05, 2, "{ velocity = \"lumped\", acceleration = \"lumped\" }", 3.5);
+    let mut sim = scene.build().unwrap();
+    sim.step().unwrap();
+    let (time, steps, x) = (sim.time(), sim.steps(), sim.particles().x.clone());
+    // A step the clock cannot resolve at t = 0.05: refused, nothing changed (it once wrote NaN
+    // into the particles and left the simulation unusable).
+    for tiny in [1e-20, 1e-300, 5e-324] {
+        let err = sim.step_capped(tiny).unwrap_err().to_string();
+        assert!(err.contains("too short") && err.contains("step 2:"), "{err}");
+        assert_eq!((sim.time(), sim.steps()), (time, steps));
+        assert_eq!(sim.particles().x, x);
+    }
+    let report = sim.step().unwrap();
+    assert_eq!(report.step, steps + 1);
+    assert!(sim.particles().x.iter().all(|v| v.is_finite()));
+}

@@ -44,6 +44,10 @@ import scipy.sparse as _sp
 from . import _core
 from ._core import Grid, MpmError, Particles
 
+# Pickled by reference to where users import it, so that the error crosses process pools
+# (concurrent.futures, multiprocessing) as itself.
+MpmError.__module__ = "sparse_mpm"
+
 #: The package version (the extension crate's version, ``python/Cargo.toml``).
 __version__: str = _core.__version__
 

@@ -50,15 +50,33 @@ def plan(
     """Writes the plan of a study into ``out`` (``plan.json``, ``plan.csv``) and returns its
     number of runs. ``spec`` is the text of a study spec (TOML, docs/verification.md "Study
     spec keys"); without it the quick study (``quick=True``) or the full one. Planning the same
-    spec again into the same folder keeps the runs already complete."""
+    spec again into the same folder keeps the runs already complete. ``parts`` is a list of part
+    names, or one string of them separated by commas (as ``--parts``)."""
+    if isinstance(parts, str):
+        parts = parts.split(",")
     return _core.study_plan(_os.fspath(out), spec, quick, list(parts) if parts is not None else None)
 
 
 def run_shard(plan_dir: _PathLike, k: int, n: int) -> _t.Tuple[int, int, int, int]:
     """Runs shard ``k`` of ``n`` (1 <= k <= n) of the plan in ``plan_dir``: the runs of plan
     index ``i`` with ``i % n == k - 1`` that are not complete. Returns ``(taken, ran, skipped,
-    failed)``. A module-level function, so that Dask (or any pool) can ship it to a worker."""
+    failed)``. A module-level function, so that Dask (or any pool) can ship it to a worker.
+    ``k`` and ``n`` that are not whole numbers (``bool`` included) are a ``TypeError``, out of
+    range an ``MpmError``. Ctrl-C stops the shard between two runs (the runs complete so far
+    stay complete)."""
+    k, n = _whole("k", k), _whole("n", n)
+    if not 1 <= k <= n:
+        raise _core.MpmError(f"k = {k}, n = {n}: give 1 <= k <= n (shard k of n)")
     return _core.study_run(_os.fspath(plan_dir), k, n)
+
+
+def _whole(name: str, value: _t.Any) -> int:
+    """``value`` as an int, when it is a whole number and not a ``bool``."""
+    import numbers
+
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be a whole number, not {type(value).__name__} {value!r}")
+    return int(value)
 
 
 def run(plan_dir: _PathLike, client: _t.Any = None, shards: _t.Optional[int] = None) -> _t.List[_t.Tuple[int, int, int, int]]:
@@ -67,6 +85,10 @@ def run(plan_dir: _PathLike, client: _t.Any = None, shards: _t.Optional[int] = N
     (``shards`` defaults to the number of workers); without one they run here in turn
     (``shards`` defaults to 1). Returns each shard's ``(taken, ran, skipped, failed)``."""
     path = _os.fspath(plan_dir)
+    if shards is not None:
+        shards = _whole("shards", shards)
+        if shards < 1:
+            raise _core.MpmError(f"shards = {shards}: give at least 1")
     if client is None:
         n = shards or 1
         return [run_shard(path, k, n) for k in range(1, n + 1)]

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use sparse_mpm::study::{merge_study, plan_study, run_share, Part, Share, StudySpec};
+use sparse_mpm::study::{merge_study, plan_study, read_plan, run_share, Part, Share, StudySpec};
 
 use crate::{mpm_err, mpm_msg};
 
@@ -53,13 +53,35 @@ pub(crate) fn study_run(
     index: Option<usize>,
 ) -> PyResult<(usize, usize, usize, usize)> {
     let share = match (k, n, index) {
-        (Some(k), Some(n), None) => Share::parse_shard(&format!("{k}/{n}")).map_err(mpm_err)?,
+        (Some(k), Some(n), None) if (1..=n).contains(&k) => Share::Shard { k, n },
+        (Some(k), Some(n), None) => {
+            return Err(mpm_msg(format!("k = {k}, n = {n}: give 1 <= k <= n (shard k of n)")));
+        }
         (None, None, Some(i)) => Share::Index(i),
         (None, None, None) => Share::All,
         _ => return Err(mpm_msg("give k and n (shard k of n), or index, or neither (every run)")),
     };
-    let s = py.detach(|| run_share(&dir, share, |_| {})).map_err(mpm_err)?;
-    Ok((s.taken, s.ran, s.skipped, s.failed))
+    // Run by run, so that Ctrl-C (checked between runs) stops a shard within one run.
+    let plan = py.detach(|| read_plan(&dir)).map_err(mpm_err)?;
+    let indices: Vec<usize> = match share {
+        Share::All => (0..plan.runs.len()).collect(),
+        Share::Shard { k, n } => (0..plan.runs.len()).filter(|i| i % n == k - 1).collect(),
+        Share::Index(i) => vec![i],
+    };
+    let mut total = (0, 0, 0, 0);
+    for i in indices {
+        let s = py
+            .detach(|| run_share(&dir, Share::Index(i), |_| {}))
+            .map_err(mpm_err)?;
+        total = (
+            total.0 + s.taken,
+            total.1 + s.ran,
+            total.2 + s.skipped,
+            total.3 + s.failed,
+        );
+        py.check_signals()?;
+    }
+    Ok(total)
 }
 
 /// Merges the complete runs of the plan in `dir` (`mpm study merge`); returns

@@ -167,3 +167,16 @@ def test_a_scene_dict_selects_the_newmark_integrator():
     scene["time"] = {"end": 0.02, "cfl": 0.5}
     with pytest.raises(mpm.MpmError, match="schemes.integrator"):
         mpm.Simulation.from_dict(scene)
+    # A step too short for the clock is refused, changes nothing, and the run goes on.
+    scene["time"] = {"end": 0.1, "dt": 0.01}
+    sim = mpm.Simulation.from_dict(scene)
+    sim.step()
+    x = sim.particles()["x"].copy()
+    with pytest.raises(mpm.MpmError, match="too short"):
+        sim.step(max_dt=1e-20)
+    assert np.array_equal(sim.particles()["x"], x)
+    assert sim.step()["step"] == 2
+    # The truncated series has no place in the Newmark acceleration solve: named as the key.
+    scene["schemes"]["mass"] = {"velocity": "consistent", "acceleration": "series:2"}
+    with pytest.raises(mpm.MpmError, match="schemes.mass.acceleration"):
+        mpm.Simulation.from_dict(scene)

@@ -80,3 +80,30 @@ def test_a_plan_of_another_version_or_spec_is_refused(tmp_path):
     plan.write_text(re.sub(r'"version": "[^"]*"', '"version": "0.0.1"', text, count=1))
     with pytest.raises(sparse_mpm.MpmError, match="planned by sparse-mpm 0.0.1"):
         study.run_shard(tmp_path, 1, 1)
+
+
+def test_bad_shards_are_refused_naming_the_argument(tmp_path):
+    plan = tmp_path / "p"
+    assert study.plan(plan, quick=True, parts="single_point") == 3  # a string: comma-separated parts
+    for k, n in [(0, 3), (4, 3), (-1, 3), (1, -1), (2**70, 3)]:
+        with pytest.raises(sparse_mpm.MpmError, match="1 <= k <= n"):
+            study.run_shard(plan, k, n)
+    for k, n in [(1.5, 3), (True, 3), (None, None), ("1", "3")]:
+        with pytest.raises(TypeError, match="whole number"):
+            study.run_shard(plan, k, n)
+    for shards in [0, -2]:
+        with pytest.raises(sparse_mpm.MpmError, match="shards"):
+            study.run(plan, shards=shards)
+    assert not (plan / "runs").exists(), "nothing ran"
+    assert study.run(plan, shards=2) == [(2, 2, 0, 0), (1, 1, 0, 0)]
+
+
+def test_the_library_error_crosses_a_process_pool_as_itself(tmp_path):
+    import pickle
+    from concurrent.futures import ProcessPoolExecutor
+
+    err = pickle.loads(pickle.dumps(sparse_mpm.MpmError("x")))
+    assert type(err) is sparse_mpm.MpmError and str(err) == "x"
+    with ProcessPoolExecutor(1) as pool:
+        with pytest.raises(sparse_mpm.MpmError, match="plan.json"):
+            pool.submit(study.run_shard, str(tmp_path / "nope"), 1, 1).result()

@@ -79,13 +79,13 @@ impl Newmark {
         if !(self.beta > 0.0 && self.beta <= 0.5) {
             return bad(
                 "integrator.newmark.beta",
-                format!("{}: β must lie in (0, 0.5]", self.beta),
+                format!("{}: β must lie in (0, 0.5]", shown(self.beta)),
             );
         }
         if !(0.5..=1.0).contains(&self.gamma) {
             return bad(
                 "integrator.newmark.gamma",
-                format!("{}: γ must lie in [0.5, 1]", self.gamma),
+                format!("{}: γ must lie in [0.5, 1]", shown(self.gamma)),
             );
         }
         if self.gamma > 2.0 * self.beta {
@@ -95,9 +95,9 @@ impl Newmark {
                     "β = {}, γ = {}: Newmark's rule is stable for every Δt only when 2β ≥ γ ≥ ½, and this engine \
                      has no stable-step limit for it; give β ≥ γ/2 = {} (β = 0.25, γ = 0.5 is the average \
                      acceleration rule)",
-                    self.beta,
-                    self.gamma,
-                    self.gamma / 2.0
+                    shown(self.beta),
+                    shown(self.gamma),
+                    shown(self.gamma / 2.0)
                 ),
             );
         }
@@ -107,7 +107,7 @@ impl Newmark {
                 format!(
                     "{}: the relative tolerance must lie in [{MIN_TOLERANCE:e}, 1) (a residual relative to the \
                      size of its terms does not fall much below round-off)",
-                    self.tolerance
+                    shown(self.tolerance)
                 ),
             );
         }
@@ -118,5 +118,14 @@ impl Newmark {
             );
         }
         Ok(())
+    }
+}
+
+/// `x` as a message shows it: plainly between 10⁻⁴ and 10⁶, in exponent form beyond.
+fn shown(x: f64) -> String {
+    if x == 0.0 || (1e-4..1e6).contains(&x.abs()) || !x.is_finite() {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
     }
 }

@@ -396,7 +396,9 @@ impl Simulation {
         self.advance(max_dt)
     }
 
-    /// A step no longer than `max_dt`; an error in it leaves the state unusable.
+    /// A step no longer than `max_dt`; an error in it leaves the state unusable, but for an
+    /// implicit step refused or not converged ([`MpmError::StepRejected`],
+    /// [`MpmError::NewtonFailed`]), which changes nothing.
     fn advance(&mut self, max_dt: f64) -> Result<StepReport> {
         if let Some(reason) = &self.state.failed {
             return Err(MpmError::EarlierFailure {
@@ -405,8 +407,12 @@ impl Simulation {
             });
         }
         let result = self.phases(max_dt);
-        if let Err(e) = &result {
-            self.state.failed = Some(e.to_string());
+        match &result {
+            // An implicit step refused or not converged changed no particle: the simulation
+            // may go on (with a shorter step, say).
+            Err(MpmError::StepRejected { .. } | MpmError::NewtonFailed { .. }) => {}
+            Err(e) => self.state.failed = Some(e.to_string()),
+            Ok(_) => {}
         }
         result
     }

@@ -194,6 +194,18 @@ impl Simulation {
         let dt = dt.min(max_dt);
         // The step's number as report.csv and the other step errors count (from 1).
         let step = self.state.steps + 1;
+        // A step the clock cannot resolve, or too short for 1/(β Δt²) to be a number.
+        let inertia = 1.0 / (newmark.beta * dt * dt);
+        if !(dt > 0.0 && self.state.time + dt > self.state.time && inertia.is_normal()) {
+            return Err(MpmError::StepRejected {
+                step,
+                reason: format!(
+                    "a step of {dt:e} at t = {} is too short for the Newmark integrator (the time does not \
+                     advance, or 1/(β Δt²) is not a number): give a longer step",
+                    self.state.time
+                ),
+            });
+        }
         let Simulation {
             setup,
             options,

@@ -200,7 +200,7 @@ impl Options {
             let inertia = 1.0 / (newmark.beta * dt * dt);
             if !(inertia.is_finite() && inertia.is_normal()) {
                 return Err(MpmError::InvalidOption {
-                    option: "time.dt",
+                    option: "time_step.dt",
                     reason: format!(
                         "{dt:e} with the Newmark integrator: 1/(β Δt²) = {inertia:e} is not a usable number; give a \
                          time step of at least 1e-150"
@@ -212,10 +212,10 @@ impl Options {
             // a_n of its own M, gained energy 890-fold in a step (GIMP, series:2).
             if let crate::mass::MassScheme::TruncatedSeries { .. } = self.mass.acceleration {
                 return Err(MpmError::InvalidOption {
-                    option: "integrator",
+                    option: "mass.acceleration",
                     reason: format!(
-                        "the Newmark integrator solves with the mass itself, and the truncated series ({:#}) in \
-                         schemes.mass.acceleration only approximates its inverse; give \"consistent\", \"cg\", a \
+                        "the Newmark integrator (schemes.integrator) solves with the mass itself, and the truncated \
+                         series ({:#}) only approximates its inverse; give \"consistent\", \"cg\", a \
                          blend or \"lumped\" there (the series may stay in schemes.mass.velocity)",
                         self.mass.acceleration
                     ),
