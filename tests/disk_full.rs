@@ -5,6 +5,9 @@
 //! The disk is a small tmpfs mounted for each test, which needs root (or the right to mount);
 //! without it the tests say they are skipped and pass.
 
+#[path = "common/scratch.rs"]
+mod scratch;
+use scratch::names;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -65,16 +68,6 @@ impl Drop for SmallDisk {
         let _ = Command::new("umount").arg(&self.root).status();
         let _ = std::fs::remove_dir_all(&self.root);
     }
-}
-
-/// The names in `dir`.
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 /// Checks that `path` holds a header of `columns` names and whole rows of `columns` numbers;

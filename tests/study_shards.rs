@@ -7,6 +7,7 @@ use std::process::{Command, Stdio};
 
 mod common;
 use common::program::{mpm, ok, scratch, text, MPM};
+use common::scratch::names;
 
 /// runs.csv without the `*_seconds` columns.
 fn runs_table(dir: &Path) -> Vec<Vec<String>> {
@@ -221,16 +222,6 @@ fi
     ok(mpm(&["study", "--quick", "-o", "single", "-q"], &dir));
     assert_same_study(&dir.join("slurm_study"), &dir.join("single"));
     std::fs::remove_dir_all(&dir).unwrap();
-}
-
-/// The names in `dir`, sorted.
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 #[test]
