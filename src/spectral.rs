@@ -230,6 +230,97 @@ pub fn lobpcg_max(
     Some((theta, max_steps.max(1)))
 }
 
+/// Work vectors of [`lobpcg_top`], kept between calls so that an estimate allocates nothing
+/// once they have grown to size.
+#[derive(Debug, Default, Clone)]
+pub struct LobpcgWork {
+    /// `A x`, `B x`, `r`/`w`, `A w`, `B w`, `p`, `A p`, `B p`, and a spare.
+    v: [Vec<f64>; 9],
+}
+
+/// [`lobpcg_max`] in place, from the start `x`, which it leaves holding the Ritz vector of the
+/// value it returns (scaled to unit `B`-norm), so that a later call can start from it (a warm
+/// start):
+///
+/// ```text
+/// θ = xᵀA x / xᵀB x,   r = A x − θ B x,   w = T r,
+/// x ← the Ritz vector of the largest Ritz value of (A, B) on span{x, w, p},   p ← its part along {w, p}
+/// ```
+///
+/// `apply_a(v, out)` and `apply_b(v, out)` write `A v` and `B v`, `precondition(r, out)` writes
+/// `T r` (`T ≈ B⁻¹`); none of them allocates here. The Ritz value never falls below the
+/// Rayleigh quotient of the start and rises to `λ_max` from below. Stops after `max_steps`
+/// steps (at least one), when the residual vanishes, or once the estimate has changed by less
+/// than `tolerance` (relative) over five consecutive steps (`tolerance = 0`: never). Returns
+/// the estimate and the steps taken, or `None` when `x` has zero `B`-norm.
+pub fn lobpcg_top(
+    x: &mut Vec<f64>,
+    max_steps: usize,
+    tolerance: f64,
+    mut apply_a: impl FnMut(&[f64], &mut [f64]),
+    mut apply_b: impl FnMut(&[f64], &mut [f64]),
+    mut precondition: impl FnMut(&[f64], &mut [f64]),
+    work: &mut LobpcgWork,
+) -> Option<(f64, usize)> {
+    let len = x.len();
+    for v in work.v.iter_mut() {
+        v.clear();
+        v.resize(len, 0.0);
+    }
+    let [ax, bx, w, aw, bw, p, ap, bp, r] = &mut work.v;
+    apply_b(x, bx);
+    let norm = fast_dot(x, bx).max(0.0).sqrt();
+    if norm == 0.0 || !norm.is_finite() {
+        return None;
+    }
+    x.iter_mut().chain(bx.iter_mut()).for_each(|v| *v /= norm);
+    apply_a(x, ax);
+    let mut theta = fast_dot(x, ax);
+    let mut history = vec![theta];
+    let mut with_direction = false;
+    for j in 0..max_steps.max(1) {
+        for ((r, a), b) in r.iter_mut().zip(ax.iter()).zip(bx.iter()) {
+            *r = a - theta * b;
+        }
+        precondition(r, w);
+        apply_b(w, bw);
+        apply_a(w, aw);
+        let basis: Vec<[&[f64]; 3]> = if with_direction {
+            vec![[x, ax, bx], [w, aw, bw], [p, ap, bp]]
+        } else {
+            vec![[x, ax, bx], [w, aw, bw]]
+        };
+        let Some((value, c)) = largest_ritz(&basis) else {
+            return Some((theta, j + 1));
+        };
+        // p ← c₁ w + c₂ p, then x ← c₀ x + p (each with its A and B images).
+        let c2 = if with_direction {
+            c.get(2).copied().unwrap_or(0.0)
+        } else {
+            0.0
+        };
+        let c1 = c.get(1).copied().unwrap_or(0.0);
+        let triples: [(&mut Vec<f64>, &Vec<f64>, &mut Vec<f64>); 3] = [(p, w, x), (ap, aw, ax), (bp, bw, bx)];
+        for (pv, wv, xv) in triples {
+            for ((pk, wk), xk) in pv.iter_mut().zip(wv.iter()).zip(xv.iter_mut()) {
+                *pk = c1 * wk + c2 * *pk;
+                *xk = c[0] * *xk + *pk;
+            }
+        }
+        with_direction = true;
+        theta = value;
+        history.push(theta);
+        let settled = tolerance > 0.0 && history.len() > 5 && {
+            let old = history[history.len() - 6];
+            (theta - old).abs() <= tolerance * theta.abs()
+        };
+        if settled || !theta.is_finite() {
+            return Some((theta, j + 1));
+        }
+    }
+    Some((theta, max_steps.max(1)))
+}
+
 /// The largest Ritz value of `(A, B)` on the span of the vectors `basis` (each `[v, A v, B v]`)
 /// and its coefficients, from the Gram matrices: the columns are scaled to unit `B`-norm and the
 /// last ones dropped while the `B` Gram matrix is too ill-conditioned to factor (`None` when

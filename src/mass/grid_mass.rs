@@ -274,9 +274,13 @@ impl GridMass {
         if !(scheme_ok && stabilization_ok && whole && !self.substitutes(role)) {
             return None;
         }
-        let matrix = self.matrices.operator(MassScheme::Consistent)?;
-        let preconditioner = self.matrices.preconditioner.as_deref().unwrap_or(&self.lumped);
-        Some(BoundingMass { matrix, preconditioner })
+        let stencil = self.matrices.stabilized_stencil()?;
+        let heaviest = self.lumped.iter().cloned().fold(0.0, f64::max);
+        Some(BoundingMass {
+            stencil,
+            coupling_cap: 1.0 / (BOUND_MASS_FLOOR * heaviest),
+            inverse_lumped: &self.inverse,
+        })
     }
 
     /// The mass matrix the solve of `role` stands for, over all nodes:
@@ -562,22 +566,30 @@ impl MassOptions {
     }
 }
 
-/// The matrix of [`GridMass::bounding_mass`] and the diagonal the conjugate gradient
-/// preconditions it with.
+/// The floor, relative to the heaviest node, of the diagonal `D` in the update bound's
+/// `R D⁻¹ R` ([`BoundingMass::coupling`]).
+pub(crate) const BOUND_MASS_FLOOR: f64 = 0.25;
+
+/// The matrix of [`GridMass::bounding_mass`] in stencil form (with its penalty `R`, so that
+/// `M_s = M + R`) and `1/m_L`.
 pub(crate) struct BoundingMass<'a> {
-    matrix: super::matrices::MassOperator<'a>,
-    preconditioner: &'a [f64],
+    stencil: &'a super::StencilMass,
+    /// `1 / (BOUND_MASS_FLOOR · max m_L)`.
+    coupling_cap: f64,
+    inverse_lumped: &'a [f64],
 }
 
-impl BoundingMass<'_> {
-    /// `M_s x` (one component, one entry per node).
-    pub(crate) fn mul(&self, x: &[f64]) -> Vec<f64> {
-        self.matrix.mul(x)
+impl<'a> BoundingMass<'a> {
+    /// `M_s` in stencil form, its penalty `R` recorded ([`super::StencilMass::penalty_product`]).
+    pub(crate) fn stencil(&self) -> &'a super::StencilMass {
+        self.stencil
     }
 
-    /// `d`, the diagonal with `d_I ≈ (M_s)_II` (the lumped mass or the larger diagonal).
-    pub(crate) fn diagonal(&self) -> &[f64] {
-        self.preconditioner
+    /// `1 / max(m_L,I, BOUND_MASS_FLOOR · max m_L)`: the inverse of a diagonal `D ⪰ M_L`, so
+    /// that `R D⁻¹ R ⪯ R M_L⁻¹ R` keeps the update bound an upper bound while no nearly empty
+    /// node couples its neighbours a million times more strongly than a full one does.
+    pub(crate) fn coupling(&self, i: usize) -> f64 {
+        self.inverse_lumped[i].min(self.coupling_cap)
     }
 }
 

@@ -246,6 +246,14 @@ impl Matrices {
         self.stencil = Some(stencil);
     }
 
+    /// The stabilised `M` in stencil form, where it was assembled so (the conjugate gradient's
+    /// matrix, or the buffers the factorized schemes' matrix was handed over from).
+    pub(super) fn stabilized_stencil(&self) -> Option<&StencilMass> {
+        self.stencil_stabilized
+            .as_ref()
+            .or(self.buffers.as_ref().filter(|_| self.stabilized_csc.is_some()))
+    }
+
     /// The plain `M` in compressed columns, from whichever form was assembled.
     pub(super) fn plain_csc(&self) -> Option<Cow<'_, CscMatrix<f64>>> {
         match (&self.csc, &self.stencil) {

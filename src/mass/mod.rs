@@ -41,6 +41,7 @@ mod stencil;
 pub(crate) use cholesky::SparseCholesky;
 pub use diagnostics::{solve_condition_number, MassDiagnostics, TINY_MASS_FRACTION};
 pub(crate) use grid_mass::lumped_matrix;
+pub(crate) use grid_mass::BoundingMass;
 pub use grid_mass::{GridMass, Role};
 pub(crate) use matrices::csc_times;
 pub use options::{

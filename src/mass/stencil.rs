@@ -46,6 +46,9 @@ pub struct StencilMass {
     pattern: Vec<u64>,
     /// Runs `[lo, hi)` of span rows (`I − start`) with at least one coupling, ascending.
     segments: Vec<(usize, usize)>,
+    /// The terms `w_T d_T d_Tᵀ` of the linear-extension penalty added since the last assembly:
+    /// the nodes `(a, b, c)` and `γ w_T` ([`StencilMass::penalty_product`]).
+    penalty: Vec<([u32; 3], f64)>,
 }
 
 impl StencilMass {
@@ -80,6 +83,7 @@ impl StencilMass {
     fn reassemble_with(&mut self, ops: &Operators, m: &[f64], extended: bool) {
         assert_eq!(m.len(), ops.num_particles(), "one mass per particle");
         with_support!(ops, assemble_into::<S>(self, ops, m, extended));
+        self.penalty.clear();
         self.segments.clear();
         let line = ops.line_length().max(1);
         let mut r = 0;
@@ -184,9 +188,70 @@ impl StencilMass {
         apply_segments(self, x, out, mask)
     }
 
+    /// `y += R x` over all nodes, `R = γ Σ_T w_T d_T d_Tᵀ` the linear-extension penalty that
+    /// [`StencilMass::add_extension_penalty`] added (nothing without it):
+    ///
+    /// ```text
+    /// (R x)_a += g_T,  (R x)_b −= 2 g_T,  (R x)_c += g_T,   g_T = γ w_T (x_a − 2 x_b + x_c)
+    /// ```
+    ///
+    /// # Panics
+    /// If `x` or `y` does not have one entry per node.
+    pub fn penalty_product(&self, x: &[f64], y: &mut [f64]) {
+        assert!(
+            x.len() == self.num_nodes && y.len() == self.num_nodes,
+            "one value per node"
+        );
+        for &([a, b, c], w) in &self.penalty {
+            let (a, b, c) = (a as usize, b as usize, c as usize);
+            let g = w * (x[a] - 2.0 * x[b] + x[c]);
+            y[a] += g;
+            y[b] -= 2.0 * g;
+            y[c] += g;
+        }
+    }
+
+    /// The nodes the linear-extension penalty touches (each once per triple it is in).
+    pub(crate) fn penalty_terms(&self) -> &[([u32; 3], f64)] {
+        &self.penalty
+    }
+
+    /// The entry `M_IJ` (0 where not stored or off the span).
+    pub(crate) fn entry(&self, i: usize, j: usize) -> f64 {
+        let span = self.start..self.start + self.len;
+        if !(span.contains(&i) && span.contains(&j)) {
+            return 0.0;
+        }
+        match self.offset_index(j as isize - i as isize) {
+            Some(o) => self.value(i - self.start, o),
+            None => 0.0,
+        }
+    }
+
+    /// Length of a work vector in the padded span layout of [`StencilMass::apply_masked`].
+    pub(crate) fn padded_len(&self) -> usize {
+        self.len + 2 * self.pad
+    }
+
+    /// The position of node `i` (in the span) in the padded layout.
+    pub(crate) fn padded_position(&self, i: usize) -> usize {
+        i - self.start + self.pad
+    }
+
+    /// `out = mask ∘ M x` in the padded layout over the rows with couplings (elsewhere left as
+    /// it was); returns `x · out`.
+    pub(crate) fn apply_masked(&self, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
+        self.apply_padded(x, out, mask)
+    }
+
     /// The position of `offset` in [`StencilMass::offsets`], if stored.
     fn offset_index(&self, offset: isize) -> Option<usize> {
         self.offsets.binary_search(&offset).ok()
+    }
+
+    /// [`StencilMass::diagonal`] into `d` over the span (the rest left as it is).
+    pub(crate) fn diagonal_into(&self, d: &mut [f64]) {
+        d[self.start..self.start + self.len].copy_from_slice(&self.values[self.pad..self.pad + self.len]);
     }
 
     /// The diagonal `M_II` over all nodes (0 off the span).
@@ -264,6 +329,7 @@ impl StencilMass {
                         continue;
                     }
                     let w = gamma * ramp * lumped[a].max(lumped[b]).max(lumped[c]);
+                    self.penalty.push(([a as u32, b as u32, c as u32], w));
                     self.values[pad + ra] += w;
                     self.values[pad + rb] += 4.0 * w;
                     self.values[pad + rc] += w;

@@ -26,6 +26,8 @@ pub(super) struct Resume {
     pub(super) updated: VectorField,
     /// The conjugate gradient's warm-start vectors.
     pub(super) warm_start: [Vec<f64>; 4],
+    /// The top mode the stable-step guards track (empty, or two values per node).
+    pub(super) frequency_mode: Vec<f64>,
 }
 
 impl Simulation {
@@ -73,6 +75,7 @@ impl Simulation {
         let mut mass = GridMass::default();
         // Zeroed pages: the time loop writes the particles' span only.
         *mass.lumped_mut() = vec![0.0; grid.num_nodes()];
+        let mut frequency_mode = Vec::new();
         let (density, state) = match resume {
             None => (reference_densities(&particles, bodies.len()), State::start(particles)),
             Some(saved) => {
@@ -80,6 +83,7 @@ impl Simulation {
                 mass.set_lumped(saved.lumped);
                 mass.set_warm_start(saved.warm_start);
                 nodes.updated = saved.updated;
+                frequency_mode = saved.frequency_mode;
                 (
                     saved.density,
                     State {
@@ -98,8 +102,10 @@ impl Simulation {
             prescribed,
             workers,
         };
+        let mut scratch = Scratch::for_grid(&setup.grid);
+        scratch.tracking.mode = frequency_mode;
         Ok(Simulation {
-            scratch: Scratch::for_grid(&setup.grid),
+            scratch,
             setup,
             options,
             state,
@@ -155,7 +161,15 @@ fn check_saved(saved: &Resume, num_nodes: usize, num_bodies: usize) -> Result<()
         .iter()
         .map(|w| ("warm start", w.len()))
         .filter(|&(_, len)| len != 0);
-    for (name, len) in fields.into_iter().chain(warm) {
+    let mode = (!saved.frequency_mode.is_empty()).then_some(("stable-step mode", saved.frequency_mode.len() / 2));
+    if saved.frequency_mode.len() % 2 == 1 {
+        return Err(MpmError::InvalidParameter {
+            name: "stable-step mode",
+            value: saved.frequency_mode.len() as f64,
+            reason: "values for a grid of another node count",
+        });
+    }
+    for (name, len) in fields.into_iter().chain(warm).chain(mode) {
         if len != num_nodes {
             return Err(MpmError::InvalidParameter {
                 name,

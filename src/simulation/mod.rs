@@ -64,6 +64,7 @@ pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, MAX_CHECKPOINT_BYTES};
 pub use options::{Body, Integrator, Newmark, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
 pub use profile::{Phase, Profile};
 pub use report::StepReport;
+pub use stability::{EstimateCounts, BOUND_INTERVAL, GUARD_STEPS};
 
 use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};
@@ -137,6 +138,8 @@ struct Scratch {
     report_blocks: Vec<kernels::SumPartials>,
     /// The grid's kinetic energy per block of nodes, for the report.
     grid_blocks: Vec<f64>,
+    /// The top mode the stable-step estimates track, their work arrays and counts.
+    tracking: stability::Tracking,
     /// The packed grid velocities the grid-to-particle pass reads.
     packed: Vec<f64>,
     /// What each block of particles of the last grid-to-particle pass returned.

@@ -82,9 +82,11 @@ impl Simulation {
         })?;
         // (The implicit integrator has no stable step to estimate.)
         let explicit = options.integrator == super::Integrator::Explicit;
-        if explicit && stability::estimate_due(options, state, &cache.mass) {
+        let due = stability::estimate_due(options, state, &cache.mass);
+        if explicit && due != stability::Due::Nothing {
+            let tracking = &mut scratch.tracking;
             let estimate = timed(profile, Phase::StableStep, || {
-                stability::estimate(setup, options, state, cache)
+                stability::estimate(setup, options, state, cache, due, tracking)
             })?;
             state.stability = Some(estimate);
         }

@@ -54,7 +54,7 @@ use crate::particles::Particles;
 
 /// The version of the checkpoint file format this build writes and reads. Files of another
 /// version are refused.
-pub const CHECKPOINT_FORMAT_VERSION: u32 = 4;
+pub const CHECKPOINT_FORMAT_VERSION: u32 = 5;
 
 /// The first bytes of every checkpoint file: the format name.
 const MAGIC: &[u8] = b"sparse-mpm checkpoint\n";
@@ -266,6 +266,8 @@ struct Payload<'a> {
     stability: Option<StabilityRecord>,
     /// The conjugate gradient's warm-start vectors, per (role, component).
     cg_warm_start: [Vec<f64>; 4],
+    /// The top mode the stable-step guards track (empty, or two values per node).
+    frequency_mode: Cow<'a, [f64]>,
     /// `m_L` of the last step.
     lumped_mass: Cow<'a, [f64]>,
     /// `w` of the last step.
@@ -281,8 +283,9 @@ impl<'a> Payload<'a> {
             options,
             state,
             cache,
-            // Work arrays, overwritten by every step before they are read.
-            scratch: _,
+            // Work arrays, overwritten by every step before they are read, but for the mode the
+            // stable-step guards track.
+            scratch,
             // Wall-clock times: not part of the state.
             profile: _,
         } = sim;
@@ -312,6 +315,7 @@ impl<'a> Payload<'a> {
             speeds: [speeds.particle, speeds.wave],
             stability: stability.map(|s| StabilityRecord::of(&s)),
             cg_warm_start: cache.mass.warm_start(),
+            frequency_mode: Cow::Borrowed(&scratch.tracking.mode),
             lumped_mass: Cow::Borrowed(cache.mass.lumped()),
             grid_velocity: [
                 Cow::Borrowed(&cache.nodes.updated.x),
@@ -337,6 +341,7 @@ impl<'a> Payload<'a> {
             speeds,
             stability,
             cg_warm_start,
+            frequency_mode,
             lumped_mass,
             grid_velocity: [updated_x, updated_y],
         } = self;
@@ -378,6 +383,7 @@ impl<'a> Payload<'a> {
                 y: updated_y.into_owned(),
             },
             warm_start: cg_warm_start,
+            frequency_mode: frequency_mode.into_owned(),
         };
         let bodies = bodies.into_iter().map(BodyRecord::into_body).collect();
         Simulation::build(grid, particles.into_particles(), bodies, options, Some(resume))

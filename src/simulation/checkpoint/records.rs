@@ -105,6 +105,7 @@ pub(super) struct StabilityRecord {
     active_fingerprint: u64,
     substitutes: [bool; 2],
     due_at: usize,
+    node_top: f64,
 }
 
 impl OptionsRecord {
@@ -397,6 +398,7 @@ impl StabilityRecord {
             active_fingerprint: s.basis.active,
             substitutes: s.basis.substitutes,
             due_at: s.due_at,
+            node_top: s.node_top,
         }
     }
 
@@ -414,6 +416,7 @@ impl StabilityRecord {
                 substitutes: self.substitutes,
             },
             due_at: self.due_at,
+            node_top: self.node_top,
         }
     }
 }

@@ -24,6 +24,10 @@ use crate::shape::ShapeFunction;
 use crate::spectral::{lanczos_extremes, lanczos_max, lobpcg_max, start_sequence, start_vector, DEFAULT_LANCZOS_STEPS};
 use crate::transfer::VectorField;
 
+mod bound;
+pub use bound::BAND_STEPS;
+pub(crate) use bound::{mpm_update_bound_estimate, BoundWork};
+
 /// The grid stiffness `K = Bᵀ D B` (2n × 2n, x degrees of freedom first), from four weighted
 /// products per block as in the [module docs](self).
 ///
@@ -137,7 +141,7 @@ pub(crate) fn apply_tangent_stiffness_into(
 
 /// The free degrees of freedom of a grid field (`d < n`: x of node `d`; `d ≥ n`: y of node
 /// `d − n`), and the maps between a field and the vector of its free entries.
-struct FreeDofs {
+pub(crate) struct FreeDofs {
     n: usize,
     /// The nodes whose x component is free, then those whose y component is, each ascending
     /// (32-bit: the operators number fewer than 2³² nodes): the free degrees of freedom in
@@ -191,12 +195,33 @@ impl FreeDofs {
     /// Writes the free entries `v` into `field`, whose other entries stay as they are (zero
     /// for the fields of an estimate).
     fn expand(&self, v: &[f64], field: &mut VectorField) {
+        let (vx, vy) = v.split_at(self.nodes[0].len());
+        for (&i, &x) in self.nodes[0].iter().zip(vx) {
+            field.x[i as usize] = x;
+        }
+        for (&i, &y) in self.nodes[1].iter().zip(vy) {
+            field.y[i as usize] = y;
+        }
+    }
+
+    /// `v` on the free degrees of freedom written over all `2n` of them (x, then y) into
+    /// `mode`, zero elsewhere.
+    fn write_mode(&self, v: &[f64], mode: &mut Vec<f64>) {
+        mode.clear();
+        mode.resize(2 * self.n, 0.0);
         for ((c, i), &x) in self.each().zip(v) {
-            if c == 0 {
-                field.x[i] = x;
-            } else {
-                field.y[i] = x;
-            }
+            mode[c * self.n + i] = x;
+        }
+    }
+
+    /// The free entries of `field` into `out`.
+    fn compress_into(&self, field: &VectorField, out: &mut [f64]) {
+        let (ox, oy) = out.split_at_mut(self.nodes[0].len());
+        for (&i, o) in self.nodes[0].iter().zip(ox) {
+            *o = field.x[i as usize];
+        }
+        for (&i, o) in self.nodes[1].iter().zip(oy) {
+            *o = field.y[i as usize];
         }
     }
 }

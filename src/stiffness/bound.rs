@@ -1,0 +1,769 @@
+//! The update bound of the stable step for a stabilised consistent mass `M_s = M + R` in both
+//! solves: `λ_max(K, B)`, `B = M_s + R + R M_L⁻¹ R`, found from products and small local
+//! problems, never a mass solve.
+//!
+//! The top of this spectrum on random particle layouts is made of modes localised on a few
+//! nodes that few particles read, scattered over the body, beside the interior's checkerboard
+//! band; they appear and vanish from one step to the next as particles move. So the estimate
+//! takes the largest of lower bounds of `λ_max(K, B)` (each a Rayleigh quotient): the largest
+//! single-node frequency, the largest frequency of small patches of nodes around the nodes
+//! with the highest single-node frequencies (exact dense eigenvalues of principal
+//! submatrices), LOBPCG polishing the best patch's mode on the whole grid, and LOBPCG on the
+//! interior's band.
+
+use super::{apply_tangent_stiffness_into, FreeDofs, FrequencyEstimate};
+use crate::fields::VectorField;
+use crate::operators::Operators;
+
+/// The diagonal of the tangent stiffness per component, into `d` (zero outside the node span
+/// first):
+///
+/// ```text
+/// K_xx,II = Σ_p V_p (C11 ∂xN_Ip² + G ∂yN_Ip²),   K_yy,II = Σ_p V_p (C11 ∂yN_Ip² + G ∂xN_Ip²)
+/// ```
+fn tangent_diagonal_into(
+    ops: &Operators,
+    volume: &[f64],
+    tangent: &impl Fn(usize) -> [f64; 3],
+    d: &mut VectorField,
+    xy: &mut [f64],
+) {
+    let span = ops.node_span();
+    d.x[span.clone()].fill(0.0);
+    d.y[span.clone()].fill(0.0);
+    xy[span].fill(0.0);
+    crate::with_support!(ops, diagonal_columns::<S>(ops, volume, tangent, d, xy));
+}
+
+fn diagonal_columns<const S: usize>(
+    ops: &Operators,
+    volume: &[f64],
+    tangent: &impl Fn(usize) -> [f64; 3],
+    d: &mut VectorField,
+    xy: &mut [f64],
+) {
+    for p in 0..ops.num_particles() {
+        let st = ops.stencil::<S>(p);
+        let [c11, c12, g] = tangent(p);
+        let v = volume[p];
+        for b in 0..S {
+            let (start, _, gx, gy) = st.row(b);
+            let (dx, dy) = (&mut d.x[start..start + S], &mut d.y[start..start + S]);
+            let dxy = &mut xy[start..start + S];
+            for a in 0..S {
+                let (xx, yy) = (gx[a] * gx[a], gy[a] * gy[a]);
+                dx[a] += v * (c11 * xx + g * yy);
+                dy[a] += v * (c11 * yy + g * xx);
+                dxy[a] += v * (c12 + g) * gx[a] * gy[a];
+            }
+        }
+    }
+}
+
+/// Work arrays of [`mpm_update_bound_estimate`] and [`node_frequency_top`], kept between
+/// estimates so that an estimate allocates nothing once they have grown to size.
+#[derive(Debug, Default)]
+pub(crate) struct BoundWork {
+    lobpcg: crate::spectral::LobpcgWork,
+    /// The iterate on the free degrees of freedom.
+    x: Vec<f64>,
+    /// Grid fields of the stiffness products.
+    u: VectorField,
+    f: VectorField,
+    /// The `xy` block of the stiffness diagonal per node.
+    xy: Vec<f64>,
+    /// Per component: the iterate, the product and the free mask in the stencil's padded
+    /// layout.
+    padded: [Vec<f64>; 4],
+    /// Node vectors of the penalty products (zero between uses).
+    full: [Vec<f64>; 3],
+    /// Each particle's tangent `[C11, C12, G]`, formed once per estimate.
+    tangents: Vec<[f64; 3]>,
+    /// The diagonal of `B` per component.
+    diagonal: [Vec<f64>; 2],
+    penalty: PenaltyRows,
+    /// Each node's own frequency ([`node_frequency_top`]).
+    own: Vec<f64>,
+    /// The patch owning each node, for [`patch_top`] (`u32::MAX`: none).
+    owner: Vec<u32>,
+}
+
+/// The linear-extension penalty `R` row by row where it is not zero: per node, the entries
+/// at offsets `±2, ±1` grid lines along x, then along y, then the diagonal.
+#[derive(Debug, Default)]
+struct PenaltyRows {
+    /// Per node, the index of its row in `rows` (`u32::MAX`: none); reset where set.
+    slot_of: Vec<u32>,
+    nodes: Vec<usize>,
+    rows: Vec<[f64; 9]>,
+}
+
+impl PenaltyRows {
+    /// Slot of the coupling from node `a` to node `b` on the same grid line, `b − a = k · stride`.
+    fn slot(k: isize, along_x: bool) -> usize {
+        let base = if along_x { 0 } else { 4 };
+        match k {
+            0 => 8,
+            -2 => base,
+            -1 => base + 1,
+            1 => base + 2,
+            2 => base + 3,
+            _ => unreachable!("a penalty triple spans two lines"),
+        }
+    }
+
+    /// The rows of `Σ_T w_T d_T d_Tᵀ` from its terms, over `n` nodes.
+    fn fill(&mut self, terms: &[([u32; 3], f64)], stride_x: usize, n: usize) {
+        const D: [f64; 3] = [1.0, -2.0, 1.0];
+        for &i in &self.nodes {
+            self.slot_of[i] = u32::MAX;
+        }
+        self.slot_of.resize(n, u32::MAX);
+        self.nodes.clear();
+        self.rows.clear();
+        for &(t, w) in terms {
+            let t = t.map(|i| i as usize);
+            let along_x = t[1] - t[0] == stride_x;
+            for j in 0..3 {
+                if self.slot_of[t[j]] == u32::MAX {
+                    self.slot_of[t[j]] = self.rows.len() as u32;
+                    self.rows.push([0.0; 9]);
+                    self.nodes.push(t[j]);
+                }
+                let row = &mut self.rows[self.slot_of[t[j]] as usize];
+                for k in 0..3 {
+                    row[Self::slot(k as isize - j as isize, along_x)] += w * D[j] * D[k];
+                }
+            }
+        }
+    }
+
+    /// `R_IJ` for nodes `i`, `j` (0 where the penalty does not couple them).
+    fn entry(&self, i: usize, j: usize, strides: [usize; 2]) -> f64 {
+        let Some(&slot) = self.slot_of.get(i).filter(|&&s| s != u32::MAX) else {
+            return 0.0;
+        };
+        let row = &self.rows[slot as usize];
+        let d = j as isize - i as isize;
+        if d == 0 {
+            return row[8];
+        }
+        for (axis, &stride) in strides.iter().enumerate() {
+            for (k, m) in [(-2isize, 0), (-1, 1), (1, 2), (2, 3)] {
+                if d == k * stride as isize {
+                    return row[4 * axis + m];
+                }
+            }
+        }
+        0.0
+    }
+
+    /// The nodes `J` with `R_IJ ≠ 0` stored for node `i`, and the entries.
+    fn row(&self, i: usize, strides: [usize; 2]) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let slot = self.slot_of.get(i).copied().unwrap_or(u32::MAX);
+        let row = (slot != u32::MAX).then(|| self.rows[slot as usize]);
+        let offsets = [
+            -2 * strides[0] as isize,
+            -(strides[0] as isize),
+            strides[0] as isize,
+            2 * strides[0] as isize,
+            -2 * strides[1] as isize,
+            -(strides[1] as isize),
+            strides[1] as isize,
+            2 * strides[1] as isize,
+            0,
+        ];
+        row.into_iter().flat_map(move |row| {
+            (0..9)
+                .filter(move |&k| row[k] != 0.0)
+                .map(move |k| ((i as isize + offsets[k]) as usize, row[k]))
+        })
+    }
+
+    /// `R_II + (R M_L⁻¹ R)_II`, `(R M_L⁻¹ R)_II = Σ_J R_IJ² / m_L,J` over the free `J` of
+    /// component `c` (`free(J)`), for a node `i` in [`PenaltyRows::nodes`].
+    fn diagonal(
+        &self,
+        i: usize,
+        strides: [usize; 2],
+        coupling: impl Fn(usize) -> f64,
+        free: impl Fn(usize) -> bool,
+    ) -> f64 {
+        let row = &self.rows[self.slot_of[i] as usize];
+        let mut sum = row[8];
+        for (axis, stride) in strides.iter().enumerate() {
+            for (slot, k) in [(0, -2isize), (1, -1), (2, 1), (3, 2)] {
+                let r = row[4 * axis + slot];
+                let j = i as isize + k * *stride as isize;
+                if r != 0.0 && j >= 0 && free(j as usize) {
+                    sum += r * r * coupling(j as usize);
+                }
+            }
+        }
+        if free(i) {
+            sum += row[8] * row[8] * coupling(i);
+        }
+        sum
+    }
+}
+
+/// The largest frequency of a single node of the pencil `(K, B)` of
+/// [`mpm_update_bound_estimate`], each node's two free components on their own:
+///
+/// ```text
+/// ω²_node = max_I λ_max(K_II, B_II),   K_II, B_II the 2 × 2 blocks of node I (B_II diagonal)
+/// ```
+///
+/// a Rayleigh quotient of `(K, B)`, so a lower bound of its `λ_max`; with the node reaching
+/// it. `B_II = (M_s)_II + R_II + (R M_L⁻¹ R)_II` exactly. One pass over the particles (the
+/// stiffness diagonal) and one over the nodes.
+pub(crate) fn node_frequency_top(
+    ops: &Operators,
+    volume: &[f64],
+    tangent: &dyn Fn(usize) -> [f64; 3],
+    free: &[bool],
+    bound: &crate::mass::BoundingMass<'_>,
+    work: &mut BoundWork,
+) -> (f64, usize) {
+    let n = ops.num_nodes();
+    node_diagonals(ops, volume, tangent, free, bound, work);
+    let BoundWork {
+        f,
+        xy,
+        diagonal,
+        own: owns,
+        ..
+    } = work;
+    owns.resize(n, 0.0);
+    let (mut top, mut at) = (0.0f64, 0);
+    for i in ops.node_span() {
+        let (fx, fy) = (free[i], free[n + i]);
+        if !(fx || fy) {
+            continue;
+        }
+        let (bx, by) = (diagonal[0][i], diagonal[1][i]);
+        let (kx, ky) = (f.x[i], f.y[i]);
+        let own = match (fx && bx > 0.0, fy && by > 0.0) {
+            (true, true) => {
+                let (a, d, o) = (kx / bx, ky / by, xy[i] / (bx * by).sqrt());
+                0.5 * (a + d) + (0.25 * (a - d) * (a - d) + o * o).sqrt()
+            }
+            (true, false) => kx / bx,
+            (false, true) => ky / by,
+            (false, false) => 0.0,
+        };
+        owns[i] = own;
+        if own > top {
+            (top, at) = (own, i);
+        }
+    }
+    (top, at)
+}
+
+/// The stiffness diagonal (`work.f`, `work.xy`) and the diagonal of `B` per component
+/// (`work.diagonal`) over the node span.
+fn node_diagonals(
+    ops: &Operators,
+    volume: &[f64],
+    tangent: &dyn Fn(usize) -> [f64; 3],
+    free: &[bool],
+    bound: &crate::mass::BoundingMass<'_>,
+    work: &mut BoundWork,
+) {
+    let n = ops.num_nodes();
+    let stencil = bound.stencil();
+    let BoundWork {
+        f,
+        xy,
+        diagonal,
+        tangents,
+        penalty,
+        ..
+    } = work;
+    if f.len() != n {
+        *f = VectorField::zeros(n);
+    }
+    xy.resize(n, 0.0);
+    tangents.clear();
+    tangents.extend((0..ops.num_particles()).map(tangent));
+    let tangents = &*tangents;
+    tangent_diagonal_into(ops, volume, &|p: usize| tangents[p], f, xy);
+    penalty.fill(stencil.penalty_terms(), ops.strides()[0], n);
+    let strides = ops.strides();
+    for (c, d) in diagonal.iter_mut().enumerate() {
+        if d.len() != n {
+            *d = vec![0.0; n];
+        }
+        stencil.diagonal_into(d);
+        for &i in &penalty.nodes {
+            d[i] += penalty.diagonal(i, strides, |j| bound.coupling(j), |j| free[c * n + j]);
+        }
+    }
+}
+
+/// The upper bound of the update's `ω²_max` for a solve mass `M_s = M + R` in both solves, `R`
+/// positive semi-definite (the linear-extension penalty), from products only:
+///
+/// ```text
+/// ω²_max = λ_max(M_s⁻¹ K M_s⁻¹ M) = λ_max(K, M_s M⁻¹ M_s) ≤ λ_max(K, B),   B = M_s + R + R M_L⁻¹ R
+/// ```
+///
+/// on the free degrees of freedom: `M_s M⁻¹ M_s = M + 2R + R M⁻¹ R` and `M ⪯ diag(m_L)` (the
+/// lumped mass minus the consistent one is a weighted graph Laplacian), so `M⁻¹ ⪰ M_L⁻¹` and
+/// `B ⪯ M_s M⁻¹ M_s`. `B` is closer to the update's own mass than `M_s` is
+/// ([`mpm_mass_bound_frequency_squared`]), most where the penalty holds a node whose support
+/// empties.
+///
+/// The top of this spectrum on random layouts is made of modes localised at single nodes that
+/// few particles read, scattered over the body, beside the interior's checkerboard band: one
+/// LOBPCG iterate converges to whichever it meets first. So the estimate is the largest of
+/// three lower bounds of `λ_max(K, B)`:
+/// - the largest single-node frequency [`node_frequency_top`];
+/// - LOBPCG started at that node (its local mode);
+/// - LOBPCG from a start alternating in sign from node to node (the interior's band, at most
+///   [`BAND_STEPS`] steps).
+///
+/// Products: `K` without forming it ([`apply_tangent_stiffness`]), `M_s` in stencil form, `R`
+/// from its recorded terms ([`crate::mass::StencilMass::penalty_product`]); preconditioned by
+/// `diag(B)⁻¹`. Returns the estimate (LOBPCG steps summed) and the single-node frequency.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn mpm_update_bound_estimate(
+    ops: &Operators,
+    volume: &[f64],
+    tangent: &impl Fn(usize) -> [f64; 3],
+    free: &[bool],
+    bound: &crate::mass::BoundingMass<'_>,
+    max_steps: usize,
+    tolerance: f64,
+    work: &mut BoundWork,
+    mode: &mut Vec<f64>,
+    warm: Option<usize>,
+) -> (FrequencyEstimate, f64) {
+    let n = ops.num_nodes();
+    assert_eq!(free.len(), 2 * n, "one flag per degree of freedom");
+    let (node_top, top_node) = node_frequency_top(ops, volume, tangent, free, bound, work);
+    let patch = match warm {
+        None => patch_top(
+            ops,
+            volume,
+            &work.tangents,
+            free,
+            bound,
+            &work.penalty,
+            &work.own,
+            &mut work.owner,
+        ),
+        Some(_) => None,
+    };
+    let dofs = FreeDofs::new(free);
+    let stencil = bound.stencil();
+    let BoundWork {
+        lobpcg,
+        x,
+        u,
+        f,
+        padded,
+        full,
+        tangents,
+        diagonal,
+        ..
+    } = work;
+    let tangents = &*tangents;
+    let tangent = &|p: usize| tangents[p];
+    if u.len() != n {
+        *u = VectorField::zeros(n);
+    }
+    f.x.fill(0.0);
+    f.y.fill(0.0);
+    let plen = stencil.padded_len();
+    for v in padded.iter_mut() {
+        v.clear();
+        v.resize(plen, 0.0);
+    }
+    for v in full.iter_mut() {
+        if v.len() != n {
+            *v = vec![0.0; n];
+        }
+    }
+    // The free mask of each component in the padded layout.
+    let [xp, outp, mask_x, mask_y] = padded;
+    for (c, mask) in [(0, &mut *mask_x), (1, &mut *mask_y)] {
+        for &i in &dofs.nodes[c] {
+            mask[stencil.padded_position(i as usize)] = 1.0;
+        }
+    }
+    let counts = [dofs.nodes[0].len(), dofs.nodes[1].len()];
+    let positions: Vec<usize> = dofs.each().map(|(_, i)| stencil.padded_position(i)).collect();
+    let penalty_nodes: Vec<usize> = stencil
+        .penalty_terms()
+        .iter()
+        .flat_map(|(t, _)| t.iter().map(|&i| i as usize))
+        .collect();
+    let inverse_diagonal: Vec<f64> = dofs
+        .each()
+        .map(|(c, i)| {
+            let d = diagonal[c][i];
+            if d > 0.0 {
+                1.0 / d
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let precondition = |r: &[f64], out: &mut [f64]| {
+        for ((r, d), o) in r.iter().zip(&inverse_diagonal).zip(out.iter_mut()) {
+            *o = r * d;
+        }
+    };
+    let mut apply_k = |v: &[f64], out: &mut [f64]| {
+        dofs.expand(v, u);
+        apply_tangent_stiffness_into(ops, volume, tangent, u, f);
+        dofs.compress_into(f, out);
+    };
+    let mut apply_b = |v: &[f64], out: &mut [f64]| {
+        let [xf, y1, y2] = &mut *full;
+        let mut k0 = 0;
+        for c in 0..2 {
+            let nodes = &dofs.nodes[c];
+            let range = k0..k0 + counts[c];
+            let (part, at) = (&v[range.clone()], &positions[range.clone()]);
+            let mask = if c == 0 { &*mask_x } else { &*mask_y };
+            for ((&i, &value), &pos) in nodes.iter().zip(part).zip(at) {
+                xp[pos] = value;
+                xf[i as usize] = value;
+            }
+            stencil.apply_masked(xp, outp, mask);
+            // R x, then R M_L⁻¹ (R x) on the free entries (xf cleared and reused for it).
+            stencil.penalty_product(xf, y1);
+            for &i in nodes {
+                xf[i as usize] = 0.0;
+            }
+            for &i in &penalty_nodes {
+                y2[i] = if free[c * n + i] {
+                    y1[i] * bound.coupling(i)
+                } else {
+                    0.0
+                };
+            }
+            stencil.penalty_product(y2, xf);
+            for ((&i, o), &pos) in nodes.iter().zip(out[range].iter_mut()).zip(at) {
+                let i = i as usize;
+                *o = outp[pos] + y1[i] + xf[i];
+                xp[pos] = 0.0;
+            }
+            for &i in &penalty_nodes {
+                (xf[i], y1[i], y2[i]) = (0.0, 0.0, 0.0);
+            }
+            k0 += counts[c];
+        }
+    };
+    // A guard: `steps` LOBPCG steps from the tracked mode (from the node with the largest
+    // frequency where nothing of the mode is left on the free degrees of freedom).
+    if let Some(steps) = warm {
+        x.clear();
+        if mode.len() == 2 * n {
+            x.extend(dofs.each().map(|(c, i)| mode[c * n + i]));
+        }
+        if x.iter().all(|&v| v == 0.0) {
+            x.clear();
+            x.extend(dofs.each().map(|(_, i)| if i == top_node { 1.0 } else { 0.0 }));
+        }
+        let found = crate::spectral::lobpcg_top(x, steps, 0.0, &mut apply_k, &mut apply_b, precondition, lobpcg);
+        u.x.fill(0.0);
+        u.y.fill(0.0);
+        dofs.write_mode(x, mode);
+        let (value, steps) = found.unwrap_or((0.0, 0));
+        let estimate = FrequencyEstimate {
+            omega_squared: value.max(0.0),
+            lanczos_steps: steps,
+        };
+        return (estimate, node_top);
+    }
+    // (1) The best patch's mode, polished on the whole grid (from the node with the largest
+    // frequency where there is no patch).
+    let mut patch_value = 0.0f64;
+    match &patch {
+        Some((value, mode)) => {
+            patch_value = *value;
+            let mut at = vec![[0.0; 2]; 0];
+            at.resize(n, [0.0; 2]);
+            for &(c, i, v) in mode {
+                at[i][c] = v;
+            }
+            x.clear();
+            x.extend(dofs.each().map(|(c, i)| at[i][c]));
+        }
+        None => {
+            x.clear();
+            x.extend(dofs.each().map(|(_, i)| if i == top_node { 1.0 } else { 0.0 }));
+        }
+    }
+    let local = crate::spectral::lobpcg_top(
+        x,
+        max_steps.min(POLISH_STEPS),
+        tolerance,
+        &mut apply_k,
+        &mut apply_b,
+        precondition,
+        lobpcg,
+    );
+    // (2) The interior's band.
+    let local_mode = std::mem::take(x);
+    *x = dofs.start_vector();
+    if let Some(g) = ops.grid() {
+        for ((_, i), v) in dofs.each().zip(x.iter_mut()) {
+            let (a, b) = g.node_ij(i);
+            if (a + b) % 2 == 1 {
+                *v = -*v;
+            }
+        }
+    }
+    let band = crate::spectral::lobpcg_top(
+        x,
+        max_steps.min(BAND_STEPS),
+        tolerance,
+        &mut apply_k,
+        &mut apply_b,
+        precondition,
+        lobpcg,
+    );
+    // The mode the guards track: the higher of the two.
+    let higher = |r: Option<(f64, usize)>| r.map_or(0.0, |(v, _)| v);
+    if higher(local) > higher(band) {
+        dofs.write_mode(&local_mode, mode);
+    } else {
+        dofs.write_mode(x, mode);
+    }
+    // Leave the work fields zero (the stiffness product clears only the span).
+    u.x.fill(0.0);
+    u.y.fill(0.0);
+    let [(a, sa), (b, sb)] = [local, band].map(|r| r.unwrap_or((0.0, 0)));
+    let estimate = FrequencyEstimate {
+        omega_squared: a.max(b).max(node_top).max(patch_value).max(0.0),
+        lanczos_steps: sa + sb,
+    };
+    (estimate, node_top)
+}
+
+/// Most LOBPCG steps of the band estimate of [`mpm_update_bound_estimate`] (the interior's
+/// checkerboard band converges in about ten; beyond, the iterate creeps towards the localised
+/// modes, which the other two parts find).
+pub const BAND_STEPS: usize = 150;
+
+/// Most LOBPCG steps polishing the best patch's mode in [`mpm_update_bound_estimate`].
+pub const POLISH_STEPS: usize = 150;
+
+/// Half-width of the patches of [`patch_top`], in nodes: a patch is the `(2r + 1)²` nodes
+/// around its centre (3 × 3).
+pub const PATCH_RADIUS: usize = 1;
+
+/// Most patches of [`patch_top`]: centred on the nodes with the highest single-node
+/// frequencies, far enough apart that no particle reads two of them.
+pub const PATCH_CANDIDATES: usize = 96;
+
+/// A patch's mode as `(component, node, value)`.
+type PatchMode = Vec<(usize, usize, f64)>;
+
+/// One patch of [`patch_top`]: its nodes (`usize::MAX` off the grid) and the stiffness of its
+/// particles on them, `2P × 2P` (x components of the `P` nodes, then y).
+struct Patch {
+    nodes: Vec<usize>,
+    origin: [isize; 2],
+    stiffness: Vec<f64>,
+}
+
+/// The largest eigenvalue of the pencil `(K_PP, B_PP)` over small patches `P` of nodes (their
+/// free degrees of freedom), the principal submatrices of `(K, B)`: each a lower bound of
+/// `λ_max(K, B)` (Cauchy interlacing), and close to it where the top mode is localised on a
+/// patch. Patches are centred on the [`PATCH_CANDIDATES`] nodes of highest single-node
+/// frequency `own` that lie far enough apart; `K_PP` is summed from the particles that read the
+/// patch (one pass over the particles), `B_PP` from the stencil of `M_s` and the penalty's
+/// rows. Returns the value and its mode as `(component, node, value)`.
+#[allow(clippy::too_many_arguments)]
+fn patch_top(
+    ops: &Operators,
+    volume: &[f64],
+    tangents: &[[f64; 3]],
+    free: &[bool],
+    bound: &crate::mass::BoundingMass<'_>,
+    penalty: &PenaltyRows,
+    own: &[f64],
+    owner: &mut Vec<u32>,
+) -> Option<(f64, PatchMode)> {
+    let grid = ops.grid()?;
+    let n = ops.num_nodes();
+    let [nx, ny] = grid.nodes_per_axis();
+    let r = PATCH_RADIUS as isize;
+    let width = 2 * PATCH_RADIUS + 1;
+    let support = ops.support() as isize;
+    // Candidates: the highest single-node frequencies, greedily kept apart.
+    let mut ranked: Vec<(f64, usize)> = ops.node_span().filter(|&i| own[i] > 0.0).map(|i| (own[i], i)).collect();
+    let keep = (8 * PATCH_CANDIDATES).min(ranked.len());
+    if keep == 0 {
+        return None;
+    }
+    if keep < ranked.len() {
+        ranked.select_nth_unstable_by(keep - 1, |a, b| b.0.total_cmp(&a.0));
+        ranked.truncate(keep);
+    }
+    ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let apart = 2 * r + support;
+    let mut centres: Vec<[isize; 2]> = Vec::new();
+    for &(_, i) in &ranked {
+        let (a, b) = grid.node_ij(i);
+        let c = [a as isize, b as isize];
+        if centres
+            .iter()
+            .all(|o| (o[0] - c[0]).abs() > apart || (o[1] - c[1]).abs() > apart)
+        {
+            centres.push(c);
+            if centres.len() == PATCH_CANDIDATES {
+                break;
+            }
+        }
+    }
+    let mut patches: Vec<Patch> = centres
+        .iter()
+        .map(|c| {
+            let origin = [c[0] - r, c[1] - r];
+            let nodes = (0..width * width)
+                .map(|l| {
+                    let (a, b) = (origin[0] + (l % width) as isize, origin[1] + (l / width) as isize);
+                    if a >= 0 && b >= 0 && (a as usize) < nx && (b as usize) < ny {
+                        grid.node_index(a as usize, b as usize)
+                    } else {
+                        usize::MAX
+                    }
+                })
+                .collect();
+            Patch {
+                nodes,
+                origin,
+                stiffness: vec![0.0; 4 * width * width * width * width],
+            }
+        })
+        .collect();
+    // Each patch owns the first nodes of the stencils that reach it.
+    owner.clear();
+    owner.resize(n, u32::MAX);
+    let mut owned = Vec::new();
+    for (k, p) in patches.iter().enumerate() {
+        for b in p.origin[1] - support + 1..=p.origin[1] + 2 * r {
+            for a in p.origin[0] - support + 1..=p.origin[0] + 2 * r {
+                if a >= 0 && b >= 0 && (a as usize) < nx && (b as usize) < ny {
+                    let i = grid.node_index(a as usize, b as usize);
+                    owner[i] = k as u32;
+                    owned.push(i);
+                }
+            }
+        }
+    }
+    crate::with_support!(ops, patch_stiffness::<S>(ops, volume, tangents, owner, &mut patches));
+    for i in owned {
+        owner[i] = u32::MAX;
+    }
+    // Each patch's pencil on its free degrees of freedom.
+    let stencil = bound.stencil();
+    let strides = ops.strides();
+    let p_count = width * width;
+    let mut best: Option<(f64, PatchMode)> = None;
+    for patch in &patches {
+        let dofs: Vec<(usize, usize)> = (0..2)
+            .flat_map(|c| (0..p_count).map(move |l| (c, l)))
+            .filter(|&(c, l)| patch.nodes[l] != usize::MAX && free[c * n + patch.nodes[l]])
+            .collect();
+        let m = dofs.len();
+        if m == 0 {
+            continue;
+        }
+        let k = nalgebra::DMatrix::from_fn(m, m, |s, t| {
+            let ((c, l), (d, q)) = (dofs[s], dofs[t]);
+            patch.stiffness[(c * p_count + l) * 2 * p_count + d * p_count + q]
+        });
+        let b = nalgebra::DMatrix::from_fn(m, m, |s, t| {
+            let ((c, l), (d, q)) = (dofs[s], dofs[t]);
+            if c != d {
+                return 0.0;
+            }
+            let (i, j) = (patch.nodes[l], patch.nodes[q]);
+            let mut v = stencil.entry(i, j) + penalty.entry(i, j, strides);
+            for (h, rih) in penalty.row(i, strides) {
+                if free[c * n + h] {
+                    v += rih * penalty.entry(h, j, strides) * bound.coupling(h);
+                }
+            }
+            v
+        });
+        let Some(chol) = nalgebra::Cholesky::new(b) else {
+            continue;
+        };
+        let Some(l_inv) = chol.l().try_inverse() else {
+            continue;
+        };
+        let reduced = &l_inv * k * l_inv.transpose();
+        let reduced = 0.5 * (&reduced + reduced.transpose());
+        let eig = nalgebra::SymmetricEigen::new(reduced);
+        let top = eig.eigenvalues.imax();
+        let value = eig.eigenvalues[top];
+        if best.as_ref().is_none_or(|(v, _)| value > *v) {
+            let y = l_inv.transpose() * eig.eigenvectors.column(top);
+            let mode = dofs
+                .iter()
+                .zip(y.iter())
+                .map(|(&(c, l), &v)| (c, patch.nodes[l], v))
+                .collect();
+            best = Some((value, mode));
+        }
+    }
+    best
+}
+
+/// Adds each particle's stiffness on the nodes of the patch that owns its stencil's first node
+/// (`K[αx, βx] = V (C11 ∂xN_α ∂xN_β + G ∂yN_α ∂yN_β)`, and likewise for the other blocks, as
+/// [`apply_tangent_stiffness_into`] applies them).
+fn patch_stiffness<const S: usize>(
+    ops: &Operators,
+    volume: &[f64],
+    tangents: &[[f64; 3]],
+    owner: &[u32],
+    patches: &mut [Patch],
+) {
+    let width = (2 * PATCH_RADIUS + 1) as isize;
+    let p_count = (width * width) as usize;
+    for p in 0..ops.num_particles() {
+        let st = ops.stencil::<S>(p);
+        let k = owner[st.first];
+        if k == u32::MAX {
+            continue;
+        }
+        let patch = &mut patches[k as usize];
+        let [c11, c12, g] = tangents[p];
+        let v = volume[p];
+        // The particle's nodes inside the patch: local index and gradient.
+        let mut local: [(usize, f64, f64); 16] = [(0, 0.0, 0.0); 16];
+        let mut count = 0;
+        for b in 0..S {
+            for a in 0..S {
+                let (i, j) = (
+                    st.first_ij[0] as isize + a as isize - patch.origin[0],
+                    st.first_ij[1] as isize + b as isize - patch.origin[1],
+                );
+                if (0..width).contains(&i) && (0..width).contains(&j) && count < 16 {
+                    let (gx, gy) = (st.dwx[a] * st.wy[b], st.wx[a] * st.dwy[b]);
+                    local[count] = ((i + width * j) as usize, gx, gy);
+                    count += 1;
+                }
+            }
+        }
+        let row = 2 * p_count;
+        for &(l, gxa, gya) in &local[..count] {
+            for &(q, gxb, gyb) in &local[..count] {
+                let s = &mut patch.stiffness;
+                s[l * row + q] += v * (c11 * gxa * gxb + g * gya * gyb);
+                s[l * row + p_count + q] += v * (c12 * gxa * gyb + g * gya * gxb);
+                s[(p_count + l) * row + q] += v * (c12 * gya * gxb + g * gxa * gyb);
+                s[(p_count + l) * row + p_count + q] += v * (c11 * gya * gyb + g * gxa * gxb);
+            }
+        }
+    }
+}
