@@ -26,12 +26,12 @@ pub(crate) struct Spelled<'a> {
     pub(crate) text: &'a str,
     /// The name (before the first `:`).
     pub(crate) name: &'a str,
-    params: [Option<&'a str>; 2],
+    params: [Option<&'a str>; 3],
 }
 
 impl<'a> Spelled<'a> {
-    /// `text` cut into its name and up to two parameters (`name:p:q`, or the older
-    /// `name(p, q)`); more than two parameters are an error naming the text.
+    /// `text` cut into its name and up to three parameters (`name:p:q:r`, or the older
+    /// `name(p, q)`); more than three parameters are an error naming the text.
     pub(crate) fn parse(text: &'a str) -> Result<Spelled<'a>, String> {
         let text = text.trim();
         let (name, rest) = match (text.split_once(':'), text.split_once('(')) {
@@ -39,7 +39,7 @@ impl<'a> Spelled<'a> {
             (None, Some((name, rest))) => (name, Some((rest.trim_end().trim_end_matches(')'), ','))),
             (None, None) => (text, None),
         };
-        let mut params = [None, None];
+        let mut params = [None, None, None];
         if let Some((rest, separator)) = rest {
             let mut parts = rest.split(separator).map(str::trim);
             for slot in params.iter_mut() {
@@ -169,7 +169,7 @@ mod tests {
         let s = Spelled::parse("series(3)").unwrap();
         assert_eq!((s.name, s.param::<usize>(0, None).unwrap()), ("series", 3));
         assert!(Spelled::parse("blended").unwrap().param::<f64>(0, None).is_err());
-        assert!(Spelled::parse("a:1:2:3").is_err());
+        assert!(Spelled::parse("a:1:2:3:4").is_err());
         assert!(Spelled::parse("lumped:1").unwrap().no_params().is_err());
     }
 }

@@ -211,7 +211,7 @@ fn the_linear_extension_penalty_is_symmetric_semidefinite_zero_on_linear_fields_
         let (grid, ops, lumped, active) = setup(shape);
         let particles = disk();
         let m = consistent_mass(&ops, &particles.mass);
-        let p = dense(&extension_penalty(&ops, &m, &lumped, &active, 1.0, 0.5));
+        let p = dense(&extension_penalty(&ops, &m, &lumped, &active, 1.0, 0.5, 0.2));
         let scale = p.abs().max();
         assert!(scale > 0.0, "{}: the fringe is penalised", shape.name());
         assert!(
@@ -286,8 +286,8 @@ fn the_stencil_form_of_the_linear_extension_penalty_equals_the_compressed_column
             let mut active = vec![false; lumped.len()];
             active_nodes(&lumped, 1e-12).into_iter().for_each(|i| active[i] = true);
             let m = consistent_mass(&ops, &particles.mass);
-            let (gamma, threshold) = (0.7, 0.5);
-            let reference = dense(&(&m + &extension_penalty(&ops, &m, &lumped, &active, gamma, threshold)));
+            let (gamma, threshold, onset) = (0.7, 0.5, 0.2);
+            let reference = dense(&(&m + &extension_penalty(&ops, &m, &lumped, &active, gamma, threshold, onset)));
             let mut stencil = StencilMass::default();
             stencil.reassemble_extended(&ops, &particles.mass);
             // The widened layout holds the same plain matrix.
@@ -299,7 +299,7 @@ fn the_stencil_form_of_the_linear_extension_penalty_equals_the_compressed_column
                 shape.name()
             );
             let full = full_support_inertia(shape, &grid);
-            stencil.add_extension_penalty(grid.nodes_per_axis(), &lumped, &active, gamma, threshold, full);
+            stencil.add_extension_penalty(grid.nodes_per_axis(), &lumped, &active, [gamma, threshold, onset], full);
             let stabilized = dense(&stencil.to_csc());
             let penalised = (&reference - dense(&m)).abs().max();
             assert!(penalised > 1e-3 * scale, "{}: the fringe is penalised", shape.name());

@@ -9,7 +9,7 @@
 //!
 //! ```text
 //! M_s = M + γ Σ_T w_T d_T d_Tᵀ,   d_T = e_a − 2 e_b + e_c,
-//! w_T = max_{I ∈ T} m_L,I · max(0, 1 − ψ_T/θ),   ψ_T = min_{I ∈ T} ψ_I,
+//! w_T = max_{I ∈ T} m_L,I · max(0, 1 − ψ_T/θ) · min(1, ψ_T/ψ₀),   ψ_T = min_{I ∈ T} ψ_I,
 //! ψ_I = min(φ_I, δ_I/δ_full),
 //! φ_I = m_L,I / max_{J: M_IJ ≠ 0} m_L,J,    δ_I = M_II / m_L,I
 //! ```
@@ -66,6 +66,44 @@ pub fn full_support_inertia(shape: ShapeFunction, grid: &Grid) -> f64 {
     product
 }
 
+/// The onset the penalty applies with `shape`: `onset` for kernels whose gradient vanishes
+/// where their value does (GIMP and the B-splines), 0 (no fade) for the linear kernel, whose
+/// gradient is a full `1/h` the moment a node enters a particle's support:
+///
+/// ```text
+/// ψ₀ = onset  (GIMP, B-splines),   0  (linear)
+/// ```
+///
+/// At the fringe of a body read by a kernel with continuous gradients, a node whose support is
+/// emptying has `ψ ∝ d²` and a stiffness `∝ d²` (`d` how far the particles reach into its
+/// support), so a penalty `∝ ψ` keeps its frequency bounded while it fades in continuously as
+/// the node enters a support. At full weight from the start, the penalty switched on and off as
+/// a bouncing or vibrating body's edge crossed grid lines and pumped energy into it (a block
+/// dropped on a floor, quadratic B-splines, FLIP, CFL 0.5: +17% of its energy in 1.5 s).
+pub fn effective_onset(shape: ShapeFunction, onset: f64) -> f64 {
+    match shape {
+        ShapeFunction::Linear => 0.0,
+        ShapeFunction::Gimp { .. } | ShapeFunction::QuadraticBSpline | ShapeFunction::CubicBSpline => onset,
+    }
+}
+
+/// The factor of a triple's penalty weight for its support `ψ_T`:
+///
+/// ```text
+/// max(0, 1 − ψ_T/θ) · min(1, ψ_T/ψ₀)      (the second factor 1 for ψ₀ = 0)
+/// ```
+pub fn extension_ramp(psi: f64, threshold: f64, onset: f64) -> f64 {
+    let ramp = 1.0 - psi / threshold;
+    if ramp <= 0.0 {
+        return 0.0;
+    }
+    if onset > 0.0 {
+        ramp * (psi / onset).min(1.0)
+    } else {
+        ramp
+    }
+}
+
 /// Node `I`'s mass relative to the heaviest node it is coupled to in `m`:
 ///
 /// ```text
@@ -108,6 +146,7 @@ pub fn extension_penalty(
     active: &[bool],
     gamma: f64,
     threshold: f64,
+    onset: f64,
 ) -> CscMatrix<f64> {
     let grid = ops.grid().expect("operators assembled on a grid");
     let n = ops.num_nodes();
@@ -140,7 +179,7 @@ pub fn extension_penalty(
                     continue;
                 }
                 let psi_t = nodes.iter().map(|&k| psi[k]).fold(f64::INFINITY, f64::min);
-                let ramp = 1.0 - psi_t / threshold;
+                let ramp = extension_ramp(psi_t, threshold, effective_onset(ops.shape_function(), onset));
                 if ramp <= 0.0 {
                     continue;
                 }

@@ -96,10 +96,16 @@ fn diagonal_preconditioner(m: &CscMatrix<f64>, lumped: &[f64]) -> Vec<f64> {
 
 /// Adds the linear-extension penalty to `m`, a stencil assembled with
 /// [`StencilMass::reassemble_extended`].
-fn add_extension(m: &mut StencilMass, ops: &Operators, lumped: &[f64], active: &[bool], gamma: f64, threshold: f64) {
+fn add_extension(
+    m: &mut StencilMass,
+    ops: &Operators,
+    lumped: &[f64],
+    active: &[bool],
+    [gamma, threshold, onset]: [f64; 3],
+) {
     let grid = ops.grid().expect("operators assembled on a grid");
     let full = super::extension::full_support_inertia(ops.shape_function(), grid);
-    m.add_extension_penalty(grid.nodes_per_axis(), lumped, active, gamma, threshold, full);
+    m.add_extension_penalty(grid.nodes_per_axis(), lumped, active, [gamma, threshold, onset], full);
 }
 
 /// [`diagonal_preconditioner`] of a matrix in stencil form.
@@ -176,10 +182,14 @@ impl Matrices {
         let mut stencil = self.buffers.take().or(self.stencil.take()).unwrap_or_default();
         self.preconditioner = None;
         match options.stabilization {
-            Stabilization::LinearExtension { gamma, threshold } => {
+            Stabilization::LinearExtension {
+                gamma,
+                threshold,
+                onset,
+            } => {
                 stencil.reassemble_extended(ops, m);
                 self.csc = Some(stencil.to_csc());
-                add_extension(&mut stencil, ops, lumped, is_active, gamma, threshold);
+                add_extension(&mut stencil, ops, lumped, is_active, [gamma, threshold, onset]);
                 self.preconditioner = Some(stencil_preconditioner(&stencil, lumped));
                 self.stabilized_csc = Some(stencil.to_csc());
             }
@@ -232,9 +242,13 @@ impl Matrices {
                 stabilized.partially_lump(lumped, threshold);
                 Some(stabilized)
             }
-            Stabilization::LinearExtension { gamma, threshold } if solves => {
+            Stabilization::LinearExtension {
+                gamma,
+                threshold,
+                onset,
+            } if solves => {
                 stabilized.reassemble_extended(ops, m);
-                add_extension(&mut stabilized, ops, lumped, is_active, gamma, threshold);
+                add_extension(&mut stabilized, ops, lumped, is_active, [gamma, threshold, onset]);
                 self.preconditioner = Some(stencil_preconditioner(&stabilized, lumped));
                 Some(stabilized)
             }

@@ -51,6 +51,8 @@ pub const DEFAULT_LUMPING_THRESHOLD: f64 = 0.5;
 pub const DEFAULT_EXTENSION_WEIGHT: f64 = 0.3;
 /// Default support threshold θ of [`Stabilization::LinearExtension`].
 pub const DEFAULT_EXTENSION_THRESHOLD: f64 = 0.5;
+/// Default onset ψ₀ of [`Stabilization::LinearExtension`] (kernels with continuous gradients).
+pub const DEFAULT_EXTENSION_ONSET: f64 = 0.2;
 
 /// How the consistent mass is stabilised at a body's fringe before it is solved with. Applies
 /// to the consistent, blended and conjugate-gradient schemes (and to a regularised solve); the
@@ -83,6 +85,11 @@ pub enum Stabilization {
         gamma: f64,
         /// Relative nodal mass θ in (0, 1] below which a triple of nodes is penalised.
         threshold: f64,
+        /// Support ψ₀ in [0, θ] below which the penalty of a triple fades in proportion
+        /// (`min(1, ψ_T/ψ₀)`), with kernels whose gradient vanishes where their value does
+        /// (GIMP and the B-splines; 0: no fade): so that the penalty does not appear at full
+        /// weight the moment a particle's support reaches a node (docs/mass.md).
+        onset: f64,
     },
 }
 
@@ -96,6 +103,7 @@ impl Default for Stabilization {
         Stabilization::LinearExtension {
             gamma: DEFAULT_EXTENSION_WEIGHT,
             threshold: DEFAULT_EXTENSION_THRESHOLD,
+            onset: DEFAULT_EXTENSION_ONSET,
         }
     }
 }
@@ -131,6 +139,13 @@ impl Stabilization {
                     reason: "the linear-extension threshold must lie in (0, 1]",
                 })
             }
+            Stabilization::LinearExtension { threshold, onset, .. } if !(onset >= 0.0 && onset <= threshold) => {
+                Err(MpmError::InvalidParameter {
+                    name: "onset",
+                    value: onset,
+                    reason: "the linear-extension onset must lie in [0, threshold]",
+                })
+            }
             Stabilization::None
             | Stabilization::GhostPenalty { .. }
             | Stabilization::PartialLumping { .. }
@@ -155,9 +170,11 @@ impl Stabilization {
             Stabilization::None => None,
             Stabilization::GhostPenalty { gamma } => Some(m + &ghost_penalty(ops, lumped, active, gamma)),
             Stabilization::PartialLumping { threshold } => Some(partially_lumped(m, lumped, threshold)),
-            Stabilization::LinearExtension { gamma, threshold } => {
-                Some(m + &extension_penalty(ops, m, lumped, active, gamma, threshold))
-            }
+            Stabilization::LinearExtension {
+                gamma,
+                threshold,
+                onset,
+            } => Some(m + &extension_penalty(ops, m, lumped, active, gamma, threshold, onset)),
         }
     }
 }
@@ -168,8 +185,16 @@ impl fmt::Display for Stabilization {
             Stabilization::None => f.pad("none"),
             Stabilization::GhostPenalty { gamma } => names::write(f, "ghost_penalty", &[gamma]),
             Stabilization::PartialLumping { threshold } => names::write(f, "partial_lumping", &[threshold]),
-            Stabilization::LinearExtension { gamma, threshold } => {
-                names::write(f, "linear_extension", &[gamma, threshold])
+            Stabilization::LinearExtension {
+                gamma,
+                threshold,
+                onset,
+            } => {
+                if onset == DEFAULT_EXTENSION_ONSET {
+                    names::write(f, "linear_extension", &[gamma, threshold])
+                } else {
+                    names::write(f, "linear_extension", &[gamma, threshold, onset])
+                }
             }
         }
     }
@@ -188,12 +213,16 @@ impl FromStr for Stabilization {
             "partial_lumping" => Ok(Stabilization::PartialLumping {
                 threshold: s.param(0, Some(DEFAULT_LUMPING_THRESHOLD))?,
             }),
-            "linear_extension" => Ok(Stabilization::LinearExtension {
-                gamma: s.param(0, Some(DEFAULT_EXTENSION_WEIGHT))?,
-                threshold: s.param(1, Some(DEFAULT_EXTENSION_THRESHOLD))?,
-            }),
+            "linear_extension" => {
+                let threshold = s.param(1, Some(DEFAULT_EXTENSION_THRESHOLD))?;
+                Ok(Stabilization::LinearExtension {
+                    gamma: s.param(0, Some(DEFAULT_EXTENSION_WEIGHT))?,
+                    threshold,
+                    onset: s.param(2, Some(DEFAULT_EXTENSION_ONSET.min(threshold)))?,
+                })
+            }
             _ => Err(format!(
-                "unknown stabilization `{text}` (none, linear_extension[:γ[:θ]], ghost_penalty[:γ], partial_lumping[:θ])"
+                "unknown stabilization `{text}` (none, linear_extension[:γ[:θ[:ψ₀]]], ghost_penalty[:γ], partial_lumping[:θ])"
             )),
         }
     }
@@ -215,6 +244,7 @@ enum StabilizationTable {
         gamma: f64,
         #[serde(default = "default_extension_threshold")]
         threshold: f64,
+        onset: Option<f64>,
     },
 }
 
@@ -232,9 +262,15 @@ impl From<StabilizationTable> for Stabilization {
             StabilizationTable::None => Stabilization::None,
             StabilizationTable::GhostPenalty { gamma } => Stabilization::GhostPenalty { gamma },
             StabilizationTable::PartialLumping { threshold } => Stabilization::PartialLumping { threshold },
-            StabilizationTable::LinearExtension { gamma, threshold } => {
-                Stabilization::LinearExtension { gamma, threshold }
-            }
+            StabilizationTable::LinearExtension {
+                gamma,
+                threshold,
+                onset,
+            } => Stabilization::LinearExtension {
+                gamma,
+                threshold,
+                onset: onset.unwrap_or(DEFAULT_EXTENSION_ONSET.min(threshold)),
+            },
         }
     }
 }
@@ -249,7 +285,7 @@ impl<'de> Deserialize<'de> for Stabilization {
     fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Stabilization, D::Error> {
         names::deserialize::<D, Stabilization, StabilizationTable>(
             d,
-            "a stabilization (none, linear_extension:γ:θ, ghost_penalty:γ, partial_lumping:θ)",
+            "a stabilization (none, linear_extension:γ:θ:ψ₀, ghost_penalty:γ, partial_lumping:θ)",
         )
     }
 }

@@ -266,11 +266,12 @@ impl StencilMass {
     ///
     /// ```text
     /// M_s = M + γ Σ_T w_T d_T d_Tᵀ,   d_T = e_a − 2 e_b + e_c,
-    /// w_T = max_{I ∈ T} m_L,I · max(0, 1 − ψ_T/θ),   ψ_T = min_{I ∈ T} ψ_I,
+    /// w_T = max_{I ∈ T} m_L,I · max(0, 1 − ψ_T/θ) · min(1, ψ_T/ψ₀),   ψ_T = min_{I ∈ T} ψ_I,
     /// ψ_I = min(φ_I, δ_I/δ_full),   φ_I = m_L,I / max_{J: M_IJ ≠ 0} m_L,J,   δ_I = M_II / m_L,I
     /// ```
     ///
-    /// over the triples `T = (a, b, c)` of consecutive active nodes along each grid line, with
+    /// (`ψ₀` the onset as [`super::extension::effective_onset`] gives it for the kernel) over the
+    /// triples `T = (a, b, c)` of consecutive active nodes along each grid line, with
     /// `φ` and `δ` of the plain matrix this stencil holds on entry; `full` is `δ_full`
     /// ([`super::extension::full_support_inertia`]).
     ///
@@ -283,10 +284,10 @@ impl StencilMass {
         nodes_per_axis: [usize; 2],
         lumped: &[f64],
         active: &[bool],
-        gamma: f64,
-        threshold: f64,
+        [gamma, threshold, onset]: [f64; 3],
         full: f64,
     ) {
+        let onset = super::extension::effective_onset(self.shape, onset);
         let n = self.num_nodes;
         assert!(
             lumped.len() == n && active.len() == n,
@@ -324,7 +325,7 @@ impl StencilMass {
                     }
                     let (ra, rb, rc) = (a - start, b - start, c - start);
                     let psi_t = psi[ra].min(psi[rb]).min(psi[rc]);
-                    let ramp = 1.0 - psi_t / threshold;
+                    let ramp = super::extension::extension_ramp(psi_t, threshold, onset);
                     if ramp <= 0.0 {
                         continue;
                     }
