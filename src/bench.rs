@@ -30,7 +30,7 @@ use crate::material::{Material, NeoHookean};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::simulation::{
-    Body, Options, Profile, Simulation, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL,
+    Body, EstimateCounts, Options, Profile, Simulation, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL,
 };
 
 /// Young's modulus of the benchmark material.
@@ -74,6 +74,10 @@ pub struct BenchSpec {
     /// A fixed time step instead of the problem's (`None`: the peers' step, or a fraction of
     /// the stable step where that is shorter).
     pub dt: Option<f64>,
+    /// Run at this Courant number of the stable step the time loop reports, whatever the
+    /// mass (re-estimated as in any run), instead of the peers' step: so that masses are
+    /// compared at their own safe steps (`dt` wins where both are given).
+    pub cfl: Option<f64>,
 }
 
 impl Default for BenchSpec {
@@ -91,6 +95,7 @@ impl Default for BenchSpec {
             seed: 1,
             profile: false,
             dt: None,
+            cfl: None,
         }
     }
 }
@@ -124,6 +129,11 @@ pub struct BenchRow {
     /// Frequency estimates made during the timed steps of every repetition, and the Lanczos or
     /// LOBPCG steps they took in all ([`crate::stiffness::FrequencyEstimate::lanczos_steps`]).
     pub estimates: [usize; 2],
+    /// The estimates and guards of the stable step over the timed steps of every repetition
+    /// ([`Simulation::estimate_counts`]).
+    pub counts: EstimateCounts,
+    /// Simulated time of the timed steps of each repetition.
+    pub simulated: Vec<f64>,
 }
 
 impl BenchRow {
@@ -142,6 +152,26 @@ impl BenchRow {
     pub fn rate_summary(&self) -> [f64; 3] {
         let r = self.rates();
         [r[0], median(&r), r[r.len() - 1]]
+    }
+
+    /// The median over repetitions of the wall seconds per simulated second (what a run to a
+    /// given time costs), `seconds / simulated time` of each repetition.
+    pub fn seconds_per_simulated_second(&self) -> f64 {
+        let mut r: Vec<f64> = self
+            .seconds
+            .iter()
+            .zip(&self.simulated)
+            .map(|(s, t)| if *t > 0.0 { s / t } else { f64::INFINITY })
+            .collect();
+        r.sort_by(f64::total_cmp);
+        median(&r)
+    }
+
+    /// The median wall seconds per timed step over repetitions.
+    pub fn seconds_per_step(&self) -> f64 {
+        let mut r: Vec<f64> = self.seconds.iter().map(|s| s / self.steps.max(1) as f64).collect();
+        r.sort_by(f64::total_cmp);
+        median(&r)
     }
 }
 
@@ -190,6 +220,9 @@ pub const BENCH_COURANT: f64 = 0.9;
 pub fn problem(n: usize, spec: &BenchSpec) -> Result<Simulation> {
     if let Some(dt) = spec.dt {
         return build(n, spec, dt);
+    }
+    if let Some(number) = spec.cfl {
+        return falling_block(n, spec, TimeStep::Cfl { number }, DEFAULT_STABILITY_INTERVAL);
     }
     let peers_dt = peers_time_step(n);
     let sim = build(n, spec, peers_dt)?;
@@ -311,6 +344,8 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
         let mut dt_range = [f64::INFINITY, 0.0f64];
         let mut profile = spec.profile.then(Profile::default);
         let mut estimates = [0, 0];
+        let mut counts = EstimateCounts::default();
+        let mut simulated = Vec::with_capacity(spec.reps);
         for rep in 0..spec.reps {
             let start = Instant::now();
             let mut sim = problem(n, spec)?;
@@ -321,6 +356,7 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
                 dt = warm_up.dt;
             }
             sim.set_profiling(spec.profile);
+            let (before_counts, before_time) = (sim.estimate_counts(), sim.time());
             let start = Instant::now();
             for _ in 0..steps {
                 let before = sim.steps();
@@ -333,6 +369,13 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
                 dt_range[1] = dt_range[1].max(report.dt);
             }
             seconds.push(start.elapsed().as_secs_f64());
+            simulated.push(sim.time() - before_time);
+            let now = sim.estimate_counts();
+            counts.estimates += now.estimates - before_counts.estimates;
+            counts.estimate_steps += now.estimate_steps - before_counts.estimate_steps;
+            counts.guards += now.guards - before_counts.guards;
+            counts.guard_steps += now.guard_steps - before_counts.guard_steps;
+            counts.raised += now.raised - before_counts.raised;
             if let (Some(total), Some(p)) = (&mut profile, sim.profile()) {
                 total.merge(p);
             }
@@ -352,6 +395,8 @@ pub fn run(spec: &BenchSpec, mut observe: impl FnMut(&BenchRow)) -> Result<Vec<B
             },
             profile,
             estimates,
+            counts,
+            simulated,
         };
         observe(&row);
         rows.push(row);

@@ -39,8 +39,13 @@ pub(crate) struct BenchArgs {
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..))]
     reps: u64,
     /// A fixed time step instead of the problem's.
-    #[arg(long, value_parser = positive)]
+    #[arg(long, value_parser = positive, conflicts_with = "cfl")]
     dt: Option<f64>,
+    /// Run any mass at this Courant number of the stable step the time loop reports
+    /// (estimates and guards included in the timing), instead of the peers' fixed step, so that
+    /// masses are compared at their own safe steps.
+    #[arg(long, value_parser = positive)]
+    cfl: Option<f64>,
     /// Print the share of each phase of the step.
     #[arg(long)]
     profile: bool,
@@ -77,6 +82,7 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
         reps: args.reps as usize,
         profile: args.profile,
         dt: args.dt,
+        cfl: args.cfl,
         ..defaults
     };
     println!(
@@ -89,18 +95,20 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
         spec.threads,
         sparse_mpm::kernels::kernel_lanes()
     );
-    println!("particles,n_grid,steps,dt,reps,setup_s,min_psps,median_psps,max_psps,peak_bytes_per_particle");
+    println!("particles,n_grid,steps,dt,reps,setup_s,min_psps,median_psps,max_psps,peak_bytes_per_particle,median_ms_per_step,median_s_per_simulated_s");
     let rows = sparse_mpm::bench::run(&spec, |row| {
         let [min, med, max] = row.rate_summary();
         println!(
-            "{},{},{},{:.4e},{},{:.3},{min:.4e},{med:.4e},{max:.4e},{}",
+            "{},{},{},{:.4e},{},{:.3},{min:.4e},{med:.4e},{max:.4e},{},{:.4},{:.4e}",
             row.particles,
             row.n_grid,
             row.steps,
             row.dt,
             row.seconds.len(),
             row.setup_seconds,
-            row.peak_bytes_per_particle.map_or("".into(), |b| format!("{b:.0}"))
+            row.peak_bytes_per_particle.map_or("".into(), |b| format!("{b:.0}")),
+            1e3 * row.seconds_per_step(),
+            row.seconds_per_simulated_second()
         );
         let _ = std::io::stdout().flush();
     })
@@ -108,9 +116,10 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
     for row in &rows {
         let [_, med, _] = row.rate_summary();
         println!("N = {}: particle-steps/s: {med:.4e}", row.particles);
-        let rule = match spec.dt {
-            Some(_) => "the fixed --dt".to_string(),
-            None => format!(
+        let rule = match (spec.dt, spec.cfl) {
+            (Some(_), _) => "the fixed --dt".to_string(),
+            (None, Some(c)) => format!("{c} of the stable step the time loop reports"),
+            (None, None) => format!(
                 "the peers' {:.4e} unchecked, or {} of the stable step where that is shorter",
                 sparse_mpm::bench::peers_time_step(row.particles),
                 sparse_mpm::bench::BENCH_COURANT
@@ -128,12 +137,29 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
                 row.particles
             ),
         }
-        let [estimates, iterations] = row.estimates;
         println!(
-            "N = {}: frequency estimates in the timed steps: {estimates} in {} steps ({} Lanczos/LOBPCG steps each on average)",
+            "N = {}: {:.3} ms per step, {:.4e} wall s per simulated s (medians)",
             row.particles,
+            1e3 * row.seconds_per_step(),
+            row.seconds_per_simulated_second()
+        );
+        let c = row.counts;
+        let each = |total: usize, count: usize| {
+            if count > 0 {
+                format!("{:.1}", total as f64 / count as f64)
+            } else {
+                "-".into()
+            }
+        };
+        println!(
+            "N = {}: stable step in the timed steps: {} estimates in {} steps ({} Lanczos/LOBPCG steps each), {} guards ({} LOBPCG steps each, {} raised the frequency)",
+            row.particles,
+            c.estimates,
             row.steps * row.seconds.len(),
-            if estimates > 0 { format!("{:.1}", iterations as f64 / estimates as f64) } else { "-".into() }
+            each(c.estimate_steps, c.estimates),
+            c.guards,
+            each(c.guard_steps, c.guards),
+            c.raised
         );
         if let Some(profile) = &row.profile {
             let total = profile.total();
