@@ -275,12 +275,7 @@ impl GridMass {
             return None;
         }
         let stencil = self.matrices.stabilized_stencil()?;
-        let heaviest = self.lumped.iter().cloned().fold(0.0, f64::max);
-        Some(BoundingMass {
-            stencil,
-            coupling_cap: 1.0 / (BOUND_MASS_FLOOR * heaviest),
-            inverse_lumped: &self.inverse,
-        })
+        Some(BoundingMass { stencil })
     }
 
     /// The mass matrix the solve of `role` stands for, over all nodes:
@@ -566,30 +561,16 @@ impl MassOptions {
     }
 }
 
-/// The floor, relative to the heaviest node, of the diagonal `D` in the update bound's
-/// `R D⁻¹ R` ([`BoundingMass::coupling`]).
-pub(crate) const BOUND_MASS_FLOOR: f64 = 0.25;
-
-/// The matrix of [`GridMass::bounding_mass`] in stencil form (with its penalty `R`, so that
-/// `M_s = M + R`) and `1/m_L`.
+/// The matrix of [`GridMass::bounding_mass`] in stencil form, with its penalty `R` recorded, so
+/// that `M_s = M + R`.
 pub(crate) struct BoundingMass<'a> {
     stencil: &'a super::StencilMass,
-    /// `1 / (BOUND_MASS_FLOOR · max m_L)`.
-    coupling_cap: f64,
-    inverse_lumped: &'a [f64],
 }
 
 impl<'a> BoundingMass<'a> {
     /// `M_s` in stencil form, its penalty `R` recorded ([`super::StencilMass::penalty_product`]).
     pub(crate) fn stencil(&self) -> &'a super::StencilMass {
         self.stencil
-    }
-
-    /// `1 / max(m_L,I, BOUND_MASS_FLOOR · max m_L)`: the inverse of a diagonal `D ⪰ M_L`, so
-    /// that `R D⁻¹ R ⪯ R M_L⁻¹ R` keeps the update bound an upper bound while no nearly empty
-    /// node couples its neighbours a million times more strongly than a full one does.
-    pub(crate) fn coupling(&self, i: usize) -> f64 {
-        self.inverse_lumped[i].min(self.coupling_cap)
     }
 }
 

@@ -238,10 +238,28 @@ impl StencilMass {
         i - self.start + self.pad
     }
 
-    /// `out = mask ∘ M x` in the padded layout over the rows with couplings (elsewhere left as
-    /// it was); returns `x · out`.
-    pub(crate) fn apply_masked(&self, x: &[f64], out: &mut [f64], mask: &[f64]) -> f64 {
-        self.apply_padded(x, out, mask)
+    /// `out_c = mask_c ∘ M x_c` in the padded layout over the rows with couplings (elsewhere left
+    /// as it was) for two vectors (the x and y components of a field) in one sweep over the
+    /// stored couplings, which are read once for both.
+    pub(crate) fn apply_masked_pair(&self, x: [&[f64]; 2], out: [&mut [f64]; 2], mask: [&[f64]; 2]) {
+        apply_segments_pair(self, x, out, mask)
+    }
+
+    /// [`StencilMass::penalty_product`] of two vectors in one pass over the penalty's terms.
+    pub(crate) fn penalty_product_pair(&self, x: [&[f64]; 2], y: [&mut [f64]; 2]) {
+        let [xa, xb] = x;
+        let [ya, yb] = y;
+        for &([a, b, c], w) in &self.penalty {
+            let (a, b, c) = (a as usize, b as usize, c as usize);
+            let ga = w * (xa[a] - 2.0 * xa[b] + xa[c]);
+            let gb = w * (xb[a] - 2.0 * xb[b] + xb[c]);
+            ya[a] += ga;
+            ya[b] -= 2.0 * ga;
+            ya[c] += ga;
+            yb[a] += gb;
+            yb[b] -= 2.0 * gb;
+            yb[c] += gb;
+        }
     }
 
     /// The position of `offset` in [`StencilMass::offsets`], if stored.
@@ -462,6 +480,48 @@ fn apply_segments(m: &StencilMass, x: &[f64], out: &mut [f64], mask: &[f64]) -> 
         }
     }
     lanes_sum(&dot)
+}
+
+/// [`apply_segments`] of two vectors with their own masks, one sweep over the couplings.
+fn apply_segments_pair(m: &StencilMass, x: [&[f64]; 2], out: [&mut [f64]; 2], mask: [&[f64]; 2]) {
+    let k = m.offsets.len();
+    let centre = k / 2;
+    let plen = m.len + 2 * m.pad;
+    let [xa, xb] = x;
+    let [oa, ob] = out;
+    let [ma, mb] = mask;
+    for &(lo, hi) in &m.segments {
+        let (lo, hi) = (lo + m.pad, hi + m.pad);
+        let len = hi - lo;
+        let (ya, yb) = (&mut oa[lo..hi], &mut ob[lo..hi]);
+        let diagonal = &m.values[lo..hi];
+        for i in 0..len {
+            ya[i] = diagonal[i] * xa[lo + i];
+            yb[i] = diagonal[i] * xb[lo + i];
+        }
+        for o in centre + 1..k {
+            let off = m.offsets[o];
+            let base = (o - centre) * plen;
+            let up = &m.values[base + lo..base + hi];
+            let down_at = (base as isize + lo as isize - off) as usize;
+            let down = &m.values[down_at..down_at + len];
+            let (u_at, d_at) = ((lo as isize + off) as usize, (lo as isize - off) as usize);
+            let (xau, xad) = (&xa[u_at..u_at + len], &xa[d_at..d_at + len]);
+            let (xbu, xbd) = (&xb[u_at..u_at + len], &xb[d_at..d_at + len]);
+            for i in 0..len {
+                ya[i] += up[i] * xau[i] + down[i] * xad[i];
+                yb[i] += up[i] * xbu[i] + down[i] * xbd[i];
+            }
+        }
+        for i in 0..len {
+            if ma[lo + i] == 0.0 {
+                ya[i] = 0.0;
+            }
+            if mb[lo + i] == 0.0 {
+                yb[i] = 0.0;
+            }
+        }
+    }
 }
 
 fn assemble_into<const S: usize>(s: &mut StencilMass, ops: &Operators, m: &[f64], extended: bool) {

@@ -1,5 +1,5 @@
 //! The update bound of the stable step for a stabilised consistent mass `M_s = M + R` in both
-//! solves: `λ_max(K, B)`, `B = M_s + R + R M_L⁻¹ R`, found from products and small local
+//! solves: `λ_max(K, B)`, `B = M_s + R = M + 2R`, found from products and small local
 //! problems, never a mass solve.
 //!
 //! The top of this spectrum on random particle layouts is made of modes localised on a few
@@ -74,9 +74,9 @@ pub(crate) struct BoundWork {
     xy: Vec<f64>,
     /// Per component: the iterate, the product and the free mask in the stencil's padded
     /// layout.
-    padded: [Vec<f64>; 4],
-    /// Node vectors of the penalty products (zero between uses).
-    full: [Vec<f64>; 3],
+    padded: [Vec<f64>; 6],
+    /// Per component, node vectors of the penalty product (zero between uses).
+    full: [Vec<f64>; 4],
     /// Each particle's tangent `[C11, C12, G]`, formed once per estimate.
     tangents: Vec<[f64; 3]>,
     /// The diagonal of `B` per component.
@@ -158,52 +158,9 @@ impl PenaltyRows {
         0.0
     }
 
-    /// The nodes `J` with `R_IJ ≠ 0` stored for node `i`, and the entries.
-    fn row(&self, i: usize, strides: [usize; 2]) -> impl Iterator<Item = (usize, f64)> + '_ {
-        let slot = self.slot_of.get(i).copied().unwrap_or(u32::MAX);
-        let row = (slot != u32::MAX).then(|| self.rows[slot as usize]);
-        let offsets = [
-            -2 * strides[0] as isize,
-            -(strides[0] as isize),
-            strides[0] as isize,
-            2 * strides[0] as isize,
-            -2 * strides[1] as isize,
-            -(strides[1] as isize),
-            strides[1] as isize,
-            2 * strides[1] as isize,
-            0,
-        ];
-        row.into_iter().flat_map(move |row| {
-            (0..9)
-                .filter(move |&k| row[k] != 0.0)
-                .map(move |k| ((i as isize + offsets[k]) as usize, row[k]))
-        })
-    }
-
-    /// `R_II + (R M_L⁻¹ R)_II`, `(R M_L⁻¹ R)_II = Σ_J R_IJ² / m_L,J` over the free `J` of
-    /// component `c` (`free(J)`), for a node `i` in [`PenaltyRows::nodes`].
-    fn diagonal(
-        &self,
-        i: usize,
-        strides: [usize; 2],
-        coupling: impl Fn(usize) -> f64,
-        free: impl Fn(usize) -> bool,
-    ) -> f64 {
-        let row = &self.rows[self.slot_of[i] as usize];
-        let mut sum = row[8];
-        for (axis, stride) in strides.iter().enumerate() {
-            for (slot, k) in [(0, -2isize), (1, -1), (2, 1), (3, 2)] {
-                let r = row[4 * axis + slot];
-                let j = i as isize + k * *stride as isize;
-                if r != 0.0 && j >= 0 && free(j as usize) {
-                    sum += r * r * coupling(j as usize);
-                }
-            }
-        }
-        if free(i) {
-            sum += row[8] * row[8] * coupling(i);
-        }
-        sum
+    /// `R_II` for a node `i` in [`PenaltyRows::nodes`].
+    fn diagonal(&self, i: usize) -> f64 {
+        self.rows[self.slot_of[i] as usize][8]
     }
 }
 
@@ -215,7 +172,7 @@ impl PenaltyRows {
 /// ```
 ///
 /// a Rayleigh quotient of `(K, B)`, so a lower bound of its `λ_max`; with the node reaching
-/// it. `B_II = (M_s)_II + R_II + (R M_L⁻¹ R)_II` exactly. One pass over the particles (the
+/// it. `B_II = (M_s)_II + R_II` exactly. One pass over the particles (the
 /// stiffness diagonal) and one over the nodes.
 pub(crate) fn node_frequency_top(
     ops: &Operators,
@@ -226,7 +183,7 @@ pub(crate) fn node_frequency_top(
     work: &mut BoundWork,
 ) -> (f64, usize) {
     let n = ops.num_nodes();
-    node_diagonals(ops, volume, tangent, free, bound, work);
+    node_diagonals(ops, volume, tangent, bound, work);
     let BoundWork {
         f,
         xy,
@@ -266,7 +223,6 @@ fn node_diagonals(
     ops: &Operators,
     volume: &[f64],
     tangent: &dyn Fn(usize) -> [f64; 3],
-    free: &[bool],
     bound: &crate::mass::BoundingMass<'_>,
     work: &mut BoundWork,
 ) {
@@ -289,14 +245,13 @@ fn node_diagonals(
     let tangents = &*tangents;
     tangent_diagonal_into(ops, volume, &|p: usize| tangents[p], f, xy);
     penalty.fill(stencil.penalty_terms(), ops.strides()[0], n);
-    let strides = ops.strides();
-    for (c, d) in diagonal.iter_mut().enumerate() {
+    for d in diagonal.iter_mut() {
         if d.len() != n {
             *d = vec![0.0; n];
         }
         stencil.diagonal_into(d);
         for &i in &penalty.nodes {
-            d[i] += penalty.diagonal(i, strides, |j| bound.coupling(j), |j| free[c * n + j]);
+            d[i] += penalty.diagonal(i);
         }
     }
 }
@@ -305,27 +260,34 @@ fn node_diagonals(
 /// positive semi-definite (the linear-extension penalty), from products only:
 ///
 /// ```text
-/// ω²_max = λ_max(M_s⁻¹ K M_s⁻¹ M) = λ_max(K, M_s M⁻¹ M_s) ≤ λ_max(K, B),   B = M_s + R + R M_L⁻¹ R
+/// ω²_max = λ_max(M_s⁻¹ K M_s⁻¹ M) = λ_max(K, M_s M⁻¹ M_s) ≤ λ_max(K, B),   B = M_s + R = M + 2R
 /// ```
 ///
-/// on the free degrees of freedom: `M_s M⁻¹ M_s = M + 2R + R M⁻¹ R` and `M ⪯ diag(m_L)` (the
-/// lumped mass minus the consistent one is a weighted graph Laplacian), so `M⁻¹ ⪰ M_L⁻¹` and
-/// `B ⪯ M_s M⁻¹ M_s`. `B` is closer to the update's own mass than `M_s` is
-/// ([`mpm_mass_bound_frequency_squared`]), most where the penalty holds a node whose support
-/// empties.
+/// on the free degrees of freedom, since `M_s M⁻¹ M_s = M + 2R + R M⁻¹ R ⪰ B`. `B` is closer to
+/// the update's own mass than `M_s` is ([`mpm_mass_bound_frequency_squared`]) where the penalty
+/// holds a node whose support empties. (The further term `R M_L⁻¹ R ⪯ R M⁻¹ R` was measured to
+/// change the step of the benchmark's block by 0.3% and cost a tenth of the time.)
 ///
-/// The top of this spectrum on random layouts is made of modes localised at single nodes that
-/// few particles read, scattered over the body, beside the interior's checkerboard band: one
-/// LOBPCG iterate converges to whichever it meets first. So the estimate is the largest of
-/// three lower bounds of `λ_max(K, B)`:
-/// - the largest single-node frequency [`node_frequency_top`];
-/// - LOBPCG started at that node (its local mode);
-/// - LOBPCG from a start alternating in sign from node to node (the interior's band, at most
+/// The top of this spectrum on random layouts is made of modes localised on a few nodes that
+/// few particles read, scattered over the body, beside the interior's checkerboard band; they
+/// appear and vanish from one step to the next, and one LOBPCG iterate converges to whichever
+/// it meets first. So a new estimate (`warm = None`) is the largest of four lower bounds of
+/// `λ_max(K, B)` (Rayleigh quotients):
+/// - the largest single-node frequency ([`node_frequency_top`]);
+/// - the largest eigenvalue of 3 × 3-node patches around the nodes of highest single-node
+///   frequency ([`patch_top`], dense);
+/// - LOBPCG from the best patch's mode (at most [`POLISH_STEPS`] steps);
+/// - LOBPCG from a start alternating in sign from node to node (the band, at most
 ///   [`BAND_STEPS`] steps).
 ///
-/// Products: `K` without forming it ([`apply_tangent_stiffness`]), `M_s` in stencil form, `R`
-/// from its recorded terms ([`crate::mass::StencilMass::penalty_product`]); preconditioned by
-/// `diag(B)⁻¹`. Returns the estimate (LOBPCG steps summed) and the single-node frequency.
+/// `warm = Some(k)` is the guard between estimates: `k` LOBPCG steps from `mode`, the tracked
+/// top mode over all `2n` degrees of freedom, beside the single-node frequency. Either way
+/// `mode` is left holding the top mode found.
+///
+/// Products: `K` without forming it ([`apply_tangent_stiffness`]), `M_s` in stencil form and `R`
+/// from its recorded terms ([`crate::mass::StencilMass::penalty_product`]), both components in
+/// one sweep; preconditioned by `diag(B)⁻¹`. Returns the estimate (LOBPCG steps summed) and the
+/// single-node frequency.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn mpm_update_bound_estimate(
     ops: &Operators,
@@ -366,6 +328,7 @@ pub(crate) fn mpm_update_bound_estimate(
         full,
         tangents,
         diagonal,
+        penalty,
         ..
     } = work;
     let tangents = &*tangents;
@@ -386,19 +349,19 @@ pub(crate) fn mpm_update_bound_estimate(
         }
     }
     // The free mask of each component in the padded layout.
-    let [xp, outp, mask_x, mask_y] = padded;
+    let [xp_x, xp_y, out_x, out_y, mask_x, mask_y] = padded;
     for (c, mask) in [(0, &mut *mask_x), (1, &mut *mask_y)] {
         for &i in &dofs.nodes[c] {
             mask[stencil.padded_position(i as usize)] = 1.0;
         }
     }
-    let counts = [dofs.nodes[0].len(), dofs.nodes[1].len()];
-    let positions: Vec<usize> = dofs.each().map(|(_, i)| stencil.padded_position(i)).collect();
-    let penalty_nodes: Vec<usize> = stencil
-        .penalty_terms()
-        .iter()
-        .flat_map(|(t, _)| t.iter().map(|&i| i as usize))
-        .collect();
+    let positions: [Vec<usize>; 2] = std::array::from_fn(|c| {
+        dofs.nodes[c]
+            .iter()
+            .map(|&i| stencil.padded_position(i as usize))
+            .collect()
+    });
+    let penalty_nodes = &penalty.nodes;
     let inverse_diagonal: Vec<f64> = dofs
         .each()
         .map(|(c, i)| {
@@ -421,40 +384,32 @@ pub(crate) fn mpm_update_bound_estimate(
         dofs.compress_into(f, out);
     };
     let mut apply_b = |v: &[f64], out: &mut [f64]| {
-        let [xf, y1, y2] = &mut *full;
-        let mut k0 = 0;
-        for c in 0..2 {
-            let nodes = &dofs.nodes[c];
-            let range = k0..k0 + counts[c];
-            let (part, at) = (&v[range.clone()], &positions[range.clone()]);
-            let mask = if c == 0 { &*mask_x } else { &*mask_y };
-            for ((&i, &value), &pos) in nodes.iter().zip(part).zip(at) {
-                xp[pos] = value;
-                xf[i as usize] = value;
-            }
-            stencil.apply_masked(xp, outp, mask);
-            // R x, then R M_L⁻¹ (R x) on the free entries (xf cleared and reused for it).
-            stencil.penalty_product(xf, y1);
-            for &i in nodes {
-                xf[i as usize] = 0.0;
-            }
-            for &i in &penalty_nodes {
-                y2[i] = if free[c * n + i] {
-                    y1[i] * bound.coupling(i)
-                } else {
-                    0.0
-                };
-            }
-            stencil.penalty_product(y2, xf);
-            for ((&i, o), &pos) in nodes.iter().zip(out[range].iter_mut()).zip(at) {
-                let i = i as usize;
-                *o = outp[pos] + y1[i] + xf[i];
-                xp[pos] = 0.0;
-            }
-            for &i in &penalty_nodes {
-                (xf[i], y1[i], y2[i]) = (0.0, 0.0, 0.0);
-            }
-            k0 += counts[c];
+        let [xf_x, xf_y, y_x, y_y] = &mut *full;
+        let (vx, vy) = v.split_at(dofs.nodes[0].len());
+        for ((&i, &value), &pos) in dofs.nodes[0].iter().zip(vx).zip(&positions[0]) {
+            xp_x[pos] = value;
+            xf_x[i as usize] = value;
+        }
+        for ((&i, &value), &pos) in dofs.nodes[1].iter().zip(vy).zip(&positions[1]) {
+            xp_y[pos] = value;
+            xf_y[i as usize] = value;
+        }
+        stencil.apply_masked_pair([xp_x, xp_y], [out_x, out_y], [mask_x, mask_y]);
+        // + R x.
+        stencil.penalty_product_pair([xf_x, xf_y], [y_x, y_y]);
+        let (ox, oy) = out.split_at_mut(dofs.nodes[0].len());
+        for ((&i, o), &pos) in dofs.nodes[0].iter().zip(ox).zip(&positions[0]) {
+            let i = i as usize;
+            *o = out_x[pos] + y_x[i];
+            (xp_x[pos], xf_x[i]) = (0.0, 0.0);
+        }
+        for ((&i, o), &pos) in dofs.nodes[1].iter().zip(oy).zip(&positions[1]) {
+            let i = i as usize;
+            *o = out_y[pos] + y_y[i];
+            (xp_y[pos], xf_y[i]) = (0.0, 0.0);
+        }
+        for &i in penalty_nodes {
+            (y_x[i], y_y[i]) = (0.0, 0.0);
         }
     };
     // A guard: `steps` LOBPCG steps from the tracked mode (from the node with the largest
@@ -686,13 +641,7 @@ fn patch_top(
                 return 0.0;
             }
             let (i, j) = (patch.nodes[l], patch.nodes[q]);
-            let mut v = stencil.entry(i, j) + penalty.entry(i, j, strides);
-            for (h, rih) in penalty.row(i, strides) {
-                if free[c * n + h] {
-                    v += rih * penalty.entry(h, j, strides) * bound.coupling(h);
-                }
-            }
-            v
+            stencil.entry(i, j) + penalty.entry(i, j, strides)
         });
         let Some(chol) = nalgebra::Cholesky::new(b) else {
             continue;
