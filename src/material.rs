@@ -329,6 +329,15 @@ pub(crate) enum Prepared {
 }
 
 impl Prepared {
+    /// [`Material::tangent`] with the constants computed (for a loop over many particles).
+    #[inline]
+    pub(crate) fn tangent(&self, f: [f64; 4]) -> [f64; 3] {
+        match self {
+            Prepared::Linear(hooke) => hooke.tangent(),
+            Prepared::NeoHookean(lame) => lame.at(f).tangent,
+        }
+    }
+
     /// The stress update of one particle after a step of length `dt` with velocity gradient
     /// `L = [[lxx, lxy], [lyx, lyy]]`, given its stress before, its updated deformation gradient
     /// `F` and its current volume `V`: `(σ, strain energy, C11)` with
@@ -412,10 +421,7 @@ impl Material {
     /// (the neo-Hookean one without the initial-stress term). It sets the stiffness of the
     /// stable-time-step estimate.
     pub fn tangent(&self, f: [f64; 4]) -> [f64; 3] {
-        match self.prepared() {
-            Prepared::Linear(hooke) => hooke.tangent(),
-            Prepared::NeoHookean(lame) => lame.at(f).tangent,
-        }
+        self.prepared().tangent(f)
     }
 
     /// The material's constants, computed once for a loop over many particles.

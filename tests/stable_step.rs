@@ -210,14 +210,16 @@ fn the_consistent_mass_estimate_finds_new_modes_on_a_larger_random_block() {
     }
 }
 
-/// The consistent mass with the default linear-extension penalty is re-estimated when its
-/// active nodes change: without that trigger the 256-particle block of these seeds inverted a
-/// particle at 0.9 of the stable step (steps 444, 685 and 287; measured), with it each stays
-/// within +1.3% of its energy.
+/// The guard between two estimates of the update bound runs at every step, however little the
+/// particles moved: a node that a particle barely reaches stiffens as `1/ε` with the particle's
+/// distance `ε` from the grid line, so the smallest moves raise the top frequency most. With a
+/// guard only after 0.01 cell widths of travel, the 256-particle block of these seeds inverted a
+/// particle at 0.9 of the stable step (steps 955 and 310; measured); with it each stays within
+/// +0.6% of its energy.
 #[test]
-fn the_consistent_mass_is_re_estimated_when_its_active_nodes_change() {
-    for seed in [5, 6, 7] {
-        let rise = falling_block_rise_seeded(256, seed, 800, ShapeFunction::Linear, MassScheme::Consistent)
+fn the_guard_catches_a_node_stiffening_between_estimates() {
+    for seed in [6, 11] {
+        let rise = falling_block_rise_seeded(256, seed, 1000, ShapeFunction::Linear, MassScheme::Consistent)
             .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
         println!(
             "linear consistent, 256 particles, seed {seed}: largest energy rise {:+.2}%",
@@ -225,4 +227,60 @@ fn the_consistent_mass_is_re_estimated_when_its_active_nodes_change() {
         );
         assert!(rise <= ENERGY_RISE, "seed {seed}: energy rose by {:.1}%", 100.0 * rise);
     }
+}
+
+/// The masses estimated by the update bound (consistent, cg) and by Lanczos (series, blends)
+/// at 0.9 of the reported step on random blocks of `sizes` particles, seeds `seeds`, both
+/// shapes: the failures (a run-away, an inverted particle, or an energy rise above
+/// [`ENERGY_RISE`]).
+fn random_blocks(sizes: &[usize], seeds: std::ops::Range<u64>, masses: &[&str]) -> Vec<String> {
+    let mut failures = Vec::new();
+    for shape in [ShapeFunction::Linear, ShapeFunction::QuadraticBSpline] {
+        for mass in masses {
+            let scheme: MassScheme = mass.parse().unwrap();
+            for &n in sizes {
+                let mut worst = 0.0f64;
+                for seed in seeds.clone() {
+                    match falling_block_rise_seeded(n, seed, 2000, shape, scheme) {
+                        Ok(rise) if rise <= ENERGY_RISE => worst = worst.max(rise),
+                        Ok(rise) => failures.push(format!(
+                            "{shape} {mass} {n} seed {seed}: energy rose by {:.1}%",
+                            100.0 * rise
+                        )),
+                        Err(e) => failures.push(format!("{shape} {mass} {n} seed {seed}: {e}")),
+                    }
+                }
+                println!(
+                    "{shape} {mass} {n} particles: largest energy rise {:+.2}%",
+                    100.0 * worst
+                );
+            }
+        }
+    }
+    failures
+}
+
+/// Three seeds of the 256-particle block for the masses the 144-particle tests above do not run
+/// (the full set of 16 seeds, 256 and 1,024 particles and every mass is the ignored test below).
+#[test]
+fn cg_and_a_blend_hold_on_random_blocks_of_256_particles() {
+    let failures = random_blocks(&[256], 0..3, &["cg", "blended:0.5"]);
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// 16 seeds of the random block with 256 and 1,024 particles, linear and quadratic B-splines,
+/// the consistent mass, cg, series:8, series:32 and blended:0.5, each at 0.9 of its reported
+/// step for 2,000 steps: no run-away, no inverted particle, an energy rise under 20%
+/// (docs/simulation.md, "The time step", quotes the largest rises). About 25 minutes on one
+/// core in release:
+///
+/// ```text
+/// cargo test --release --test stable_step -- --ignored
+/// ```
+#[test]
+#[ignore = "about 25 minutes in release; run with --ignored"]
+fn sixteen_random_blocks_of_256_and_1024_particles_hold_for_every_non_lumped_mass() {
+    let masses = ["consistent", "cg", "series:8", "series:32", "blended:0.5"];
+    let failures = random_blocks(&[256, 1024], 0..16, &masses);
+    assert!(failures.is_empty(), "{failures:?}");
 }

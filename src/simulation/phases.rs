@@ -281,6 +281,7 @@ impl Simulation {
             )
         })?;
         state.keep(&report, &scratch.particle.kinetic);
+        stability::travel(state, dt, setup.grid.cell_size());
         report.transfer_loss = state.transfer_loss;
         if let Some(p) = profile {
             p.count_step();

@@ -27,6 +27,28 @@ pub(super) struct Stability {
     /// The largest single-node frequency at the estimate, or the highest a guard has seen
     /// since (0 where the update bound does not estimate the step).
     pub(super) node_top: f64,
+    /// The distance the fastest particle can have travelled since the estimate, in cell
+    /// widths ([`travel`]).
+    pub(super) travel: f64,
+}
+
+/// Adds the step's travel to the [`Stability`] in use: the largest particle speed after the
+/// step times its length, in cell widths,
+///
+/// ```text
+/// travel ← travel + Δt · max_p |v_p| / min(h_x, h_y)
+/// ```
+///
+/// (a bound of how far any particle moved over the steps since, in the sense of the speeds the
+/// steps reported).
+pub(super) fn travel(state: &mut State, dt: f64, cell: [f64; 2]) {
+    let h = cell[0].min(cell[1]);
+    let by = dt * state.speeds.particle / h;
+    if let Some(s) = state.stability.as_mut() {
+        if by.is_finite() {
+            s.travel += by;
+        }
+    }
 }
 
 /// What a frequency estimate depends on beyond the particle positions, compared at every step
@@ -173,9 +195,10 @@ pub(super) fn stable_time_step(grid: &Grid, state: &State) -> f64 {
 /// over the particles, by a pass over them (the time loop keeps them up to date as it goes).
 pub(super) fn measure_speeds(setup: &Setup, p: &Particles) -> Speeds {
     let mut speeds = Speeds::default();
+    let prepared: Vec<_> = setup.bodies.iter().map(|b| b.material.prepared()).collect();
     for k in 0..p.len() {
         let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
-        let c11 = setup.bodies[p.body[k]].material.tangent(f)[0];
+        let c11 = prepared[p.body[k]].tangent(f)[0];
         speeds.wave = speeds.wave.max(wave_speed(c11, p.volume[k], p.mass[k]));
         speeds.particle = speeds.particle.max((p.vx[k] * p.vx[k] + p.vy[k] * p.vy[k]).sqrt());
     }
@@ -200,8 +223,9 @@ pub(super) enum Due {
 /// for the masses estimated by Lanczos other than the lumped one in both solves, a change of
 /// the active nodes (a node whose support starts or stops being read, where the consistent mass
 /// and the series meet their highest frequencies). Where the update bound estimates the step
-/// ([`bound_path`]), the active set is not watched: estimates come every
-/// [`BOUND_INTERVAL`] steps and the [`guard`] runs at every step between them.
+/// ([`bound_path`]), the active set is not watched: estimates come after [`ESTIMATE_TRAVEL`]
+/// cell widths of travel or [`BOUND_INTERVAL`] steps, whichever is first, and the [`guard`]
+/// runs at every step between them.
 pub(super) fn estimate_due(options: &Options, state: &State, mass: &GridMass) -> Due {
     let Some(s) = state.stability else {
         return Due::Estimate;
@@ -210,9 +234,10 @@ pub(super) fn estimate_due(options: &Options, state: &State, mass: &GridMass) ->
     if interval == 0 {
         return Due::Nothing;
     }
-    if state.steps >= s.due_at || basis(options, mass) != s.basis {
+    let bound = bound_path(options, mass);
+    if state.steps >= s.due_at || basis(options, mass) != s.basis || (bound && s.travel >= ESTIMATE_TRAVEL) {
         Due::Estimate
-    } else if bound_path(options, mass) {
+    } else if bound {
         Due::Guard
     } else {
         Due::Nothing
@@ -229,15 +254,26 @@ pub const STEP_HYSTERESIS: f64 = 0.01;
 pub const GUARD_STEPS: usize = 3;
 
 /// Steps from one estimate of the update bound to the next at the latest (fewer when
-/// [`Options::stability_interval`] is smaller); the [`guard`] runs at every step between.
+/// [`Options::stability_interval`] is smaller); an estimate comes sooner when the particles
+/// have travelled [`ESTIMATE_TRAVEL`] cell widths since the last. The [`guard`] runs at every
+/// step between.
 ///
-/// Measured on the benchmark's random block at a Courant number of 0.9, 2,000 steps, 16 seeds,
-/// 256 and 1,024 particles, consistent mass (docs/simulation.md, "The time step"): the guards
-/// only raise the frequency, so a longer interval keeps the step a little shorter (the mean
-/// step 12% shorter at 20 than at 10) and the energy closer (largest rise, quadratic: 1.2% and
-/// 3.5% at 20 against 6.4% and 12.4% at 10; linear 2.3% and 1.4% against 3.0% and 1.9%) at
-/// half the estimates.
-pub const BOUND_INTERVAL: usize = 20;
+/// The update bound's frequency changes as particles move across the grid (a particle nearing
+/// a grid line, a node's support emptying): at a given Courant number a body moves a distance
+/// per step, in cell widths, that does not depend on the resolution (the step shrinks with the
+/// cell), so a clock in distance suits every size. The guard cannot go by distance: a node
+/// that a particle barely reaches stiffens as `1/ε` with the particle's distance `ε` from the
+/// grid line, so the smallest moves change the top frequency most (the random block, linear,
+/// 256 particles, a guard only after 0.01 cell widths of travel: two seeds of 16 inverted a
+/// particle). Measured on the benchmark's random block at
+/// a Courant number of 0.9, 2,000 steps, 16 seeds, 256 and 1,024 particles
+/// (docs/simulation.md, "The time step").
+pub const BOUND_INTERVAL: usize = 100;
+
+/// Cell widths the particles may travel from one estimate of the update bound to the next
+/// ([`BOUND_INTERVAL`]): 0.2, about 20 steps of the benchmark's falling block at a Courant
+/// number of 0.9 (its block moves about 0.006–0.01 cell widths a step).
+pub const ESTIMATE_TRAVEL: f64 = 0.2;
 
 /// Whether the stable step of this simulation comes from the update bound
 /// ([`stiffness::mpm_update_bound_estimate`]): one mass with a [`GridMass::bounding_mass`] in
@@ -345,9 +381,10 @@ fn guard(setup: &Setup, state: &State, cache: &Cache, last: Stability, tracking:
         return last;
     };
     let free = free_dofs(setup, ops, mass);
+    let prepared: Vec<_> = setup.bodies.iter().map(|b| b.material.prepared()).collect();
     let tangent_of = |k: usize| {
         let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
-        setup.bodies[p.body[k]].material.tangent(f)
+        prepared[p.body[k]].tangent(f)
     };
     let Tracking { work, counts, mode } = tracking;
     let (found, node_now) = stiffness::mpm_update_bound_estimate(
@@ -424,9 +461,10 @@ pub(super) fn estimate_by(
     let (ops, p, mass) = (&cache.ops, &state.particles, &cache.mass);
     let n = ops.num_nodes();
     // Each particle's tangent, formed where a product reads it (no per-particle array).
+    let prepared: Vec<_> = setup.bodies.iter().map(|b| b.material.prepared()).collect();
     let tangent_of = |k: usize| {
         let f = [p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k]];
-        setup.bodies[p.body[k]].material.tangent(f)
+        prepared[p.body[k]].tangent(f)
     };
     let free = &free_dofs(setup, ops, mass);
     let series = SeriesTransfer::of(options.transfer).and_then(SeriesTransfer::stress_terms);
@@ -527,6 +565,7 @@ pub(super) fn estimate_by(
         basis: basis(options, mass),
         due_at: state.steps.saturating_add(interval),
         node_top,
+        travel: 0.0,
     })
 }
 

@@ -106,6 +106,7 @@ pub(super) struct StabilityRecord {
     substitutes: [bool; 2],
     due_at: usize,
     node_top: f64,
+    travel: f64,
 }
 
 impl OptionsRecord {
@@ -399,6 +400,7 @@ impl StabilityRecord {
             substitutes: s.basis.substitutes,
             due_at: s.due_at,
             node_top: s.node_top,
+            travel: s.travel,
         }
     }
 
@@ -417,6 +419,7 @@ impl StabilityRecord {
             },
             due_at: self.due_at,
             node_top: self.node_top,
+            travel: self.travel,
         }
     }
 }

@@ -1,0 +1,107 @@
+//! An elastic block dropped onto a slip floor keeps its total energy (kinetic, strain and
+//! gravitational above the floor) with the consistent mass and its default stabilisation: the
+//! linear-extension penalty fades in as a node enters a particle's support (its onset ψ₀), so
+//! the stabilised mass does not pump energy into a body bouncing and settling on the floor
+//! (docs/mass.md, "Energy on a floor").
+
+use sparse_mpm::scene::Scene;
+
+/// The dropped block: a 0.3 m square of neo-Hookean rubber (E = 1 MPa, ν = 0.3, 1,000 kg/m³),
+/// 2 × 2 particles per cell of 0.025 m, released from rest 0.55 m above the floor of a box with
+/// slip walls; MUSL, FLIP, the Courant number 0.5, 1.5 s. `shape`, `transfer` and the masses of
+/// the velocity and acceleration solves are the parameters.
+fn dropped_block(shape: &str, transfer: &str, velocity: &str, acceleration: &str) -> String {
+    format!(
+        r#"
+[grid]
+origin = [0.0, 0.0]
+cell_size = [0.025, 0.025]
+cells = [40, 40]
+
+[schemes]
+shape = "{shape}"
+update = "musl"
+transfer = "{transfer}"
+mass = {{ velocity = "{velocity}", acceleration = "{acceleration}" }}
+
+[time]
+end = 1.5
+cfl = 0.5
+
+[loads]
+gravity = [0.0, -9.81]
+
+[[bodies]]
+name = "block"
+material = {{ model = "neo_hookean", youngs_modulus = 1.0e6, poisson_ratio = 0.3 }}
+density = 1000.0
+particles_per_cell = 2
+velocity = [0.0, 0.0]
+geometry = {{ rectangle = {{ min = [0.3, 0.55], max = [0.6, 0.85] }} }}
+
+[[boundaries]]
+edge = "bottom"
+condition = "slip"
+
+[[boundaries]]
+edge = "left"
+condition = "slip"
+
+[[boundaries]]
+edge = "right"
+condition = "slip"
+"#
+    )
+}
+
+/// The largest rise and the largest change of the total energy over the run, relative to its
+/// value at the first step.
+fn energy_changes(text: &str) -> (f64, f64) {
+    let scene = Scene::from_toml_str(text).unwrap();
+    let mut sim = scene.build().unwrap();
+    let (mut first, mut rise, mut change) = (None, 0.0f64, 0.0f64);
+    sim.run_until(scene.time.end, |_, r| {
+        let e0: f64 = *first.get_or_insert(r.total_energy);
+        rise = rise.max((r.total_energy - e0) / e0);
+        change = change.max(((r.total_energy - e0) / e0).abs());
+        Ok(())
+    })
+    .unwrap();
+    assert!((sim.time() - scene.time.end).abs() < 1e-9, "stopped at {}", sim.time());
+    (rise, change)
+}
+
+/// Quadratic B-splines, FLIP, MUSL, the Courant number 0.5, the default stabilisation: within
+/// 3% of the starting energy over 1.5 s. Measured: 1.1% (the lumped mass 3.6%); before the
+/// penalty's onset the consistent mass gained 17% and kept gaining.
+#[test]
+fn a_block_dropped_on_a_floor_keeps_its_energy_with_the_consistent_mass() {
+    let (_, change) = energy_changes(&dropped_block("quadratic_bspline", "flip", "consistent", "consistent"));
+    println!("quadratic, consistent: largest |ΔE|/E0 {:.2}%", 100.0 * change);
+    assert!(change <= 0.03, "the energy moved by {:.2}%", 100.0 * change);
+}
+
+/// Linear shape functions move energy on the same block with either mass as particles cross
+/// cells (FLIP): the consistent mass no more than the lumped one (measured: 3.9% and 15.5%);
+/// and APIC, which pairs with a lumped velocity projection, with the consistent mass in the
+/// acceleration solve only loses energy (no rise above 1%). About a minute in release.
+#[test]
+#[ignore = "about a minute in release; run with --ignored"]
+fn the_consistent_mass_moves_no_more_energy_than_the_lumped_with_linear_shapes_or_apic() {
+    let (_, consistent) = energy_changes(&dropped_block("linear", "flip", "consistent", "consistent"));
+    let (_, lumped) = energy_changes(&dropped_block("linear", "flip", "lumped", "lumped"));
+    println!(
+        "linear: largest |ΔE|/E0 consistent {:.2}%, lumped {:.2}%",
+        100.0 * consistent,
+        100.0 * lumped
+    );
+    assert!(consistent <= lumped, "consistent {consistent}, lumped {lumped}");
+    for shape in ["linear", "quadratic_bspline"] {
+        let (rise, _) = energy_changes(&dropped_block(shape, "apic", "lumped", "consistent"));
+        println!(
+            "{shape}, APIC, consistent acceleration: largest rise {:.2}%",
+            100.0 * rise
+        );
+        assert!(rise <= 0.01, "{shape}, APIC: the energy rose by {:.2}%", 100.0 * rise);
+    }
+}
