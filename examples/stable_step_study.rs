@@ -4,6 +4,7 @@
 //! cargo run --release --example stable_step_study -- run SHAPE MASS CFL INTERVAL PARTICLES STEPS [TRANSFER [UPDATE]]
 //! cargo run --release --example stable_step_study -- drift SHAPE MASS CFL PARTICLES STEPS
 //! cargo run --release --example stable_step_study -- exact SHAPE MASS PARTICLES STEPS
+//! cargo run --release --example stable_step_study -- policy SHAPE MASS PARTICLES STEPS EVERY
 //! ```
 //!
 //! (`SEED=k` sets the seed of the positions.) `run`: the block at `CFL` of the reported stable step, estimated every `INTERVAL` steps;
@@ -12,6 +13,9 @@
 //! 100 steps the smallest stable step relative to the one at the window's start (how far the
 //! highest frequency rises between two estimates 100 steps apart). `exact`: every 25 steps,
 //! the estimate against the exact `ω²_max` from a dense eigen-solve (small problems only).
+//! `policy`: the block at 0.9 of the reported step with the default schedule; every `EVERY`
+//! steps the step taken and the reported stable step against the exact FLIP limit `2/ω_max`
+//! of the configuration the step was taken on (dense), and their smallest and largest ratios.
 
 use nalgebra::{DMatrix, SymmetricEigen};
 use sparse_mpm::bench::{falling_block, BenchSpec};
@@ -45,7 +49,8 @@ fn main() {
         Some("run") => run(&args),
         Some("drift") => drift(&args),
         Some("exact") => exact(&args),
-        _ => eprintln!("usage: stable_step_study run|drift|exact …"),
+        Some("policy") => policy(&args),
+        _ => eprintln!("usage: stable_step_study run|drift|exact|policy …"),
     }
 }
 
@@ -155,6 +160,36 @@ fn exact(args: &[String]) {
             let _ = lanczos;
         }
     }
+}
+
+fn policy(args: &[String]) {
+    let spec = spec(args, 1, 2, 6);
+    let (n, steps, every): (usize, usize, usize) = (arg(args, 3, "1024"), arg(args, 4, "400"), arg(args, 5, "10"));
+    let interval = sparse_mpm::simulation::DEFAULT_STABILITY_INTERVAL;
+    let mut sim = falling_block(n, &spec, TimeStep::Cfl { number: 0.9 }, interval).expect("problem");
+    let (mut taken, mut reported) = ([f64::INFINITY, 0.0f64], [f64::INFINITY, 0.0f64]);
+    for s in 0..steps {
+        let before = sim.particles().clone();
+        let r = match sim.step() {
+            Ok(r) => r,
+            Err(e) => {
+                println!("failed at step {s}: {e}");
+                return;
+            }
+        };
+        if s % every != 0 {
+            continue;
+        }
+        let limit = 2.0 / dense_omega_squared(&sim, &before).sqrt();
+        let (t, p) = (r.dt / limit, r.stable_time_step / limit);
+        taken = [taken[0].min(t), taken[1].max(t)];
+        reported = [reported[0].min(p), reported[1].max(p)];
+        println!("step {s:4}: step taken / exact limit {t:.3}, reported stable step / exact limit {p:.3}");
+    }
+    println!(
+        "step taken / exact limit {:.3} to {:.3}; reported stable step / exact limit {:.3} to {:.3}",
+        taken[0], taken[1], reported[0], reported[1]
+    );
 }
 
 /// `λ_max(S K S M)` on the free degrees of freedom from dense matrices, with `S` the

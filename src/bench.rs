@@ -30,7 +30,8 @@ use crate::material::{Material, NeoHookean};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
 use crate::simulation::{
-    Body, EstimateCounts, Options, Profile, Simulation, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL,
+    Body, EstimateCounts, Integrator, Options, Profile, Simulation, TimeStep, Transfer, UpdateScheme,
+    DEFAULT_STABILITY_INTERVAL,
 };
 
 /// Young's modulus of the benchmark material.
@@ -78,6 +79,10 @@ pub struct BenchSpec {
     /// mass (re-estimated as in any run), instead of the peers' step: so that masses are
     /// compared at their own safe steps (`dt` wins where both are given).
     pub cfl: Option<f64>,
+    /// The time integrator: explicit (the update scheme, a stable-step limit), or Newmark's
+    /// rule with Newton iterations, which has no stable step and takes the fixed step (`dt`,
+    /// or the peers' step).
+    pub integrator: Integrator,
 }
 
 impl Default for BenchSpec {
@@ -96,6 +101,7 @@ impl Default for BenchSpec {
             profile: false,
             dt: None,
             cfl: None,
+            integrator: Integrator::Explicit,
         }
     }
 }
@@ -221,10 +227,13 @@ pub fn problem(n: usize, spec: &BenchSpec) -> Result<Simulation> {
     if let Some(dt) = spec.dt {
         return build(n, spec, dt);
     }
+    let peers_dt = peers_time_step(n);
+    if spec.integrator != Integrator::Explicit {
+        return build(n, spec, peers_dt);
+    }
     if let Some(number) = spec.cfl {
         return falling_block(n, spec, TimeStep::Cfl { number }, DEFAULT_STABILITY_INTERVAL);
     }
-    let peers_dt = peers_time_step(n);
     let sim = build(n, spec, peers_dt)?;
     let stable = sim.stable_time_step();
     if stable >= peers_dt || !stable.is_finite() {
@@ -308,6 +317,7 @@ pub fn falling_block(n: usize, spec: &BenchSpec, time_step: TimeStep, stability_
         threads: spec.threads,
         gravity: [0.0, -GRAVITY],
         boundaries,
+        integrator: spec.integrator,
         ..Options::default()
     };
     Simulation::new(grid, particles, bodies, options)

@@ -46,6 +46,11 @@ pub(crate) struct BenchArgs {
     /// masses are compared at their own safe steps.
     #[arg(long, value_parser = positive)]
     cfl: Option<f64>,
+    /// Integrate with Newmark's rule (β = ¼, γ = ½, Newton to 1e-10; docs/implicit.md), which
+    /// has no stable step, at the fixed step (`--dt`, or the peers' step) instead of the
+    /// explicit update.
+    #[arg(long, conflicts_with = "cfl")]
+    newmark: bool,
     /// Print the share of each phase of the step.
     #[arg(long)]
     profile: bool,
@@ -83,6 +88,11 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
         profile: args.profile,
         dt: args.dt,
         cfl: args.cfl,
+        integrator: if args.newmark {
+            sparse_mpm::simulation::Integrator::Newmark(Default::default())
+        } else {
+            sparse_mpm::simulation::Integrator::Explicit
+        },
         ..defaults
     };
     println!(
@@ -117,6 +127,8 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
         let [_, med, _] = row.rate_summary();
         println!("N = {}: particle-steps/s: {med:.4e}", row.particles);
         let rule = match (spec.dt, spec.cfl) {
+            (Some(_), _) if args.newmark => "the fixed --dt, Newmark".to_string(),
+            (None, _) if args.newmark => "the peers' step, Newmark".to_string(),
             (Some(_), _) => "the fixed --dt".to_string(),
             (None, Some(c)) => format!("{c} of the stable step the time loop reports"),
             (None, None) => format!(
