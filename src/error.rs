@@ -114,7 +114,9 @@ pub enum MpmError {
         /// The particles whose shape functions touch that node.
         particles: Vec<usize>,
         /// Pivot found at that node divided by the node's diagonal entry `M_ii`; 0 when the
-        /// factorization met a pivot that was zero or negative (faer does not report its value).
+        /// factorization met a pivot that was zero or negative (faer does not report its value);
+        /// NaN when the stable step found the matrix nearly singular
+        /// ([`NEARLY_SINGULAR_RATIO`](crate::simulation::NEARLY_SINGULAR_RATIO)).
         relative_pivot: f64,
         /// Why this happens, in words.
         cause: String,
@@ -309,7 +311,9 @@ fn plural(count: usize) -> &'static str {
 /// How a singular mass matrix's pivot reads in its message: its relative value, or that it was
 /// not positive.
 fn pivot_text(relative_pivot: f64) -> String {
-    if relative_pivot > 0.0 {
+    if relative_pivot.is_nan() {
+        "nearly singular, found by the stable step".to_string()
+    } else if relative_pivot > 0.0 {
         format!("relative pivot {relative_pivot:.3e}")
     } else {
         "non-positive pivot".to_string()

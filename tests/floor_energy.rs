@@ -106,3 +106,79 @@ fn the_consistent_mass_moves_no_more_energy_than_the_lumped_with_linear_shapes_o
         assert!(rise <= 0.03, "{shape}, APIC: the energy rose by {:.2}%", 100.0 * rise);
     }
 }
+
+/// A block of 12 × 12 particles, one per cell, released at rest on the floor (linear shape
+/// functions) or a cell above it (quadratic B-splines, whose walls hold two node layers), with
+/// the consistent mass under the singularity policy `policy`, or the lumped mass: the largest
+/// `|ΔE|/E0`, the steps, and whether a solve substituted another mass.
+fn resting_block(shape: &str, mass: &str, policy: &str) -> (f64, usize, bool) {
+    let bottom = if shape == "linear" { 0.0 } else { 0.05 };
+    let text = dropped_block(shape, "flip", mass, mass)
+        .replace(
+            &format!("acceleration = \"{mass}\" }}"),
+            &format!("acceleration = \"{mass}\", singularity = \"{policy}\" }}"),
+        )
+        .replace("particles_per_cell = 2", "particles_per_cell = 1")
+        .replace(
+            "min = [0.3, 0.55], max = [0.6, 0.85]",
+            &format!("min = [0.3, {bottom}], max = [0.6, {}]", bottom + 0.3),
+        );
+    let scene = Scene::from_toml_str(&text).unwrap();
+    let mut sim = scene.build().unwrap();
+    let (mut first, mut change, mut steps, mut substituted) = (None, 0.0f64, 0, false);
+    sim.run_until(scene.time.end, |_, r| {
+        let e0: f64 = *first.get_or_insert(r.total_energy);
+        change = change.max(((r.total_energy - e0) / e0).abs());
+        steps += 1;
+        substituted |= [&r.velocity_solve, &r.acceleration_solve]
+            .iter()
+            .any(|s| s.outcome != sparse_mpm::mass::SolveOutcome::Solved);
+        Ok(())
+    })
+    .unwrap_or_else(|e| panic!("{shape}, {mass}, {policy}: {e}"));
+    assert!((sim.time() - 1.5).abs() < 1e-9, "stopped at {}", sim.time());
+    (change, steps, substituted)
+}
+
+/// The resting block under `policy` against the lumped mass: to the end, the policy acting,
+/// the energy within 0.1% of E0 of the lumped mass's change.
+fn check_resting_block(shape: &str, policy: &str) {
+    let (lumped, lumped_steps, _) = resting_block(shape, "lumped", "error");
+    let (change, steps, substituted) = resting_block(shape, "consistent", policy);
+    println!(
+        "{shape}, {policy}: largest |ΔE|/E0 {:.4}% in {steps} steps (lumped {:.4}% in {lumped_steps})",
+        100.0 * change,
+        100.0 * lumped
+    );
+    assert!(substituted, "{shape}, {policy}: the policy never acted");
+    assert!(
+        change <= lumped + 1e-3,
+        "{shape}, {policy}: the energy moved by {:.3}%, the lumped mass's by {:.3}%",
+        100.0 * change,
+        100.0 * lumped
+    );
+}
+
+/// One particle per cell at rest on a floor, linear and quadratic, `fallback_to_lumped`: the
+/// consistent mass is singular or nearly singular (its top frequency 10⁵ times any single
+/// node's) at most steps, and the fallback keeps the lumped mass's energy. Measured: linear
+/// 0.0029% (lumped 0.0029%), quadratic 1.10% (lumped 1.40%). Before the fallback acted on a
+/// nearly singular mass, the step fell to 10⁻⁶ of the lumped one and a particle inverted
+/// (docs/simulation.md, "The time step").
+#[test]
+fn a_block_at_rest_on_a_floor_with_one_particle_per_cell_keeps_its_energy_under_the_fallback() {
+    for shape in ["linear", "quadratic_bspline"] {
+        check_resting_block(shape, "fallback_to_lumped");
+    }
+}
+
+/// [`a_block_at_rest_on_a_floor_with_one_particle_per_cell_keeps_its_energy_under_the_fallback`]
+/// under `regularize:0.1`, whose stable step comes from the solves themselves. Measured:
+/// linear 0.0015%, quadratic 0.71%. About a minute in release.
+#[test]
+#[ignore = "about a minute in release; run with --ignored"]
+fn a_block_at_rest_on_a_floor_with_one_particle_per_cell_keeps_its_energy_when_regularized() {
+    for shape in ["linear", "quadratic_bspline"] {
+        check_resting_block(shape, "regularize:0.1");
+    }
+}

@@ -127,24 +127,33 @@ fn two_disks(mass: &str, particles_per_cell: usize, policy: &str) -> (f64, bool)
     (worst, substituted)
 }
 
+/// One particle per cell: the consistent mass is singular at times and nearly singular
+/// (`NEARLY_SINGULAR_RATIO`) at others; each policy carries the two disks to the end, and the
+/// energy moves by less than twice what the lumped mass moves on the same particles (the lumped
+/// mass loses energy in the impact, the consistent one gains). Measured: fallback 9.7%,
+/// regularize:0.1 8.6%, lumped 6.3% (before the policies acted on a nearly singular mass:
+/// 6.6% and 6.6%, in 12,000 steps against the lumped mass's 247); the same scenes by
+/// `mpm run`, whose steps land on the snapshot times: 5.5% and 6.3%. A run-away grows without
+/// bound.
 #[test]
 fn one_particle_per_cell_runs_the_two_disks_to_the_end_under_each_singularity_policy() {
+    let (lumped, _) = two_disks("lumped", 1, "error");
     for policy in ["fallback_to_lumped", "regularize:0.1"] {
         let (worst, substituted) = two_disks("consistent", 1, policy);
         println!(
-            "{policy}: largest |ΔE| / KE0 {:.2}%, substituted {substituted}",
-            100.0 * worst
+            "{policy}: largest |ΔE| / KE0 {:.2}% (lumped {:.2}%), substituted {substituted}",
+            100.0 * worst,
+            100.0 * lumped
         );
         assert!(
             substituted,
             "{policy}: the policy never acted, so the test does not test it"
         );
-        // Measured with the default stabilisation: 9.2% (fallback) and 15.5% (regularize:0.1);
-        // the lumped mass at 1 × 1 per cell moves by 6.4%. A run-away grows without bound.
         assert!(
-            worst < 0.25,
-            "{policy}: the energy moved by {:.1}% of KE0",
-            100.0 * worst
+            worst <= 2.0 * lumped,
+            "{policy}: the energy moved by {:.2}% of KE0, the lumped mass's by {:.2}%",
+            100.0 * worst,
+            100.0 * lumped
         );
     }
 }

@@ -406,6 +406,96 @@ impl GridMass {
         self.dofs[1].free != self.dofs[0].free
     }
 
+    /// Applies the singularity policy to a mass that the stable step found nearly singular
+    /// (`ratio` its top frequency over the largest single node's, at least
+    /// [`crate::simulation::NEARLY_SINGULAR_RATIO`]; `node` where the top mode is largest), as
+    /// to a matrix whose factorization broke down, for this step: an error naming the node,
+    /// the lumped mass, or `(1 − ε) M_s + ε M_L` (factorized now, for the conjugate gradient too).
+    ///
+    /// # Errors
+    /// [`MpmError::SingularMassMatrix`] under [`SingularityPolicy::Error`], or when even the
+    /// regularized matrix is singular.
+    pub(crate) fn substitute_nearly_singular(&mut self, node: usize, ratio: f64, ops: &Operators) -> Result<()> {
+        let policy = self.options.singularity;
+        let roles: &[Role] = if self.shares_solver() {
+            &[Role::Velocity]
+        } else {
+            &[Role::Velocity, Role::Acceleration]
+        };
+        for &role in roles {
+            let gamma = match self.scheme(role) {
+                MassScheme::Consistent | MassScheme::Iterative { .. } => 1.0,
+                MassScheme::Blended { gamma } => gamma,
+                MassScheme::Lumped | MassScheme::TruncatedSeries { .. } => continue,
+            };
+            match policy {
+                SingularityPolicy::Error => {
+                    return Err(MpmError::SingularMassMatrix {
+                        node,
+                        particles: ops.particles_touching(node),
+                        relative_pivot: f64::NAN,
+                        cause: format!(
+                            "its highest frequency is {ratio:.3e} times the highest of any single node, so a \
+combination of nodes moves with almost no mass and the stable step collapses; {}",
+                            super::singular_cause(ops.shape_function())
+                        ),
+                    })
+                }
+                SingularityPolicy::FallbackToLumped => {
+                    let solver = self.solver_mut(role);
+                    solver.gamma = None;
+                    solver.outcome = SolveOutcome::FellBackToLumped {
+                        node: Some(node),
+                        relative_pivot: f64::NAN,
+                    };
+                }
+                SingularityPolicy::Regularize { epsilon } => {
+                    let g = gamma * (1.0 - epsilon);
+                    let tolerance = self.options.pivot_tolerance;
+                    let own_y = self.dofs[1].free != self.dofs[0].free;
+                    let GridMass {
+                        lumped,
+                        dofs,
+                        matrices,
+                        velocity,
+                        acceleration,
+                        ..
+                    } = self;
+                    let matrix = match matrices.factorized_csc() {
+                        Some(m) => std::borrow::Cow::Borrowed(m),
+                        None => matrices
+                            .operator(MassScheme::Consistent)
+                            .expect("assembled for the consistent, blended and iterative schemes")
+                            .csc(),
+                    };
+                    let solver = match role {
+                        Role::Velocity => velocity,
+                        Role::Acceleration => acceleration,
+                    };
+                    for c in 0..if own_y { 2 } else { 1 } {
+                        let d = &dofs[c];
+                        solver.factors[c]
+                            .factor(&matrix, lumped, g, &d.free, &d.local, tolerance)
+                            .map_err(|b| singular_error(d.free[b.local], b.pivot, ops))?;
+                    }
+                    solver.gamma = Some(g);
+                    solver.outcome = SolveOutcome::Regularized {
+                        node: Some(node),
+                        epsilon,
+                    };
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn solver_mut(&mut self, role: Role) -> &mut SchemeSolver {
+        match role {
+            Role::Acceleration if !self.shares_solver() => &mut self.acceleration,
+            _ => &mut self.velocity,
+        }
+    }
+
     /// Factorizes what the scheme of `role` needs, applying the singularity policy.
     fn factorize(&mut self, role: Role, ops: &Operators) -> Result<()> {
         let gamma = match self.scheme(role) {

@@ -204,8 +204,12 @@ impl GridMass {
     /// How the scheme of `role` solves, given what preparing it found.
     fn method(&self, role: Role) -> Method {
         let solver = self.solver(role);
-        if let SolveOutcome::FellBackToLumped { .. } = solver.outcome {
-            return Method::Lumped;
+        match (&solver.outcome, solver.gamma) {
+            (SolveOutcome::FellBackToLumped { .. }, _) => return Method::Lumped,
+            // A conjugate gradient regularized before its solve (a nearly singular mass,
+            // [`GridMass::substitute_nearly_singular`]) solves with the factors made then.
+            (SolveOutcome::Regularized { .. }, Some(gamma)) => return Method::Direct { gamma },
+            _ => {}
         }
         match self.scheme(role) {
             MassScheme::Lumped => Method::Lumped,

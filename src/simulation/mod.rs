@@ -64,7 +64,7 @@ pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, MAX_CHECKPOINT_BYTES};
 pub use options::{Body, Integrator, Newmark, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
 pub use profile::{Phase, Profile};
 pub use report::StepReport;
-pub use stability::{EstimateCounts, BOUND_INTERVAL, ESTIMATE_TRAVEL, GUARD_STEPS};
+pub use stability::{EstimateCounts, BOUND_INTERVAL, ESTIMATE_TRAVEL, GUARD_STEPS, NEARLY_SINGULAR_RATIO};
 
 use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};

@@ -85,9 +85,18 @@ impl Simulation {
         let due = stability::estimate_due(options, state, &cache.mass);
         if explicit && due != stability::Due::Nothing {
             let tracking = &mut scratch.tracking;
-            let estimate = timed(profile, Phase::StableStep, || {
+            let mut estimate = timed(profile, Phase::StableStep, || {
                 stability::estimate(setup, options, state, cache, due, tracking)
             })?;
+            // A nearly singular mass: the singularity policy for this step, and the stable
+            // step of what it put in place.
+            if let Some(s) = tracking.nearly_singular.take() {
+                cache.mass.substitute_nearly_singular(s.node, s.ratio, &cache.ops)?;
+                estimate = timed(profile, Phase::StableStep, || {
+                    stability::estimate(setup, options, state, cache, stability::Due::Estimate, tracking)
+                })?;
+                tracking.nearly_singular = None;
+            }
             state.stability = Some(estimate);
         }
         Ok(())
