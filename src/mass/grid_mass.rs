@@ -72,6 +72,26 @@ pub(super) struct SchemeSolver {
     pub(super) outcome: SolveOutcome,
 }
 
+/// Factorizes `g M + (1 − g) M_L` on the free nodes of each component into `solver` (the y
+/// factor only where y has free nodes of its own): the node and scaled pivot of a breakdown.
+fn factor_components(
+    solver: &mut SchemeSolver,
+    matrix: &CscMatrix<f64>,
+    lumped: &[f64],
+    dofs: &[Dofs; 2],
+    g: f64,
+    tolerance: f64,
+) -> std::result::Result<(), (usize, f64)> {
+    let own_y = dofs[1].free != dofs[0].free;
+    for c in 0..if own_y { 2 } else { 1 } {
+        let d = &dofs[c];
+        solver.factors[c]
+            .factor(matrix, lumped, g, &d.free, &d.local, tolerance)
+            .map_err(|b| (d.free[b.local], b.pivot))?;
+    }
+    Ok(())
+}
+
 /// The grid mass of one step: lumped mass, its inverse and the active nodes, and for schemes
 /// other than lumped the consistent matrix and a prepared solver for each of the velocity and
 /// acceleration solves ([`GridMass::solve`]).
@@ -452,7 +472,6 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
                 SingularityPolicy::Regularize { epsilon } => {
                     let g = gamma * (1.0 - epsilon);
                     let tolerance = self.options.pivot_tolerance;
-                    let own_y = self.dofs[1].free != self.dofs[0].free;
                     let GridMass {
                         lumped,
                         dofs,
@@ -472,12 +491,8 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
                         Role::Velocity => velocity,
                         Role::Acceleration => acceleration,
                     };
-                    for c in 0..if own_y { 2 } else { 1 } {
-                        let d = &dofs[c];
-                        solver.factors[c]
-                            .factor(&matrix, lumped, g, &d.free, &d.local, tolerance)
-                            .map_err(|b| singular_error(d.free[b.local], b.pivot, ops))?;
-                    }
+                    factor_components(solver, &matrix, lumped, dofs, g, tolerance)
+                        .map_err(|(node, pivot)| singular_error(node, pivot, ops))?;
                     solver.gamma = Some(g);
                     solver.outcome = SolveOutcome::Regularized {
                         node: Some(node),
@@ -523,16 +538,7 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
         let Some(gamma) = gamma else { return Ok(()) };
         // Factorized schemes are never the series: the stabilised matrix when there is one.
         let matrix = matrices.factorized_csc().expect("assembled for factorized schemes");
-        let own_y = dofs[1].free != dofs[0].free;
-        let factor_both = |s: &mut SchemeSolver, g: f64| -> std::result::Result<(), (usize, f64)> {
-            for c in 0..if own_y { 2 } else { 1 } {
-                let d = &dofs[c];
-                s.factors[c]
-                    .factor(matrix, lumped, g, &d.free, &d.local, pivot_tolerance)
-                    .map_err(|b| (d.free[b.local], b.pivot))?;
-            }
-            Ok(())
-        };
+        let factor_both = |s: &mut SchemeSolver, g: f64| factor_components(s, matrix, lumped, dofs, g, pivot_tolerance);
         match factor_both(solver, gamma) {
             Ok(()) => solver.gamma = Some(gamma),
             Err((node, pivot)) => match policy {

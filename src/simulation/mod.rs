@@ -52,6 +52,7 @@
 
 mod build;
 mod checkpoint;
+mod near_singular;
 mod newmark;
 mod options;
 mod phases;
@@ -61,10 +62,11 @@ mod series;
 mod stability;
 
 pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, MAX_CHECKPOINT_BYTES};
+pub use near_singular::NEARLY_SINGULAR_RATIO;
 pub use options::{Body, Integrator, Newmark, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
 pub use profile::{Phase, Profile};
 pub use report::StepReport;
-pub use stability::{EstimateCounts, BOUND_INTERVAL, ESTIMATE_TRAVEL, GUARD_STEPS, NEARLY_SINGULAR_RATIO};
+pub use stability::{EstimateCounts, BOUND_INTERVAL, ESTIMATE_TRAVEL, GUARD_STEPS};
 
 use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};
