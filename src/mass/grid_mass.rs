@@ -472,24 +472,13 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
                 SingularityPolicy::Regularize { epsilon } => {
                     let g = gamma * (1.0 - epsilon);
                     let tolerance = self.options.pivot_tolerance;
-                    let GridMass {
-                        lumped,
-                        dofs,
-                        matrices,
-                        velocity,
-                        acceleration,
-                        ..
-                    } = self;
+                    let (lumped, dofs, matrices, solver) = self.factor_parts(role);
                     let matrix = match matrices.factorized_csc() {
                         Some(m) => std::borrow::Cow::Borrowed(m),
                         None => matrices
                             .operator(MassScheme::Consistent)
                             .expect("assembled for the consistent, blended and iterative schemes")
                             .csc(),
-                    };
-                    let solver = match role {
-                        Role::Velocity => velocity,
-                        Role::Acceleration => acceleration,
                     };
                     factor_components(solver, &matrix, lumped, dofs, g, tolerance)
                         .map_err(|(node, pivot)| singular_error(node, pivot, ops))?;
@@ -502,6 +491,24 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
             }
         }
         Ok(())
+    }
+
+    /// What a factorization of `role` reads (the lumped mass, the free nodes, the matrices) and
+    /// the solver it writes.
+    fn factor_parts(&mut self, role: Role) -> (&[f64], &[Dofs; 2], &Matrices, &mut SchemeSolver) {
+        let GridMass {
+            lumped,
+            dofs,
+            matrices,
+            velocity,
+            acceleration,
+            ..
+        } = self;
+        let solver = match role {
+            Role::Velocity => velocity,
+            Role::Acceleration => acceleration,
+        };
+        (lumped, dofs, matrices, solver)
     }
 
     fn solver_mut(&mut self, role: Role) -> &mut SchemeSolver {
@@ -522,18 +529,7 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
             | MassScheme::Iterative { .. } => None,
         };
         let (policy, pivot_tolerance) = (self.options.singularity, self.options.pivot_tolerance);
-        let GridMass {
-            lumped,
-            dofs,
-            matrices,
-            velocity,
-            acceleration,
-            ..
-        } = self;
-        let solver = match role {
-            Role::Velocity => velocity,
-            Role::Acceleration => acceleration,
-        };
+        let (lumped, dofs, matrices, solver) = self.factor_parts(role);
         solver.gamma = None;
         let Some(gamma) = gamma else { return Ok(()) };
         // Factorized schemes are never the series: the stabilised matrix when there is one.

@@ -25,6 +25,7 @@ use crate::spectral::{lanczos_extremes, lanczos_max, lobpcg_max, start_sequence,
 use crate::transfer::VectorField;
 
 mod bound;
+mod penalty_rows;
 pub use bound::BAND_STEPS;
 pub(crate) use bound::{mpm_update_bound_estimate, BoundWork};
 
