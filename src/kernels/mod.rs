@@ -28,6 +28,7 @@ mod g2p;
 mod grid;
 mod p2g;
 mod particle;
+mod stiffness;
 
 pub use crate::lanes::{kernel_lanes, set_kernel_lanes, set_scalar_kernels};
 pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
@@ -39,6 +40,7 @@ pub(crate) use p2g::subtract_particle_force;
 pub use p2g::{add_internal_force, p2g, reproject_momentum};
 pub(crate) use particle::{update_stress, StressInput, StressOutput, SumInput};
 pub use particle::{Partials, ParticleSums, StressPartials, StressSums, SumPartials};
+pub(crate) use stiffness::subtract_tangent_forces;
 
 use crate::fields::VectorField;
 use crate::grid::Grid;

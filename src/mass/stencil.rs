@@ -211,11 +211,6 @@ impl StencilMass {
         }
     }
 
-    /// The nodes the linear-extension penalty touches (each once per triple it is in).
-    pub(crate) fn penalty_terms(&self) -> &[([u32; 3], f64)] {
-        &self.penalty
-    }
-
     /// The entry `M_IJ` (0 where not stored or off the span).
     pub(crate) fn entry(&self, i: usize, j: usize) -> f64 {
         let span = self.start..self.start + self.len;
@@ -243,23 +238,6 @@ impl StencilMass {
     /// stored couplings, which are read once for both.
     pub(crate) fn apply_masked_pair(&self, x: [&[f64]; 2], out: [&mut [f64]; 2], mask: [&[f64]; 2]) {
         apply_segments_pair(self, x, out, mask)
-    }
-
-    /// [`StencilMass::penalty_product`] of two vectors in one pass over the penalty's terms.
-    pub(crate) fn penalty_product_pair(&self, x: [&[f64]; 2], y: [&mut [f64]; 2]) {
-        let [xa, xb] = x;
-        let [ya, yb] = y;
-        for &([a, b, c], w) in &self.penalty {
-            let (a, b, c) = (a as usize, b as usize, c as usize);
-            let ga = w * (xa[a] - 2.0 * xa[b] + xa[c]);
-            let gb = w * (xb[a] - 2.0 * xb[b] + xb[c]);
-            ya[a] += ga;
-            ya[b] -= 2.0 * ga;
-            ya[c] += ga;
-            yb[a] += gb;
-            yb[b] -= 2.0 * gb;
-            yb[c] += gb;
-        }
     }
 
     /// The position of `offset` in [`StencilMass::offsets`], if stored.
@@ -312,8 +290,6 @@ impl StencilMass {
             "one lumped mass and one flag per node"
         );
         let (start, len, pad) = (self.start, self.len, self.pad);
-        let plen = len + 2 * pad;
-        let centre = self.width() / 2;
         let k = self.width();
         // ψ on the span rows with couplings (0 elsewhere: such nodes are never in a triple).
         let phi = self.relative_support(lumped);
@@ -349,17 +325,61 @@ impl StencilMass {
                     }
                     let w = gamma * ramp * lumped[a].max(lumped[b]).max(lumped[c]);
                     self.penalty.push(([a as u32, b as u32, c as u32], w));
-                    self.values[pad + ra] += w;
-                    self.values[pad + rb] += 4.0 * w;
-                    self.values[pad + rc] += w;
-                    self.values[(o1 - centre) * plen + pad + ra] -= 2.0 * w;
-                    self.values[(o1 - centre) * plen + pad + rb] -= 2.0 * w;
-                    self.values[(o2 - centre) * plen + pad + ra] += w;
+                    self.add_penalty_term([ra, rb, rc], w, [o1, o2]);
                     self.pattern[ra] |= 1 << o1 | 1 << o2;
                     self.pattern[rb] |= 1 << o1 | 1 << m1;
                     self.pattern[rc] |= 1 << m1 | 1 << m2;
                 }
             }
+        }
+    }
+
+    /// `w d_T d_Tᵀ` added to the stored values for the triple of span rows `[ra, rb, rc]`
+    /// along a grid line whose offsets of one and two lines are `o1`, `o2` (the upper half:
+    /// the diagonal, `−2w` one line on, `w` two lines on).
+    fn add_penalty_term(&mut self, [ra, rb, rc]: [usize; 3], w: f64, [o1, o2]: [usize; 2]) {
+        let (pad, centre) = (self.pad, self.width() / 2);
+        let plen = self.len + 2 * pad;
+        self.values[pad + ra] += w;
+        self.values[pad + rb] += 4.0 * w;
+        self.values[pad + rc] += w;
+        self.values[(o1 - centre) * plen + pad + ra] -= 2.0 * w;
+        self.values[(o1 - centre) * plen + pad + rb] -= 2.0 * w;
+        self.values[(o2 - centre) * plen + pad + ra] += w;
+    }
+
+    /// `B = M_s + R` into `out` (its buffers reused): this matrix, `M_s = M + R` after
+    /// [`StencilMass::add_extension_penalty`], with the recorded penalty `R` added once more,
+    ///
+    /// ```text
+    /// B = M + 2R,   R = Σ_T γ w_T d_T d_Tᵀ
+    /// ```
+    ///
+    /// so that a product with `B` is one sweep over the couplings. `out` records the same
+    /// penalty terms as this matrix.
+    pub(crate) fn penalty_twice_into(&self, out: &mut StencilMass) {
+        out.num_nodes = self.num_nodes;
+        out.shape = self.shape;
+        (out.start, out.len, out.strides, out.pad) = (self.start, self.len, self.strides, self.pad);
+        out.offsets.clone_from(&self.offsets);
+        out.values.clone_from(&self.values);
+        out.pattern.clone_from(&self.pattern);
+        out.segments.clone_from(&self.segments);
+        out.penalty.clone_from(&self.penalty);
+        if self.penalty.is_empty() {
+            return;
+        }
+        let k = self.width();
+        let slots = |stride: usize| {
+            let at = |o: isize| self.offsets.binary_search(&o).expect("a penalty's offsets are stored");
+            [at(stride as isize), at(2 * stride as isize)]
+        };
+        let along = [slots(self.strides[0]), slots(self.strides[1])];
+        debug_assert!(along.iter().all(|o| o.iter().all(|&o| o < k)));
+        for &([a, b, c], w) in &self.penalty {
+            let axis = usize::from(b as usize - a as usize != self.strides[0]);
+            let rows = [a, b, c].map(|i| i as usize - self.start);
+            out.add_penalty_term(rows, w, along[axis]);
         }
     }
 

@@ -66,7 +66,7 @@ pub use near_singular::NEARLY_SINGULAR_RATIO;
 pub use options::{Body, Integrator, Newmark, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
 pub use profile::{Phase, Profile};
 pub use report::StepReport;
-pub use stability::{EstimateCounts, BOUND_INTERVAL, ESTIMATE_TRAVEL, GUARD_STEPS};
+pub use stability::{EstimateCounts, BOUND_INTERVAL, ESTIMATE_TRAVEL, GUARD_STEPS, GUARD_STEPS_UNDER_MARGIN};
 
 use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};

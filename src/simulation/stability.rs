@@ -250,9 +250,30 @@ pub(super) fn estimate_due(options: &Options, state: &State, mass: &GridMass) ->
 /// margin, [`stiffness::TIME_STEP_SAFETY`]): a steady configuration keeps a constant step.
 pub const STEP_HYSTERESIS: f64 = 0.01;
 
-/// LOBPCG steps of the [`guard`] from the tracked mode: with 1 or 2 the quadratic random block
-/// of [`BOUND_INTERVAL`] gained up to 102% and 23% of its energy (an estimate every 10 steps).
+/// LOBPCG steps of the [`guard`] from the tracked mode where the step takes the whole frozen
+/// limit: with 1 or 2 the quadratic random block of [`BOUND_INTERVAL`] gained up to 102% and
+/// 23% of its energy (an estimate every 10 steps); with 1 and the estimates on the travel
+/// clock, 65% (1,024 particles, one seed of 16).
 pub const GUARD_STEPS: usize = 3;
+
+/// LOBPCG steps of the [`guard`] where the step keeps a crossing margin below one
+/// ([`stiffness::crossing_margin`]: linear shape functions under FLIP), whose step is half the
+/// frozen limit and so leaves the frequency four times the room: with 1 the random block of
+/// [`BOUND_INTERVAL`] (linear, cg, 16 seeds, 256 and 1,024 particles) rose by at most 2.6%, as
+/// with 3 (2.6–3.0%), at a third of the guard's products.
+pub const GUARD_STEPS_UNDER_MARGIN: usize = 1;
+
+/// The LOBPCG steps of the [`guard`] for these options: [`GUARD_STEPS_UNDER_MARGIN`] where the
+/// crossing margin is below one, [`GUARD_STEPS`] otherwise.
+pub(super) fn guard_steps(options: &Options) -> usize {
+    let alpha = options.transfer.flip_weight();
+    let margin = stiffness::crossing_margin(options.shape, [options.mass.velocity, options.mass.acceleration], alpha);
+    if margin < 1.0 {
+        GUARD_STEPS_UNDER_MARGIN
+    } else {
+        GUARD_STEPS
+    }
+}
 
 /// Steps from one estimate of the update bound to the next at the latest (fewer when
 /// [`Options::stability_interval`] is smaller); an estimate comes sooner when the particles
@@ -333,7 +354,7 @@ pub(super) fn estimate(
     tracking: &mut Tracking,
 ) -> Result<Stability> {
     match (due, state.stability) {
-        (Due::Guard, Some(last)) => Ok(guard(setup, state, cache, last, tracking)),
+        (Due::Guard, Some(last)) => Ok(guard(setup, state, cache, last, guard_steps(options), tracking)),
         _ => estimate_by(setup, options, state, cache, Estimator::Cheapest, tracking),
     }
 }
@@ -367,7 +388,7 @@ pub struct EstimateCounts {
 }
 
 /// The guard between two estimates of the update bound, on the current configuration: the
-/// top mode of the last estimate or guard followed by [`GUARD_STEPS`] LOBPCG steps (its Ritz
+/// top mode of the last estimate or guard followed by `steps` LOBPCG steps ([`guard_steps`]) (its Ritz
 /// value `θ`, a lower bound of `λ_max(K, B)`), and the largest single-node frequency
 /// ([`stiffness::node_frequency_top`]). Either may only raise the frequency in use:
 ///
@@ -379,7 +400,7 @@ pub struct EstimateCounts {
 /// support empties (the frequency of the falling block rises by 40% within four steps at
 /// times); the single nodes show a mode localised elsewhere. A change neither shows waits
 /// for the next estimate, [`BOUND_INTERVAL`] steps at most.
-fn guard(setup: &Setup, state: &State, cache: &Cache, last: Stability, tracking: &mut Tracking) -> Stability {
+fn guard(setup: &Setup, state: &State, cache: &Cache, last: Stability, steps: usize, tracking: &mut Tracking) -> Stability {
     let (ops, p, mass) = (&cache.ops, &state.particles, &cache.mass);
     let Some(bound) = mass.bounding_mass(Role::Velocity) else {
         return last;
@@ -402,11 +423,11 @@ fn guard(setup: &Setup, state: &State, cache: &Cache, last: Stability, tracking:
         &tangent_of,
         &free,
         &bound,
-        GUARD_STEPS,
+        steps,
         0.0,
         work,
         mode,
-        Some(GUARD_STEPS),
+        Some(steps),
     );
     counts.guards += 1;
     counts.guard_steps += found.lanczos_steps;

@@ -11,8 +11,7 @@
 //! submatrices), LOBPCG polishing the best patch's mode on the whole grid, and LOBPCG on the
 //! interior's band.
 
-use super::penalty_rows::PenaltyRows;
-use super::{apply_tangent_stiffness_into, FreeDofs, FrequencyEstimate};
+use super::FrequencyEstimate;
 use crate::fields::VectorField;
 use crate::operators::Operators;
 
@@ -66,23 +65,20 @@ fn diagonal_columns<const S: usize>(
 #[derive(Debug, Default)]
 pub(crate) struct BoundWork {
     lobpcg: crate::spectral::LobpcgWork,
-    /// The iterate on the free degrees of freedom.
+    /// `B = M_s + R` in stencil form ([`crate::mass::StencilMass::penalty_twice_into`]).
+    b: crate::mass::StencilMass,
+    /// The iterate, x components then y, each in `B`'s padded layout.
     x: Vec<f64>,
-    /// Grid fields of the stiffness products.
-    u: VectorField,
+    /// Per degree of freedom in that layout: 1 where free, 0 elsewhere; and `1/B_II` there.
+    mask: Vec<f64>,
+    inverse_diagonal: Vec<f64>,
+    /// The stiffness diagonal per node (x and y), and its `xy` block.
     f: VectorField,
-    /// The `xy` block of the stiffness diagonal per node.
     xy: Vec<f64>,
-    /// Per component: the iterate, the product and the free mask in the stencil's padded
-    /// layout.
-    padded: [Vec<f64>; 6],
-    /// Per component, node vectors of the penalty product (zero between uses).
-    full: [Vec<f64>; 4],
     /// Each particle's tangent `[C11, C12, G]`, formed once per estimate.
     tangents: Vec<[f64; 3]>,
     /// The diagonal of `B` per component.
-    diagonal: [Vec<f64>; 2],
-    penalty: PenaltyRows,
+    diagonal: Vec<f64>,
     /// Each node's own frequency ([`node_frequency_top`]).
     own: Vec<f64>,
     /// The patch owning each node, for [`patch_top`] (`u32::MAX`: none).
@@ -116,6 +112,7 @@ pub(crate) fn node_frequency_top(
         own: owns,
         ..
     } = work;
+    let diagonal = [&*diagonal, &*diagonal];
     owns.resize(n, 0.0);
     let (mut top, mut at) = (0.0f64, 0);
     for i in ops.node_span() {
@@ -142,8 +139,9 @@ pub(crate) fn node_frequency_top(
     (top, at)
 }
 
-/// The stiffness diagonal (`work.f`, `work.xy`) and the diagonal of `B` per component
-/// (`work.diagonal`) over the node span.
+/// `B` ([`crate::mass::StencilMass::penalty_twice_into`]) into `work.b`, the stiffness
+/// diagonal (`work.f`, `work.xy`) and the diagonal of `B` (`work.diagonal`, the same for both
+/// components) over the node span.
 fn node_diagonals(
     ops: &Operators,
     volume: &[f64],
@@ -152,15 +150,15 @@ fn node_diagonals(
     work: &mut BoundWork,
 ) {
     let n = ops.num_nodes();
-    let stencil = bound.stencil();
     let BoundWork {
+        b,
         f,
         xy,
         diagonal,
         tangents,
-        penalty,
         ..
     } = work;
+    bound.stencil().penalty_twice_into(b);
     if f.len() != n {
         *f = VectorField::zeros(n);
     }
@@ -169,16 +167,10 @@ fn node_diagonals(
     tangents.extend((0..ops.num_particles()).map(tangent));
     let tangents = &*tangents;
     tangent_diagonal_into(ops, volume, &|p: usize| tangents[p], f, xy);
-    penalty.fill(stencil.penalty_terms(), ops.strides()[0], n);
-    for d in diagonal.iter_mut() {
-        if d.len() != n {
-            *d = vec![0.0; n];
-        }
-        stencil.diagonal_into(d);
-        for &i in &penalty.nodes {
-            d[i] += penalty.diagonal(i);
-        }
+    if diagonal.len() != n {
+        *diagonal = vec![0.0; n];
     }
+    b.diagonal_into(diagonal);
 }
 
 /// The upper bound of the update's `ω²_max` for a solve mass `M_s = M + R` in both solves, `R`
@@ -209,9 +201,10 @@ fn node_diagonals(
 /// top mode over all `2n` degrees of freedom, beside the single-node frequency. Either way
 /// `mode` is left holding the top mode found.
 ///
-/// Products: `K` without forming it ([`apply_tangent_stiffness`]), `M_s` in stencil form and `R`
-/// from its recorded terms ([`crate::mass::StencilMass::penalty_product`]), both components in
-/// one sweep; preconditioned by `diag(B)⁻¹`. Returns the estimate (LOBPCG steps summed) and the
+/// Products: `K` without forming it ([`apply_tangent_stiffness`]) and `B` in stencil form
+/// ([`crate::mass::StencilMass::penalty_twice_into`]), both components in one sweep, on the
+/// padded layout of the stencil (no gathering of the free degrees of freedom); preconditioned
+/// by `diag(B)⁻¹`. Returns the estimate (LOBPCG steps summed) and the
 /// single-node frequency.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn mpm_update_bound_estimate(
@@ -230,128 +223,104 @@ pub(crate) fn mpm_update_bound_estimate(
     assert_eq!(free.len(), 2 * n, "one flag per degree of freedom");
     let (node_top, top_node) = node_frequency_top(ops, volume, tangent, free, bound, work);
     let patch = match warm {
-        None => patch_top(
-            ops,
-            volume,
-            &work.tangents,
-            free,
-            bound,
-            &work.penalty,
-            &work.own,
-            &mut work.owner,
-        ),
+        None => patch_top(ops, volume, &work.tangents, free, &work.b, &work.own, &mut work.owner),
         Some(_) => None,
     };
-    let dofs = FreeDofs::new(free);
-    let stencil = bound.stencil();
     let BoundWork {
         lobpcg,
+        b,
         x,
-        u,
-        f,
-        padded,
-        full,
+        mask,
+        inverse_diagonal,
         tangents,
         diagonal,
-        penalty,
         ..
     } = work;
+    let b = &*b;
     let tangents = &*tangents;
-    let tangent = &|p: usize| tangents[p];
-    if u.len() != n {
-        *u = VectorField::zeros(n);
-    }
-    f.x.fill(0.0);
-    f.y.fill(0.0);
-    let plen = stencil.padded_len();
-    for v in padded.iter_mut() {
-        v.clear();
-        v.resize(plen, 0.0);
-    }
-    for v in full.iter_mut() {
-        if v.len() != n {
-            *v = vec![0.0; n];
-        }
-    }
-    // The free mask of each component in the padded layout.
-    let [xp_x, xp_y, out_x, out_y, mask_x, mask_y] = padded;
-    for (c, mask) in [(0, &mut *mask_x), (1, &mut *mask_y)] {
-        for &i in &dofs.nodes[c] {
-            mask[stencil.padded_position(i as usize)] = 1.0;
-        }
-    }
-    let positions: [Vec<usize>; 2] = std::array::from_fn(|c| {
-        dofs.nodes[c]
-            .iter()
-            .map(|&i| stencil.padded_position(i as usize))
-            .collect()
-    });
-    let penalty_nodes = &penalty.nodes;
-    let inverse_diagonal: Vec<f64> = dofs
-        .each()
-        .map(|(c, i)| {
-            let d = diagonal[c][i];
-            if d > 0.0 {
-                1.0 / d
-            } else {
-                0.0
+    // The padded layout of `B`: node `i` of the span at `i + shift`, x components in the first
+    // `plen` entries, y in the next.
+    let plen = b.padded_len();
+    let span = ops.node_span();
+    let shift = b.padded_position(span.start).wrapping_sub(span.start);
+    let at = |c: usize, i: usize| c * plen + i.wrapping_add(shift);
+    mask.clear();
+    mask.resize(2 * plen, 0.0);
+    inverse_diagonal.clear();
+    inverse_diagonal.resize(2 * plen, 0.0);
+    for c in 0..2 {
+        for i in span.clone().filter(|&i| free[c * n + i]) {
+            mask[at(c, i)] = 1.0;
+            if diagonal[i] > 0.0 {
+                inverse_diagonal[at(c, i)] = 1.0 / diagonal[i];
             }
-        })
-        .collect();
+        }
+    }
+    let (mask, inverse_diagonal) = (&*mask, &*inverse_diagonal);
+    fn halves(v: &[f64], plen: usize) -> [&[f64]; 2] {
+        let (a, b) = v.split_at(plen);
+        [a, b]
+    }
     let precondition = |r: &[f64], out: &mut [f64]| {
-        for ((r, d), o) in r.iter().zip(&inverse_diagonal).zip(out.iter_mut()) {
+        for ((r, d), o) in r.iter().zip(inverse_diagonal).zip(out.iter_mut()) {
             *o = r * d;
         }
     };
     let mut apply_k = |v: &[f64], out: &mut [f64]| {
-        dofs.expand(v, u);
-        apply_tangent_stiffness_into(ops, volume, tangent, u, f);
-        dofs.compress_into(f, out);
+        let (ox, oy) = out.split_at_mut(plen);
+        super::apply_tangent_stiffness_shifted(
+            ops,
+            volume,
+            tangents,
+            halves(v, plen),
+            [ox, oy],
+            shift,
+            halves(mask, plen),
+        );
     };
     let mut apply_b = |v: &[f64], out: &mut [f64]| {
-        let [xf_x, xf_y, y_x, y_y] = &mut *full;
-        let (vx, vy) = v.split_at(dofs.nodes[0].len());
-        for ((&i, &value), &pos) in dofs.nodes[0].iter().zip(vx).zip(&positions[0]) {
-            xp_x[pos] = value;
-            xf_x[i as usize] = value;
+        // Rows without couplings are left as they were by the product: zero them first.
+        out.fill(0.0);
+        let (ox, oy) = out.split_at_mut(plen);
+        b.apply_masked_pair(halves(v, plen), [ox, oy], halves(mask, plen));
+    };
+    // The tracked mode (over all `2n` degrees of freedom) in the padded layout, and back.
+    let load_mode = |mode: &[f64], x: &mut Vec<f64>| {
+        x.clear();
+        x.resize(2 * plen, 0.0);
+        if mode.len() == 2 * n {
+            for c in 0..2 {
+                for i in span.clone() {
+                    x[at(c, i)] = mode[c * n + i] * mask[at(c, i)];
+                }
+            }
         }
-        for ((&i, &value), &pos) in dofs.nodes[1].iter().zip(vy).zip(&positions[1]) {
-            xp_y[pos] = value;
-            xf_y[i as usize] = value;
+    };
+    let store_mode = |x: &[f64], mode: &mut Vec<f64>| {
+        mode.clear();
+        mode.resize(2 * n, 0.0);
+        for c in 0..2 {
+            for i in span.clone() {
+                mode[c * n + i] = x[at(c, i)];
+            }
         }
-        stencil.apply_masked_pair([xp_x, xp_y], [out_x, out_y], [mask_x, mask_y]);
-        // + R x.
-        stencil.penalty_product_pair([xf_x, xf_y], [y_x, y_y]);
-        let (ox, oy) = out.split_at_mut(dofs.nodes[0].len());
-        for ((&i, o), &pos) in dofs.nodes[0].iter().zip(ox).zip(&positions[0]) {
-            let i = i as usize;
-            *o = out_x[pos] + y_x[i];
-            (xp_x[pos], xf_x[i]) = (0.0, 0.0);
-        }
-        for ((&i, o), &pos) in dofs.nodes[1].iter().zip(oy).zip(&positions[1]) {
-            let i = i as usize;
-            *o = out_y[pos] + y_y[i];
-            (xp_y[pos], xf_y[i]) = (0.0, 0.0);
-        }
-        for &i in penalty_nodes {
-            (y_x[i], y_y[i]) = (0.0, 0.0);
+    };
+    let single_node = |x: &mut Vec<f64>| {
+        x.clear();
+        x.resize(2 * plen, 0.0);
+        for c in 0..2 {
+            x[at(c, top_node)] = mask[at(c, top_node)];
         }
     };
     // A guard: `steps` LOBPCG steps from the tracked mode (from the node with the largest
     // frequency where nothing of the mode is left on the free degrees of freedom).
     if let Some(steps) = warm {
-        x.clear();
-        if mode.len() == 2 * n {
-            x.extend(dofs.each().map(|(c, i)| mode[c * n + i]));
-        }
+        load_mode(mode, x);
         if x.iter().all(|&v| v == 0.0) {
-            x.clear();
-            x.extend(dofs.each().map(|(_, i)| if i == top_node { 1.0 } else { 0.0 }));
+            single_node(x);
         }
         let found = crate::spectral::lobpcg_top(x, steps, 0.0, &mut apply_k, &mut apply_b, precondition, lobpcg);
-        u.x.fill(0.0);
-        u.y.fill(0.0);
-        dofs.write_mode(x, mode);
+        store_mode(x, mode);
         let (value, steps) = found.unwrap_or((0.0, 0));
         let estimate = FrequencyEstimate {
             omega_squared: value.max(0.0),
@@ -363,20 +332,15 @@ pub(crate) fn mpm_update_bound_estimate(
     // frequency where there is no patch).
     let mut patch_value = 0.0f64;
     match &patch {
-        Some((value, mode)) => {
+        Some((value, patch_mode)) => {
             patch_value = *value;
-            let mut at = vec![[0.0; 2]; 0];
-            at.resize(n, [0.0; 2]);
-            for &(c, i, v) in mode {
-                at[i][c] = v;
+            x.clear();
+            x.resize(2 * plen, 0.0);
+            for &(c, i, v) in patch_mode {
+                x[at(c, i)] = v;
             }
-            x.clear();
-            x.extend(dofs.each().map(|(c, i)| at[i][c]));
         }
-        None => {
-            x.clear();
-            x.extend(dofs.each().map(|(_, i)| if i == top_node { 1.0 } else { 0.0 }));
-        }
+        None => single_node(x),
     }
     let local = crate::spectral::lobpcg_top(
         x,
@@ -387,17 +351,20 @@ pub(crate) fn mpm_update_bound_estimate(
         precondition,
         lobpcg,
     );
-    // (2) The interior's band.
+    // (2) The interior's band: the start of [`crate::spectral::start_vector`] on the free
+    // degrees of freedom, alternating in sign from node to node.
     let local_mode = std::mem::take(x);
-    *x = dofs.start_vector();
-    if let Some(g) = ops.grid() {
-        for ((_, i), v) in dofs.each().zip(x.iter_mut()) {
-            let (a, b) = g.node_ij(i);
-            if (a + b) % 2 == 1 {
-                *v = -*v;
-            }
+    x.resize(2 * plen, 0.0);
+    crate::spectral::start_sequence(2 * n, |d, value| {
+        let (c, i) = (d / n, d % n);
+        if span.contains(&i) && mask[at(c, i)] != 0.0 {
+            let flip = ops.grid().is_some_and(|g| {
+                let (a, b) = g.node_ij(i);
+                (a + b) % 2 == 1
+            });
+            x[at(c, i)] = if flip { -value } else { value };
         }
-    }
+    });
     let band = crate::spectral::lobpcg_top(
         x,
         max_steps.min(BAND_STEPS),
@@ -410,13 +377,10 @@ pub(crate) fn mpm_update_bound_estimate(
     // The mode the guards track: the higher of the two.
     let higher = |r: Option<(f64, usize)>| r.map_or(0.0, |(v, _)| v);
     if higher(local) > higher(band) {
-        dofs.write_mode(&local_mode, mode);
+        store_mode(&local_mode, mode);
     } else {
-        dofs.write_mode(x, mode);
+        store_mode(x, mode);
     }
-    // Leave the work fields zero (the stiffness product clears only the span).
-    u.x.fill(0.0);
-    u.y.fill(0.0);
     let [(a, sa), (b, sb)] = [local, band].map(|r| r.unwrap_or((0.0, 0)));
     let estimate = FrequencyEstimate {
         omega_squared: a.max(b).max(node_top).max(patch_value).max(0.0),
@@ -457,16 +421,15 @@ struct Patch {
 /// `λ_max(K, B)` (Cauchy interlacing), and close to it where the top mode is localised on a
 /// patch. Patches are centred on the [`PATCH_CANDIDATES`] nodes of highest single-node
 /// frequency `own` that lie far enough apart; `K_PP` is summed from the particles that read the
-/// patch (one pass over the particles), `B_PP` from the stencil of `M_s` and the penalty's
-/// rows. Returns the value and its mode as `(component, node, value)`.
+/// patch (one pass over the particles), `B_PP` from the stencil of
+/// `B`. Returns the value and its mode as `(component, node, value)`.
 #[allow(clippy::too_many_arguments)]
 fn patch_top(
     ops: &Operators,
     volume: &[f64],
     tangents: &[[f64; 3]],
     free: &[bool],
-    bound: &crate::mass::BoundingMass<'_>,
-    penalty: &PenaltyRows,
+    b_matrix: &crate::mass::StencilMass,
     own: &[f64],
     owner: &mut Vec<u32>,
 ) -> Option<(f64, PatchMode)> {
@@ -543,8 +506,6 @@ fn patch_top(
         owner[i] = u32::MAX;
     }
     // Each patch's pencil on its free degrees of freedom.
-    let stencil = bound.stencil();
-    let strides = ops.strides();
     let p_count = width * width;
     let mut best: Option<(f64, PatchMode)> = None;
     for patch in &patches {
@@ -566,7 +527,7 @@ fn patch_top(
                 return 0.0;
             }
             let (i, j) = (patch.nodes[l], patch.nodes[q]);
-            stencil.entry(i, j) + penalty.entry(i, j, strides)
+            b_matrix.entry(i, j)
         });
         let Some(chol) = nalgebra::Cholesky::new(b) else {
             continue;

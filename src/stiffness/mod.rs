@@ -25,7 +25,6 @@ use crate::spectral::{lanczos_extremes, lanczos_max, lobpcg_max, start_sequence,
 use crate::transfer::VectorField;
 
 mod bound;
-mod penalty_rows;
 pub use bound::BAND_STEPS;
 pub(crate) use bound::{mpm_update_bound_estimate, BoundWork};
 
@@ -204,27 +203,6 @@ impl FreeDofs {
             field.y[i as usize] = y;
         }
     }
-
-    /// `v` on the free degrees of freedom written over all `2n` of them (x, then y) into
-    /// `mode`, zero elsewhere.
-    fn write_mode(&self, v: &[f64], mode: &mut Vec<f64>) {
-        mode.clear();
-        mode.resize(2 * self.n, 0.0);
-        for ((c, i), &x) in self.each().zip(v) {
-            mode[c * self.n + i] = x;
-        }
-    }
-
-    /// The free entries of `field` into `out`.
-    fn compress_into(&self, field: &VectorField, out: &mut [f64]) {
-        let (ox, oy) = out.split_at_mut(self.nodes[0].len());
-        for (&i, o) in self.nodes[0].iter().zip(ox) {
-            *o = field.x[i as usize];
-        }
-        for (&i, o) in self.nodes[1].iter().zip(oy) {
-            *o = field.y[i as usize];
-        }
-    }
 }
 
 /// The particle loop of [`apply_tangent_stiffness`]: per particle its `L = [Gxᵀ u, Gyᵀ u]`,
@@ -255,6 +233,32 @@ fn tangent_columns<const S: usize>(
         let (sxx, syy, sxy) = (c11 * lxx + c12 * lyy, c12 * lxx + c11 * lyy, g * (lxy + lyx));
         let t = [volume[p] * sxx, volume[p] * syy, volume[p] * sxy];
         crate::kernels::subtract_particle_force(&st, t, f);
+    }
+}
+
+/// `K u` on the padded layout of a stencil mass (node `i` at `i + shift`, wrapping), masked
+/// by `mask` (0: dropped), in lanes ([`crate::kernels::subtract_tangent_forces`]):
+///
+/// ```text
+/// f = mask ∘ K u,   K u = −f_int(σ),   σ_p = C_p : sym L_p(u)
+/// ```
+pub(crate) fn apply_tangent_stiffness_shifted(
+    ops: &Operators,
+    volume: &[f64],
+    tangents: &[[f64; 3]],
+    u: [&[f64]; 2],
+    f: [&mut [f64]; 2],
+    shift: usize,
+    mask: [&[f64]; 2],
+) {
+    let [fx, fy] = f;
+    fx.fill(0.0);
+    fy.fill(0.0);
+    crate::kernels::subtract_tangent_forces(ops, volume, tangents, u, [&mut *fx, &mut *fy], shift);
+    for (f, m) in [(fx, mask[0]), (fy, mask[1])] {
+        for (v, &m) in f.iter_mut().zip(m) {
+            *v = if m == 0.0 { 0.0 } else { -*v };
+        }
     }
 }
 
