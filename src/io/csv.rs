@@ -139,22 +139,34 @@ impl CsvWriter {
     /// [`MpmError::Io`] naming `path` when it cannot be read or written, and of kind
     /// `InvalidData` when its header differs from `header` or it holds fewer than `rows` rows.
     pub fn append_after(path: &Path, header: &[&str], rows: usize) -> Result<Self> {
-        let bytes = fs::read(path).map_err(|e| io_error(path, e))?;
+        use std::io::{Read, Seek, SeekFrom};
+        // Read as a stream: a report grows with the run (about 600 bytes a step).
+        let (mut file, len) = crate::io::open_regular(path, u64::MAX, "report")?;
         let head = header_bytes(header);
-        let Some(body) = bytes.strip_prefix(head.as_slice()) else {
+        let mut first = vec![0u8; head.len()];
+        if len < head.len() as u64 || file.read_exact(&mut first).is_err() || first != head {
             return Err(invalid_data(path, "its header is not the report's header"));
+        }
+        let body_len = len - head.len() as u64;
+        let ends_with_newline = body_len > 0 && {
+            let mut last = [0u8; 1];
+            file.seek(SeekFrom::End(-1)).map_err(|e| io_error(path, e))?;
+            file.read_exact(&mut last).map_err(|e| io_error(path, e))?;
+            file.seek(SeekFrom::Start(head.len() as u64))
+                .map_err(|e| io_error(path, e))?;
+            last[0] == b'\n'
         };
         // The end of the last of the `rows` records that end with their newline.
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
-            .from_reader(body);
+            .from_reader(std::io::BufReader::new(file.take(body_len)));
         let mut record = csv::ByteRecord::new();
         let mut keep = 0;
         for k in 0..rows {
             let read = reader.read_byte_record(&mut record).map_err(|e| csv_error(path, e))?;
-            let end = reader.position().byte() as usize;
-            if !read || !body[..end].ends_with(b"\n") {
+            let end = reader.position().byte();
+            if !read || (end >= body_len && !ends_with_newline) {
                 return Err(invalid_data(
                     path,
                     format!("it holds {k} whole rows, fewer than the {rows} the checkpoint was taken after"),
@@ -162,7 +174,7 @@ impl CsvWriter {
             }
             keep = end;
         }
-        Self::open_at(path, header.len(), (head.len() + keep) as u64)
+        Self::open_at(path, header.len(), head.len() as u64 + keep)
     }
 
     /// Appends one row; it reaches the file at the latest at the next [`flush`](Self::flush).
@@ -240,6 +252,9 @@ impl Drop for CsvWriter {
     }
 }
 
+/// The largest CSV file [`read_csv`] reads (4 GiB: a report of about seven million steps).
+pub const MAX_READ_BYTES: u64 = 4 << 30;
+
 /// Reads a CSV file in the layout [`CsvWriter`] writes: the header's column names and the rows
 /// of numbers. `\r\n` line ends are accepted, as are blank lines (skipped) and spaces around a
 /// value; a file that ends without a final newline keeps its last row.
@@ -250,7 +265,7 @@ impl Drop for CsvWriter {
 /// its line) and the column, when a row does not have one value per column or a value is not a
 /// number.
 pub fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
-    let file = File::open(path).map_err(|e| io_error(path, e))?;
+    let (file, _) = crate::io::open_regular(path, MAX_READ_BYTES, "CSV")?;
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)

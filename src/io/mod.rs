@@ -168,50 +168,102 @@ pub(crate) fn invalid_data(path: &Path, message: impl Into<String>) -> MpmError 
     )
 }
 
-/// The bytes of the regular file `path`, at most `max_bytes` of them: a FIFO, a device or a
-/// folder is refused before anything is read (nothing hangs on a pipe or reads `/dev/zero` for
-/// ever), and so is a file larger than `max_bytes` (checked on the open file, then again while
-/// reading, so a file that grows meanwhile cannot exceed it). `what` names the file's role in
-/// the messages ("scene", "checkpoint").
+/// `Ok` for a regular file; else what it is, in words ("a named pipe (FIFO)", "a folder").
+pub(crate) fn regular_file_kind(meta: &std::fs::Metadata) -> std::result::Result<(), &'static str> {
+    let kind = meta.file_type();
+    if kind.is_file() {
+        return Ok(());
+    }
+    if kind.is_dir() {
+        return Err("a folder");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_fifo() {
+            return Err("a named pipe (FIFO)");
+        }
+        if kind.is_char_device() || kind.is_block_device() {
+            return Err("a device");
+        }
+        if kind.is_socket() {
+            return Err("a socket");
+        }
+    }
+    Err("not a regular file")
+}
+
+/// The regular file `path` opened for reading, with its length, if it holds at most
+/// `max_bytes`: the one way every file of the library is opened for reading, given on the
+/// command line or found inside a folder. What is not a regular file (a FIFO, a device, a
+/// folder, a socket) is refused before it is opened (opening a FIFO waits for a writer), and
+/// again on the open file, which must be the file checked (a file swapped in between is
+/// refused); so is a file of more than `max_bytes`. `what` names the file's role in the
+/// messages ("scene", "checkpoint"). A reader that reads to the end takes at most
+/// `max_bytes + 1` bytes of it ([`read_bounded`]).
+///
+/// # Errors
+/// [`MpmError::Io`] naming `path`: of kind `InvalidInput` for what is not a regular file or
+/// was replaced, `InvalidData` for a file over the bound, or the error of opening it.
+pub fn open_regular(path: &Path, max_bytes: u64, what: &str) -> crate::error::Result<(std::fs::File, u64)> {
+    let refuse = |kind: &str| {
+        io_error(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("{kind}, not a regular file: give a {what} file"),
+            ),
+        )
+    };
+    // Before opening (opening a FIFO waits for a writer), and again on the open file.
+    let before = std::fs::metadata(path).map_err(|e| io_error(path, e))?;
+    regular_file_kind(&before).map_err(refuse)?;
+    let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
+    let meta = file.metadata().map_err(|e| io_error(path, e))?;
+    regular_file_kind(&meta).map_err(refuse)?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if (before.dev(), before.ino()) != (meta.dev(), meta.ino()) {
+            return Err(refuse("replaced while it was being opened"));
+        }
+    }
+    if meta.len() > max_bytes {
+        return Err(invalid_data(
+            path,
+            format!(
+                "it has {} bytes, more than the {max_bytes} a {what} file may have",
+                meta.len()
+            ),
+        ));
+    }
+    Ok((file, meta.len()))
+}
+
+/// The bytes of the regular file `path`, at most `max_bytes` of them ([`open_regular`]): a
+/// FIFO, a device or a folder is refused before anything is read (nothing hangs on a pipe or
+/// reads `/dev/zero` for ever), and so is a file larger than `max_bytes` (checked on the open
+/// file, then again while reading, so a file that grows meanwhile cannot exceed it). `what`
+/// names the file's role in the messages ("scene", "checkpoint").
 ///
 /// # Errors
 /// [`MpmError::Io`] naming `path`: of kind `InvalidInput` for what is not a regular file,
 /// `InvalidData` for a file over the bound, or the error of opening or reading it.
 pub fn read_bounded(path: &Path, max_bytes: u64, what: &str) -> crate::error::Result<Vec<u8>> {
     use std::io::Read;
-    let not_regular = || {
-        io_error(
-            path,
-            std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                format!("not a regular file (a folder, pipe or device): give a {what} file"),
-            ),
-        )
-    };
-    // Before opening (opening a FIFO waits for a writer), and again on the open file.
-    if !std::fs::metadata(path).map_err(|e| io_error(path, e))?.is_file() {
-        return Err(not_regular());
-    }
-    let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
-    let meta = file.metadata().map_err(|e| io_error(path, e))?;
-    if !meta.is_file() {
-        return Err(not_regular());
-    }
-    let too_large = || {
-        invalid_data(
-            path,
-            format!("a {what} file of more than {max_bytes} bytes is not read"),
-        )
-    };
-    if meta.len() > max_bytes {
-        return Err(too_large());
-    }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    let (file, len) = open_regular(path, max_bytes, what)?;
+    let mut bytes = Vec::new();
+    bytes
+        .try_reserve_exact(len as usize)
+        .map_err(|_| invalid_data(path, format!("a {what} file of {len} bytes does not fit in memory")))?;
     file.take(max_bytes + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| io_error(path, e))?;
     if bytes.len() as u64 > max_bytes {
-        return Err(too_large());
+        return Err(invalid_data(
+            path,
+            format!("a {what} file of more than {max_bytes} bytes is not read (it grew while being read)"),
+        ));
     }
     Ok(bytes)
 }

@@ -36,8 +36,7 @@ pub(crate) fn scene_digest(dir: &Path) -> Result<String> {
                 path: path.clone(),
                 source,
             };
-            let mut f = std::fs::File::open(&path).map_err(io)?;
-            let len = f.metadata().map_err(io)?.len();
+            let (mut f, len) = crate::io::open_regular(&path, crate::scene::MAX_PARTICLE_FILE_BYTES, "particle")?;
             hasher.update(len.to_le_bytes());
             let mut buf = vec![0u8; 1 << 16];
             loop {
@@ -62,7 +61,7 @@ pub(crate) fn checkpoint_checksum(path: &Path) -> Result<u32> {
         path: path.to_path_buf(),
         source,
     };
-    let mut f = std::fs::File::open(path).map_err(io)?;
+    let (mut f, _) = crate::io::open_regular(path, crate::simulation::MAX_CHECKPOINT_BYTES, "checkpoint")?;
     f.seek(SeekFrom::End(-4)).map_err(io)?;
     let mut tail = [0u8; 4];
     f.read_exact(&mut tail).map_err(io)?;

@@ -294,10 +294,7 @@ pub fn run_scene_with(
 /// # Errors
 /// [`MpmError::Io`] naming `from` when it cannot be opened, `to` when the copy cannot be written.
 fn copy(from: &Path, to: &Path) -> Result<()> {
-    let mut source = std::fs::File::open(from).map_err(|source| MpmError::Io {
-        path: from.to_path_buf(),
-        source,
-    })?;
+    let (mut source, _) = crate::io::open_regular(from, crate::scene::MAX_PARTICLE_FILE_BYTES, "particle")?;
     crate::io::write_atomically(to, |w| std::io::copy(&mut source, w).map(|_| ()))
 }
 

@@ -224,7 +224,10 @@ fn read_manifest(out: &Path) -> Result<Option<Vec<String>>> {
     let bad = |reason: String| crate::io::invalid_data(&path, reason);
     let manifest: ManifestFile = serde_json::from_str(&text).map_err(|e| bad(format!("not a run manifest: {e}")))?;
     if manifest.format != MANIFEST_FORMAT {
-        return Err(bad(format!("`{}` is not `{MANIFEST_FORMAT}`", manifest.format)));
+        return Err(bad(format!(
+            "its format is `{}`; this version reads `{MANIFEST_FORMAT}`",
+            manifest.format
+        )));
     }
     if let Some(name) = manifest.files.iter().find(|n| !is_run_output(n)) {
         return Err(bad(format!(

@@ -31,6 +31,15 @@ pub fn resume_run(
         path: Some(checkpoint.to_path_buf()),
         reason,
     };
+    // The checkpoint folder resolved once (`./`, `..`, symlinks, a name given from inside
+    // `checkpoints/`): its run folder is the folder above `checkpoints/`, whatever the working
+    // directory and spelling.
+    let resolved = std::fs::canonicalize(checkpoint).map_err(|e| {
+        bad(format!(
+            "cannot find it ({e}): give the checkpoint folder `checkpoints/step_NNNNNNNN` a run wrote"
+        ))
+    })?;
+    let checkpoint = resolved.as_path();
     let state_path = checkpoint.join("run.json");
     let text = crate::io::read_bounded_text(&state_path, 64 << 20, "run.json").map_err(|e| {
         bad(format!(
@@ -40,7 +49,11 @@ pub fn resume_run(
     })?;
     let mut state: RunState = serde_json::from_str(&text).map_err(|e| bad(format!("run.json: {e}")))?;
     if state.format != RUN_STATE_FORMAT {
-        return Err(bad(format!("run.json is `{}`, not `{RUN_STATE_FORMAT}`", state.format)));
+        return Err(bad(format!(
+            "{} is of the format `{}`; this version reads `{RUN_STATE_FORMAT}`",
+            state_path.display(),
+            state.format
+        )));
     }
     state.validate().map_err(|reason| bad(format!("run.json: {reason}")))?;
     let ckpt = checkpoint.join("simulation.ckpt");
@@ -75,14 +88,15 @@ pub fn resume_run(
     check_resume_limits(&state, &sim, options.allow_large, checkpoint)?;
     let run_dir = checkpoint
         .parent()
+        .filter(|folder| folder.file_name().is_some_and(|name| name == "checkpoints"))
         .and_then(Path::parent)
-        .ok_or_else(|| bad("the checkpoint folder is not inside a run folder's `checkpoints/`".into()))?;
-    // `checkpoints/step_N` given from inside the run folder: the run folder is `.`.
-    let run_dir = if run_dir.as_os_str().is_empty() {
-        PathBuf::from(".")
-    } else {
-        run_dir.to_path_buf()
-    };
+        .ok_or_else(|| {
+            bad(format!(
+                "{} is not inside a run folder's `checkpoints/`",
+                checkpoint.display()
+            ))
+        })?
+        .to_path_buf();
     let digest = super::identity::scene_digest(&run_dir)?;
     if digest != state.scene_digest {
         return Err(bad(format!(
@@ -93,7 +107,10 @@ pub fn resume_run(
             &digest[..16]
         )));
     }
-    let out = out.map_or(run_dir.clone(), Path::to_path_buf);
+    // An output folder that exists is compared by what it is, not how it is spelt.
+    let out = out.map_or(run_dir.clone(), |o| {
+        std::fs::canonicalize(o).unwrap_or_else(|_| o.to_path_buf())
+    });
     // The run folder is held while the resume reads or continues it (a run still writing
     // there is not taken up).
     let held = OutputClaim::claim(&run_dir, OutputPolicy::Continue)?;

@@ -6,7 +6,6 @@
 //! blank lines and lines whose first non-space character is `#` are skipped. The first other
 //! line is the header.
 
-use std::io::Read;
 use std::path::{Component, Path, PathBuf};
 
 use super::{invalid, BodySpec, Geometry, Scene, MAX_PARTICLE_FILE_BYTES, MAX_SPEED};
@@ -108,64 +107,18 @@ const MASS: usize = 2;
 /// bytes, in UTF-8. `shown` is the path for messages, `path` the one opened.
 fn read_particle_text(shown: &Path, path: &Path) -> std::result::Result<String, String> {
     let shown = shown.display();
-    let before = std::fs::metadata(path).map_err(|e| format!("{shown}: {e}"))?;
-    check_regular_file(&before).map_err(|what| format!("{shown} is {what}, not a regular file"))?;
-    let too_large = |bytes: String| {
-        format!("{shown} has {bytes} bytes, more than the {MAX_PARTICLE_FILE_BYTES} (1 GiB) a particle file may have")
+    // The reason alone: the message names the path as the scene gave it.
+    let reason = |e: crate::error::MpmError| match e {
+        crate::error::MpmError::Io { source, .. } => source.to_string(),
+        other => other.to_string(),
     };
-    if before.len() > MAX_PARTICLE_FILE_BYTES {
-        return Err(too_large(before.len().to_string()));
-    }
-    let file = std::fs::File::open(path).map_err(|e| format!("{shown}: {e}"))?;
-    let opened = file.metadata().map_err(|e| format!("{shown}: {e}"))?;
-    check_regular_file(&opened).map_err(|what| format!("{shown} is {what}, not a regular file"))?;
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        if (before.dev(), before.ino()) != (opened.dev(), opened.ino()) {
-            return Err(format!("{shown} was replaced while it was being opened"));
-        }
-    }
-    let expected = opened.len().min(MAX_PARTICLE_FILE_BYTES);
-    let mut bytes = Vec::with_capacity(usize::try_from(expected).unwrap_or(0));
-    file.take(MAX_PARTICLE_FILE_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| format!("{shown}: {e}"))?;
-    if bytes.len() as u64 > MAX_PARTICLE_FILE_BYTES {
-        return Err(too_large(format!(
-            "more than {MAX_PARTICLE_FILE_BYTES} (it grew while being read)"
-        )));
-    }
+    let bytes = crate::io::read_bounded(path, MAX_PARTICLE_FILE_BYTES, "particle")
+        .map_err(|e| format!("{shown}: {}", reason(e)))?;
     String::from_utf8(bytes).map_err(|e| {
         let valid = e.utf8_error().valid_up_to();
         let line = e.as_bytes()[..valid].iter().filter(|&&b| b == b'\n').count() + 1;
         format!("{shown} line {line}: not UTF-8 text (a particle file is CSV text)")
     })
-}
-
-/// `Ok` for a regular file; else what it is, in words.
-fn check_regular_file(meta: &std::fs::Metadata) -> std::result::Result<(), &'static str> {
-    let kind = meta.file_type();
-    if kind.is_file() {
-        return Ok(());
-    }
-    if kind.is_dir() {
-        return Err("a folder");
-    }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if kind.is_fifo() {
-            return Err("a named pipe (FIFO)");
-        }
-        if kind.is_char_device() || kind.is_block_device() {
-            return Err("a device");
-        }
-        if kind.is_socket() {
-            return Err("a socket");
-        }
-    }
-    Err("something else")
 }
 
 /// Whether a piece of a particle file may be quoted in a message: a short word of letters,

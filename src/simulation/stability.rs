@@ -400,7 +400,14 @@ pub struct EstimateCounts {
 /// support empties (the frequency of the falling block rises by 40% within four steps at
 /// times); the single nodes show a mode localised elsewhere. A change neither shows waits
 /// for the next estimate, [`BOUND_INTERVAL`] steps at most.
-fn guard(setup: &Setup, state: &State, cache: &Cache, last: Stability, steps: usize, tracking: &mut Tracking) -> Stability {
+fn guard(
+    setup: &Setup,
+    state: &State,
+    cache: &Cache,
+    last: Stability,
+    steps: usize,
+    tracking: &mut Tracking,
+) -> Stability {
     let (ops, p, mass) = (&cache.ops, &state.particles, &cache.mass);
     let Some(bound) = mass.bounding_mass(Role::Velocity) else {
         return last;

@@ -298,7 +298,10 @@ pub fn read_plan(dir: &Path) -> Result<StudyPlan> {
     let plan: StudyPlan =
         serde_json::from_str(&text).map_err(|e| study_error(&path, format!("not a study plan: {e}")))?;
     if plan.format != PLAN_FORMAT {
-        return Err(study_error(&path, format!("`{}` is not `{PLAN_FORMAT}`", plan.format)));
+        return Err(study_error(
+            &path,
+            format!("its format is `{}`; this version reads `{PLAN_FORMAT}`", plan.format),
+        ));
     }
     if plan.version != VERSION {
         return Err(study_error(
