@@ -289,6 +289,24 @@ pub enum MpmError {
         /// What is wrong, in words.
         reason: String,
     },
+    /// What an input asks for needs more memory than this process can have
+    /// ([`crate::limits::ensure_memory`]): refused before the allocation, which would abort the
+    /// process.
+    #[error(
+        "{what} would need about {} of memory, more than the {} this process can have ({source_of_bound})",
+        crate::limits::bytes_for_people(*needed),
+        crate::limits::bytes_for_people(*available)
+    )]
+    OutOfMemory {
+        /// What asked, naming the input (a scene key, an argument).
+        what: String,
+        /// Bytes needed (estimated).
+        needed: f64,
+        /// Bytes this process can have.
+        available: f64,
+        /// Where the bound comes from (the machine's available memory, the process's limit).
+        source_of_bound: String,
+    },
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {

@@ -156,6 +156,82 @@ fn bytes(b: f64) -> String {
     }
 }
 
+/// A byte count for people (`12.5 MiB`), as the library's messages give it.
+pub fn bytes_for_people(b: f64) -> String {
+    bytes(b)
+}
+
+/// The memory this process can still have, in bytes, and where the bound comes from: the
+/// least of the machine's available memory (`MemAvailable` of `/proc/meminfo`) and the room
+/// left under the process's address-space and data-size limits (`ulimit -v`, `ulimit -d`:
+/// `/proc/self/limits` less `VmSize` and `VmData` of `/proc/self/status`). `None` where none
+/// of these is known (not Linux).
+pub fn available_memory() -> Option<(f64, String)> {
+    let kib = |text: &str, key: &str| -> Option<f64> {
+        let line = text.lines().find(|l| l.starts_with(key))?;
+        line[key.len()..]
+            .split_whitespace()
+            .next()?
+            .parse::<f64>()
+            .ok()
+            .map(|k| 1024.0 * k)
+    };
+    let mut bound: Option<(f64, String)> = None;
+    let mut least = |bytes: f64, from: String| {
+        if bound.as_ref().is_none_or(|(b, _)| bytes < *b) {
+            bound = Some((bytes.max(0.0), from));
+        }
+    };
+    if let Ok(meminfo) = std::fs::read_to_string("/proc/meminfo") {
+        if let Some(b) = kib(&meminfo, "MemAvailable:") {
+            least(b, "the memory available on this machine".into());
+        }
+    }
+    let limits = std::fs::read_to_string("/proc/self/limits").unwrap_or_default();
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    for (limit, used, name) in [
+        ("Max address space", "VmSize:", "the address-space limit (ulimit -v)"),
+        ("Max data size", "VmData:", "the data-size limit (ulimit -d)"),
+    ] {
+        let soft = limits
+            .lines()
+            .find(|l| l.starts_with(limit))
+            .and_then(|l| l[limit.len()..].split_whitespace().next().map(str::to_string));
+        if let Some(Ok(max)) = soft.map(|v| v.parse::<f64>()) {
+            let used = kib(&status, used).unwrap_or(0.0);
+            least(
+                max - used,
+                format!("{name} of {} less the {} in use", bytes(max), bytes(used)),
+            );
+        }
+    }
+    bound
+}
+
+/// Refuses an allocation of about `needed` bytes that this process cannot have
+/// ([`available_memory`]) before it is made (an allocation that fails aborts the process: a
+/// notebook's kernel, a worker):
+///
+/// ```text
+/// needed > min(MemAvailable, limit_as − VmSize, limit_data − VmData)  →  MpmError::OutOfMemory
+/// ```
+///
+/// `what` names the input that asked. Nothing is refused where the bound is not known.
+///
+/// # Errors
+/// [`MpmError::OutOfMemory`] with the bytes needed and available.
+pub fn ensure_memory(needed: f64, what: impl FnOnce() -> String) -> Result<()> {
+    match available_memory() {
+        Some((available, source_of_bound)) if needed > available => Err(MpmError::OutOfMemory {
+            what: what(),
+            needed,
+            available,
+            source_of_bound,
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// The estimate from the scene alone (no particle generated, no file read beyond its size):
 /// particles, nodes, memory, snapshots, and the steps when `time.dt` is fixed.
 pub fn estimate_scene(scene: &Scene) -> Estimate {
@@ -295,6 +371,14 @@ pub fn check(estimate: &Estimate, limits: &Limits, scene: &Scene) -> Result<()> 
             ),
         );
     }
+    // Whatever the limits (also with --allow-large): what this process cannot have.
+    ensure_memory(estimate.memory_bytes, || {
+        format!(
+            "the scene ({} particles, {} nodes)",
+            count(estimate.particles),
+            count(estimate.nodes)
+        )
+    })?;
     if estimate.snapshots > limits.snapshots {
         return over(
             "output.snapshot_interval".into(),

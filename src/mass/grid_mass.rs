@@ -158,7 +158,22 @@ impl GridMass {
         constraints: &Constraints,
     ) -> Result<()> {
         if self.lumped.len() != ops.num_nodes() {
-            self.lumped = vec![0.0; ops.num_nodes()];
+            // Refused before the node arrays are made, where this process cannot hold them.
+            let n = ops.num_nodes();
+            let lumped_only = options.velocity == MassScheme::Lumped && options.acceleration == MassScheme::Lumped;
+            let per_node = crate::limits::BYTES_PER_NODE
+                + if lumped_only {
+                    0.0
+                } else {
+                    crate::limits::BYTES_PER_NODE_CONSISTENT
+                };
+            crate::limits::ensure_memory(per_node * n as f64, || {
+                format!(
+                    "the grid mass (velocity {}, acceleration {}) on {n} nodes",
+                    options.velocity, options.acceleration
+                )
+            })?;
+            self.lumped = vec![0.0; n];
         }
         lumped_mass_into(ops, m, &mut self.lumped);
         self.prepare(ops, m, options, constraints)
