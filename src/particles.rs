@@ -268,9 +268,15 @@ impl Particles {
     ///
     /// # Errors
     /// The errors of [`Particles::validate`] for `other`.
-    pub fn append(&mut self, mut other: Particles) -> Result<()> {
-        other.validate()?;
+    pub fn append(&mut self, other: Particles) -> Result<()> {
         let next = self.id.iter().max().map_or(0, |m| m + 1);
+        self.append_from(other, next)
+    }
+
+    /// [`Particles::append`] with the appended particles' ids starting at `next` (at least one
+    /// past every id here: the caller knows it, and need not search for it once per body).
+    pub(crate) fn append_from(&mut self, mut other: Particles, next: usize) -> Result<()> {
+        other.validate()?;
         other.id.iter_mut().for_each(|i| *i += next);
         for ((_, a), (_, b)) in self.fields_mut().into_iter().zip(other.fields_mut()) {
             a.append(b);
@@ -386,14 +392,44 @@ fn check_len(field: &'static str, expected: usize, found: usize) -> Result<()> {
 ///
 /// Points come row by row (y outer), x ascending.
 pub fn lattice(grid: &Grid, per_cell: usize, inside: impl Fn(f64, f64) -> bool) -> (Vec<f64>, Vec<f64>, f64) {
+    lattice_within(grid, per_cell, None, inside)
+}
+
+/// [`lattice`] over the lattice points of the box `[min, max]` only (`None`: the whole grid):
+/// the same points in the same order where `inside` holds nowhere outside the box, at a cost
+/// in the box's points rather than the grid's (a scene of many small bodies on a large grid).
+pub fn lattice_within(
+    grid: &Grid,
+    per_cell: usize,
+    bounds: Option<[[f64; 2]; 2]>,
+    inside: impl Fn(f64, f64) -> bool,
+) -> (Vec<f64>, Vec<f64>, f64) {
     let n = per_cell.max(1);
     let [hx, hy] = grid.cell_size();
     let [ox, oy] = grid.origin();
     let [cx, cy] = grid.cells();
     let (dx, dy) = (hx / n as f64, hy / n as f64);
+    // Point k of an axis is at o + (k + 1/2) d: the points from just below `lo` to just above
+    // `hi` (one more each way, so that rounding cannot drop a point the box holds).
+    let range = |lo: f64, hi: f64, o: f64, d: f64, count: usize| -> std::ops::Range<usize> {
+        let first = ((lo - o) / d - 0.5).floor() - 1.0;
+        let last = ((hi - o) / d - 0.5).ceil() + 2.0;
+        if !(first.is_finite() && last.is_finite()) {
+            return 0..count;
+        }
+        let clamp = |v: f64| v.clamp(0.0, count as f64) as usize;
+        clamp(first)..clamp(last)
+    };
+    let (is, js) = match bounds {
+        Some([min, max]) => (
+            range(min[0], max[0], ox, dx, cx * n),
+            range(min[1], max[1], oy, dy, cy * n),
+        ),
+        None => (0..cx * n, 0..cy * n),
+    };
     let (mut x, mut y) = (Vec::new(), Vec::new());
-    for j in 0..cy * n {
-        for i in 0..cx * n {
+    for j in js {
+        for i in is.clone() {
             let (px, py) = (ox + (i as f64 + 0.5) * dx, oy + (j as f64 + 0.5) * dy);
             if inside(px, py) {
                 x.push(px);

@@ -160,3 +160,30 @@ fn files_of_another_format_are_refused_naming_the_file_and_both_formats() {
         assert!(text(&o).contains(part), "{part}: {}", text(&o));
     }
 }
+
+#[test]
+fn a_body_costs_the_lattice_points_of_its_box_not_of_the_grid() {
+    use sparse_mpm::particles::{lattice, lattice_within};
+    let grid = sparse_mpm::Grid::new([0.0, 0.0], [0.01, 0.01], [1000, 1000]).unwrap();
+    for (min, max) in [
+        ([0.2, 0.3], [0.25, 0.32]),
+        ([0.0, 0.0], [0.013, 0.5]),
+        ([9.99, 9.99], [10.0, 10.0]),
+    ] {
+        let inside = |x: f64, y: f64| x > min[0] && x < max[0] && y > min[1] && y < max[1];
+        let calls = std::cell::Cell::new(0usize);
+        let counted = |x: f64, y: f64| {
+            calls.set(calls.get() + 1);
+            inside(x, y)
+        };
+        let boxed = lattice_within(&grid, 2, Some([min, max]), counted);
+        assert_eq!(boxed, lattice(&grid, 2, inside), "{min:?}–{max:?}: other points");
+        // The box's points with three more each way: not the 4·10⁶ of the grid.
+        let side = |a: usize| ((max[a] - min[a]) / 0.005).ceil() as usize + 6;
+        assert!(
+            calls.get() <= side(0) * side(1),
+            "{min:?}–{max:?}: {} points looked at",
+            calls.get()
+        );
+    }
+}

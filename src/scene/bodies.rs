@@ -26,7 +26,9 @@ impl Scene {
         for (k, body) in self.bodies.iter().enumerate() {
             let mut p = self.body_particles(k, body, &grid)?;
             p.body = vec![k; p.len()];
-            all.append(p)
+            // Each body's ids are 0..n, so the next free id is the count so far.
+            let next = all.len();
+            all.append_from(p, next)
                 .map_err(|e| invalid(format!("bodies[{k}]"), e.to_string()))?;
         }
         Ok(all)
@@ -49,7 +51,15 @@ impl Scene {
                     Geometry::Disk { center, radius } => (px - center[0]).hypot(py - center[1]) < *radius,
                     Geometry::File(_) => unreachable!("handled above"),
                 };
-                let (x, y, volume) = crate::particles::lattice(grid, body.particles_per_cell, inside);
+                let bounds = match geometry {
+                    Geometry::Rectangle { min, max } => Some([*min, *max]),
+                    Geometry::Disk { center, radius } => Some([
+                        [center[0] - radius, center[1] - radius],
+                        [center[0] + radius, center[1] + radius],
+                    ]),
+                    Geometry::File(_) => None,
+                };
+                let (x, y, volume) = crate::particles::lattice_within(grid, body.particles_per_cell, bounds, inside);
                 ParticleColumns {
                     volume: vec![volume; x.len()],
                     x,
