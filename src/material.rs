@@ -34,8 +34,10 @@ pub enum PlaneCondition {
 #[serde(deny_unknown_fields)]
 pub struct LinearElastic {
     /// Young's modulus `E` (> 0).
+    #[serde(deserialize_with = "youngs_modulus")]
     pub youngs_modulus: f64,
     /// Poisson's ratio `ν` (−1 < ν < ½).
+    #[serde(deserialize_with = "poisson_ratio")]
     pub poisson_ratio: f64,
     /// Plane stress or plane strain.
     #[serde(default)]
@@ -223,9 +225,26 @@ impl Hooke {
 #[serde(deny_unknown_fields)]
 pub struct NeoHookean {
     /// Young's modulus `E` (> 0) of the small-strain limit.
+    #[serde(deserialize_with = "youngs_modulus")]
     pub youngs_modulus: f64,
     /// Poisson's ratio `ν` (−1 < ν < ½) of the small-strain limit.
+    #[serde(deserialize_with = "poisson_ratio")]
     pub poisson_ratio: f64,
+}
+
+/// A number whose error names `key`: the fields of an internally tagged enum (`model = …`)
+/// lose their names in serde's own messages ("invalid type: string, expected f64").
+fn number_named<'de, D: serde::Deserializer<'de>>(d: D, key: &str) -> std::result::Result<f64, D::Error> {
+    use serde::de::Error;
+    f64::deserialize(d).map_err(|e| D::Error::custom(format!("`{key}`: {e}")))
+}
+
+fn youngs_modulus<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    number_named(d, "youngs_modulus")
+}
+
+fn poisson_ratio<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    number_named(d, "poisson_ratio")
 }
 
 impl NeoHookean {

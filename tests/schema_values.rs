@@ -1,0 +1,136 @@
+//! Every numeric key of every shipped scene, given a value no key has a meaning for (NaN, ±∞,
+//! a string), is refused by what `mpm check` runs ([`sparse_mpm::limits::prepare_run`]), and
+//! the message names the key. The keys are found by walking the scenes, not listed here, so a
+//! key added to a shipped scene is checked without touching this test.
+
+use std::path::{Path, PathBuf};
+
+use sparse_mpm::limits::{prepare_run, Limits};
+use sparse_mpm::scene::Scene;
+
+/// A step of a path into a TOML document.
+#[derive(Clone, Debug)]
+enum Step {
+    Key(String),
+    Index(usize),
+}
+
+/// The path as a scene key is written in messages: `bodies[0].geometry.disk.radius`.
+fn shown(path: &[Step]) -> String {
+    let mut s = String::new();
+    for step in path {
+        match step {
+            Step::Key(k) if s.is_empty() => s.push_str(k),
+            Step::Key(k) => {
+                s.push('.');
+                s.push_str(k);
+            }
+            Step::Index(i) => s.push_str(&format!("[{i}]")),
+        }
+    }
+    s
+}
+
+/// Every path to a number (integer or float) in `value`.
+fn numbers(value: &toml::Value, path: &mut Vec<Step>, out: &mut Vec<Vec<Step>>) {
+    match value {
+        toml::Value::Integer(_) | toml::Value::Float(_) => out.push(path.clone()),
+        toml::Value::Table(t) => {
+            for (k, v) in t {
+                path.push(Step::Key(k.clone()));
+                numbers(v, path, out);
+                path.pop();
+            }
+        }
+        toml::Value::Array(a) => {
+            for (i, v) in a.iter().enumerate() {
+                path.push(Step::Index(i));
+                numbers(v, path, out);
+                path.pop();
+            }
+        }
+        _ => {}
+    }
+}
+
+fn at<'a>(value: &'a mut toml::Value, path: &[Step]) -> &'a mut toml::Value {
+    path.iter().fold(value, |v, step| match step {
+        Step::Key(k) => v.get_mut(k.as_str()).expect("a path found by the walk"),
+        Step::Index(i) => v.get_mut(*i).expect("a path found by the walk"),
+    })
+}
+
+fn scenes() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    files
+}
+
+/// What `mpm check` says of the scene `text` read from `dir`: `Ok` when it accepts it.
+fn check(text: &str, dir: &Path) -> Result<(), String> {
+    let mut scene = Scene::from_toml_str(text).map_err(|e| e.to_string())?;
+    scene.base_dir = Some(dir.to_path_buf());
+    prepare_run(&scene, &Limits::default())
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn no_numeric_key_of_a_shipped_scene_accepts_nan_infinity_or_a_string() {
+    let mut failures = Vec::new();
+    let mut cases = 0;
+    for file in scenes() {
+        let dir = file.parent().unwrap().to_path_buf();
+        let original: toml::Value = toml::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+        let mut paths = Vec::new();
+        numbers(&original, &mut Vec::new(), &mut paths);
+        assert!(!paths.is_empty(), "{}: no number to mutate", file.display());
+        for path in &paths {
+            let key = shown(path);
+            for bad in [
+                toml::Value::Float(f64::NAN),
+                toml::Value::Float(f64::INFINITY),
+                toml::Value::Float(f64::NEG_INFINITY),
+                toml::Value::String("1.0".into()),
+            ] {
+                let mut mutated = original.clone();
+                *at(&mut mutated, path) = bad.clone();
+                let text = toml::to_string(&mutated).unwrap();
+                cases += 1;
+                match check(&text, &dir) {
+                    Ok(()) => failures.push(format!("{}: `{key}` = {bad} accepted", file.display())),
+                    Err(message) => {
+                        // The message names the key (or the last part of it, where the parser
+                        // names the table it stopped in).
+                        let last = path
+                            .iter()
+                            .rev()
+                            .find_map(|s| match s {
+                                Step::Key(k) => Some(k.clone()),
+                                Step::Index(_) => None,
+                            })
+                            .unwrap_or_default();
+                        if !message.contains(&last) {
+                            failures.push(format!(
+                                "{}: `{key}` = {bad}: the message does not name `{last}`: {message}",
+                                file.display()
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(cases > 100, "only {cases} cases");
+    assert!(
+        failures.is_empty(),
+        "{} of {cases}:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
