@@ -1,7 +1,9 @@
-//! Every numeric key of every shipped scene, given a value no key has a meaning for (NaN, ±∞,
-//! a string), is refused by what `mpm check` runs ([`sparse_mpm::limits::prepare_run`]), and
-//! the message names the key. The keys are found by walking the scenes, not listed here, so a
-//! key added to a shipped scene is checked without touching this test.
+//! Every numeric key of every shipped scene and of the scenes in `tests/data/schema/` (which
+//! write every optional key of docs/simulation.md's table, and each parameterised choice as a
+//! table), given a value no key has a meaning for (NaN, ±∞, a string), is refused by what
+//! `mpm check` runs ([`sparse_mpm::limits::prepare_run`]), and the message names the key. The
+//! keys are found by walking the scenes, not listed here, so a key added to a scene is checked
+//! without touching this test.
 
 use std::path::{Path, PathBuf};
 
@@ -60,10 +62,13 @@ fn at<'a>(value: &'a mut toml::Value, path: &[Step]) -> &'a mut toml::Value {
     })
 }
 
+/// The shipped scenes, and the scenes of `tests/data/schema/` that write every optional key and
+/// every parameterised choice as a table.
 fn scenes() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap()
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files: Vec<PathBuf> = ["scenes", "tests/data/schema"]
+        .iter()
+        .flat_map(|d| std::fs::read_dir(root.join(d)).unwrap())
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
         .collect();
@@ -81,7 +86,7 @@ fn check(text: &str, dir: &Path) -> Result<(), String> {
 }
 
 #[test]
-fn no_numeric_key_of_a_shipped_scene_accepts_nan_infinity_or_a_string() {
+fn no_numeric_key_accepts_nan_infinity_or_a_string() {
     let mut failures = Vec::new();
     let mut cases = 0;
     for file in scenes() {
