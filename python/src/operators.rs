@@ -113,6 +113,10 @@ pub(crate) fn lumped_mass<'py>(
     m: &Bound<'_, PyAny>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let m = masses(&ops.inner, m)?;
+    let n = ops.inner.num_nodes();
+    // The node vector and its copy into the array, refused where this process cannot have
+    // them (an allocation that fails aborts the interpreter).
+    sparse_mpm::limits::ensure_memory(16.0 * n as f64, || format!("lumped_mass on {n} nodes")).map_err(mpm_err)?;
     Ok(PyArray1::from_vec(py, mass::lumped_mass(&ops.inner, &m)))
 }
 
@@ -125,6 +129,14 @@ pub(crate) fn consistent_mass_csc<'py>(
 ) -> PyResult<Bound<'py, PyTuple>> {
     let m = masses(&ops.inner, m)?;
     let inner = &ops.inner;
+    // Column offsets per node and the couplings of every particle's stencil (at most
+    // support⁴ each), twice (the matrix and the arrays it is copied into).
+    let (n, s) = (inner.num_nodes() as f64, inner.support() as f64);
+    let needed = 2.0 * (8.0 * (n + 1.0) + 16.0 * s.powi(4) * inner.num_particles() as f64);
+    sparse_mpm::limits::ensure_memory(needed, || {
+        format!("consistent_mass on {} nodes and {} particles", inner.num_nodes(), inner.num_particles())
+    })
+    .map_err(mpm_err)?;
     let mc = py.detach(|| mass::consistent_mass(inner, &m));
     (
         index_array(py, mc.col_offsets()),

@@ -431,3 +431,34 @@ def test_oversized_scene_text_is_refused_before_parsing():
     text = "# padding\n" * (2 * 1024 * 1024)
     with pytest.raises(mpm.MpmError, match="more than the"):
         mpm.Simulation.from_toml(text)
+
+
+def test_masses_on_the_largest_grid_are_refused_before_allocating_under_a_memory_limit():
+    done = run_python(
+        """
+        import resource
+        import sparse_mpm as mpm
+
+        # 2.56e8 nodes (within the grid's limit of 2^28), one particle, 3 GB of address space:
+        # the node arrays of the masses and their copies do not fit.
+        resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+        grid = mpm.Grid([0.0, 0.0], [0.001, 0.001], [16000, 16000])
+        particles = mpm.Particles([0.5], [0.5], [1.0], [1e-6])
+        ops = mpm.Operators.assemble(grid, particles)
+        for name, call in (
+            ("consistent", lambda: mpm.consistent_mass(ops, [1.0])),
+            ("lumped", lambda: mpm.lumped_mass(ops, [1.0])),
+        ):
+            try:
+                call()
+            except mpm.MpmError as e:
+                print(name, "refused:", e)
+            else:
+                print(name, "accepted")
+        """
+    )
+    out = assert_child_ok(done)
+    lines = out.splitlines()
+    assert len(lines) == 2, out
+    for line, name in zip(lines, ("consistent", "lumped")):
+        assert line.startswith(f"{name} refused:") and "this process can have" in line, out
