@@ -413,3 +413,31 @@ fn a_shard_or_index_that_cannot_be_exits_with_status_two() {
         4
     );
 }
+
+#[test]
+fn a_list_longer_than_a_study_takes_is_refused_before_it_is_compared_or_planned() {
+    let dir = scratch("study_shards", "long_list");
+    // 100,000 distinct blends: the check for a value listed twice compared every pair, and the
+    // plan would list their product with the cell counts.
+    let masses: Vec<String> = (1..=100_000)
+        .map(|k| {
+            format!(
+                "{{ velocity = \"blended:{}\", acceleration = \"lumped\" }}",
+                k as f64 / 100_001.0
+            )
+        })
+        .collect();
+    std::fs::write(
+        dir.join("long.toml"),
+        format!("parts = [\"frequency\"]\nmasses = [{}]\n", masses.join(", ")),
+    )
+    .unwrap();
+    let o = mpm(&["study", "plan", "--spec", "long.toml", "-o", "p"], &dir);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("masses") && text(&o).contains("lists 100000 values, more than the 64"),
+        "{}",
+        text(&o)
+    );
+    assert!(!dir.join("p/plan.json").exists(), "nothing planned");
+}

@@ -119,6 +119,10 @@ impl Part {
     }
 }
 
+/// The most values of one list of a [`StudySpec`] (masses, shapes, cell counts …): a study's
+/// runs grow as the product of its lists.
+pub const MAX_LIST_VALUES: usize = 64;
+
 /// What a study runs. Every field has a default; a TOML file names only what it changes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -237,6 +241,27 @@ impl StudySpec {
         };
         if !(self.cfl > 0.0 && self.cfl <= 1.0) {
             return bad("cfl", "the Courant number must lie in (0, 1]");
+        }
+        // The work of a study grows as the product of its lists: each list is bounded before
+        // anything is compared or planned.
+        for (key, len) in [
+            ("parts", self.parts.len()),
+            ("masses", self.masses.len()),
+            ("shapes", self.shapes.len()),
+            ("bar_cells", self.bar_cells.len()),
+            ("vortex_cells", self.vortex_cells.len()),
+            ("cantilever_cells", self.cantilever_cells.len()),
+            ("particles_per_cell", self.particles_per_cell.len()),
+            ("stabilizations", self.stabilizations.len()),
+            ("wave_cells", self.wave_cells.len()),
+            ("impulse_cells", self.impulse_cells.len()),
+        ] {
+            if len > MAX_LIST_VALUES {
+                return bad(
+                    key,
+                    &format!("lists {len} values, more than the {MAX_LIST_VALUES} a study takes in one list"),
+                );
+            }
         }
         for (key, cells) in [
             ("bar_cells", &self.bar_cells),
