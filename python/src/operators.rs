@@ -134,7 +134,11 @@ pub(crate) fn consistent_mass_csc<'py>(
     let (n, s) = (inner.num_nodes() as f64, inner.support() as f64);
     let needed = 2.0 * (8.0 * (n + 1.0) + 16.0 * s.powi(4) * inner.num_particles() as f64);
     sparse_mpm::limits::ensure_memory(needed, || {
-        format!("consistent_mass on {} nodes and {} particles", inner.num_nodes(), inner.num_particles())
+        format!(
+            "consistent_mass on {} nodes and {} particles",
+            inner.num_nodes(),
+            inner.num_particles()
+        )
     })
     .map_err(mpm_err)?;
     let mc = py.detach(|| mass::consistent_mass(inner, &m));
