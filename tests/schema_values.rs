@@ -139,3 +139,50 @@ fn no_numeric_key_accepts_nan_infinity_or_a_string() {
         failures.join("\n")
     );
 }
+
+#[test]
+fn no_numeric_key_of_a_study_spec_accepts_nan_infinity_or_a_string() {
+    use sparse_mpm::study::StudySpec;
+    // The default spec written out in full: every key a spec has, each list with its values.
+    let text = toml::to_string(&StudySpec::default()).unwrap();
+    let original: toml::Value = toml::from_str(&text).unwrap();
+    assert!(StudySpec::from_toml_str(&text).is_ok(), "the default spec reads back");
+    let mut paths = Vec::new();
+    numbers(&original, &mut Vec::new(), &mut paths);
+    assert!(paths.len() > 20, "only {} numbers in the default spec", paths.len());
+    let mut failures = Vec::new();
+    for path in &paths {
+        let key = shown(path);
+        let last = path
+            .iter()
+            .rev()
+            .find_map(|s| match s {
+                Step::Key(k) => Some(k.clone()),
+                Step::Index(_) => None,
+            })
+            .unwrap_or_default();
+        for bad in [
+            toml::Value::Float(f64::NAN),
+            toml::Value::Float(f64::INFINITY),
+            toml::Value::Float(f64::NEG_INFINITY),
+            toml::Value::String("1.0".into()),
+        ] {
+            let mut mutated = original.clone();
+            *at(&mut mutated, path) = bad.clone();
+            match StudySpec::from_toml_str(&toml::to_string(&mutated).unwrap()) {
+                Ok(_) => failures.push(format!("`{key}` = {bad} accepted")),
+                Err(e) if !e.to_string().contains(&last) => {
+                    failures.push(format!("`{key}` = {bad}: the message does not name `{last}`: {e}"))
+                }
+                Err(_) => {}
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {}:\n{}",
+        failures.len(),
+        4 * paths.len(),
+        failures.join("\n")
+    );
+}

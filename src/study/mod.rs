@@ -283,6 +283,12 @@ impl StudySpec {
                 return bad("stabilizations", &e.to_string());
             }
         }
+        // Each mass pair as a scene's `schemes.mass` is held (its tolerances and policy too).
+        for (k, m) in self.masses.iter().enumerate() {
+            if let Err(e) = m.validate() {
+                return bad(&format!("masses[{k}]"), &e.to_string());
+            }
+        }
         if self.wave_cells.is_empty() || self.wave_cells.iter().any(|&c| !(20..=4096).contains(&c)) {
             return bad("wave_cells", "cell counts must lie between 20 and 4096 (at least one)");
         }
