@@ -294,8 +294,8 @@ pub enum MpmError {
     /// process.
     #[error(
         "{what} would need about {} of memory, more than the {} this process can have ({source_of_bound})",
-        crate::limits::bytes_for_people(*needed),
-        crate::limits::bytes_for_people(*available)
+        crate::numbers::bytes(*needed),
+        crate::numbers::bytes(*available)
     )]
     OutOfMemory {
         /// What asked, naming the input (a scene key, an argument).

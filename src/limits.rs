@@ -140,25 +140,9 @@ fn count(x: f64) -> String {
     }
 }
 
-/// A byte count for people: `12.5 MiB`.
+/// A byte count for people: `12.5 MiB` ([`crate::numbers::bytes`]).
 fn bytes(b: f64) -> String {
-    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
-    let mut v = b;
-    let mut unit = 0;
-    while v >= 1024.0 && unit + 1 < UNITS.len() {
-        v /= 1024.0;
-        unit += 1;
-    }
-    if unit == 0 {
-        format!("{v:.0} B")
-    } else {
-        format!("{v:.1} {}", UNITS[unit])
-    }
-}
-
-/// A byte count for people (`12.5 MiB`), as the library's messages give it.
-pub fn bytes_for_people(b: f64) -> String {
-    bytes(b)
+    crate::numbers::bytes(b)
 }
 
 /// The memory this process can still have, in bytes, and where the bound comes from: the

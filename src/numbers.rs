@@ -91,6 +91,22 @@ fn exponent_form(text: &str) -> String {
     format!("{}e{exponent}", trim_fraction(mantissa))
 }
 
+/// A byte count for people, in binary units: `512 B`, `12.5 MiB`, `29.8 GiB`.
+pub fn bytes(b: f64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = b;
+    let mut unit = 0;
+    while v >= 1024.0 && unit + 1 < UNITS.len() {
+        v /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{v:.0} B")
+    } else {
+        format!("{v:.1} {}", UNITS[unit])
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
