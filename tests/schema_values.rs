@@ -33,6 +33,17 @@ fn shown(path: &[Step]) -> String {
     s
 }
 
+/// The last key of a path (what a message names at least).
+fn last_key(path: &[Step]) -> String {
+    path.iter()
+        .rev()
+        .find_map(|s| match s {
+            Step::Key(k) => Some(k.clone()),
+            Step::Index(_) => None,
+        })
+        .unwrap_or_default()
+}
+
 /// Every path to a number (integer or float) in `value`.
 fn numbers(value: &toml::Value, path: &mut Vec<Step>, out: &mut Vec<Vec<Step>>) {
     match value {
@@ -112,14 +123,7 @@ fn no_numeric_key_accepts_nan_infinity_or_a_string() {
                     Err(message) => {
                         // The message names the key (or the last part of it, where the parser
                         // names the table it stopped in).
-                        let last = path
-                            .iter()
-                            .rev()
-                            .find_map(|s| match s {
-                                Step::Key(k) => Some(k.clone()),
-                                Step::Index(_) => None,
-                            })
-                            .unwrap_or_default();
+                        let last = last_key(path);
                         if !message.contains(&last) {
                             failures.push(format!(
                                 "{}: `{key}` = {bad}: the message does not name `{last}`: {message}",
@@ -153,14 +157,7 @@ fn no_numeric_key_of_a_study_spec_accepts_nan_infinity_or_a_string() {
     let mut failures = Vec::new();
     for path in &paths {
         let key = shown(path);
-        let last = path
-            .iter()
-            .rev()
-            .find_map(|s| match s {
-                Step::Key(k) => Some(k.clone()),
-                Step::Index(_) => None,
-            })
-            .unwrap_or_default();
+        let last = last_key(path);
         for bad in [
             toml::Value::Float(f64::NAN),
             toml::Value::Float(f64::INFINITY),
