@@ -33,6 +33,16 @@ fn shown(path: &[Step]) -> String {
     s
 }
 
+/// Values no numeric key has a meaning for: NaN, ±∞, and a number written as a string.
+fn meaningless() -> [toml::Value; 4] {
+    [
+        toml::Value::Float(f64::NAN),
+        toml::Value::Float(f64::INFINITY),
+        toml::Value::Float(f64::NEG_INFINITY),
+        toml::Value::String("1.0".into()),
+    ]
+}
+
 /// The last key of a path (what a message names at least).
 fn last_key(path: &[Step]) -> String {
     path.iter()
@@ -108,12 +118,7 @@ fn no_numeric_key_accepts_nan_infinity_or_a_string() {
         assert!(!paths.is_empty(), "{}: no number to mutate", file.display());
         for path in &paths {
             let key = shown(path);
-            for bad in [
-                toml::Value::Float(f64::NAN),
-                toml::Value::Float(f64::INFINITY),
-                toml::Value::Float(f64::NEG_INFINITY),
-                toml::Value::String("1.0".into()),
-            ] {
+            for bad in meaningless() {
                 let mut mutated = original.clone();
                 *at(&mut mutated, path) = bad.clone();
                 let text = toml::to_string(&mutated).unwrap();
@@ -158,12 +163,7 @@ fn no_numeric_key_of_a_study_spec_accepts_nan_infinity_or_a_string() {
     for path in &paths {
         let key = shown(path);
         let last = last_key(path);
-        for bad in [
-            toml::Value::Float(f64::NAN),
-            toml::Value::Float(f64::INFINITY),
-            toml::Value::Float(f64::NEG_INFINITY),
-            toml::Value::String("1.0".into()),
-        ] {
+        for bad in meaningless() {
             let mut mutated = original.clone();
             *at(&mut mutated, path) = bad.clone();
             match StudySpec::from_toml_str(&toml::to_string(&mutated).unwrap()) {
