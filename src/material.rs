@@ -44,11 +44,21 @@ pub struct LinearElastic {
     pub plane: PlaneCondition,
 }
 
+/// The Young's moduli accepted, `[E_min, E_max]` (in the scene's units): beyond them the
+/// strain energy `½ σ : C⁻¹ σ` under- or overflows (10⁻³⁰⁰ gave NaN) and the stable step
+/// `h / √(E/ρ)` rounds to zero or to centuries, with no body of any material between.
+pub const MODULUS_RANGE: [f64; 2] = [1e-100, 1e100];
+
+/// The densities accepted (a scene's `bodies[k].density`), `[ρ_min, ρ_max]`: beyond them a
+/// particle's kinetic and potential energy overflow (ρ = 10³⁰⁰ gave NaN in the first step).
+pub const DENSITY_RANGE: [f64; 2] = [1e-100, 1e100];
+
 impl LinearElastic {
     /// A validated linear elastic material.
     ///
     /// # Errors
-    /// [`MpmError::InvalidParameter`] when `E` is not positive and finite or `ν ∉ (−1, ½)`.
+    /// [`MpmError::InvalidParameter`] when `E` lies outside [`MODULUS_RANGE`] (or is not finite)
+    /// or `ν ∉ (−1, ½)`.
     pub fn new(youngs_modulus: f64, poisson_ratio: f64, plane: PlaneCondition) -> Result<LinearElastic> {
         let m = LinearElastic {
             youngs_modulus,
@@ -64,11 +74,19 @@ impl LinearElastic {
     /// # Errors
     /// As [`LinearElastic::new`].
     pub fn validate(&self) -> Result<()> {
+        let [low, high] = MODULUS_RANGE;
         if !(self.youngs_modulus.is_finite() && self.youngs_modulus > 0.0) {
             return Err(MpmError::InvalidParameter {
                 name: "youngs_modulus",
                 value: self.youngs_modulus,
                 reason: "must be a positive finite number",
+            });
+        }
+        if !(low..=high).contains(&self.youngs_modulus) {
+            return Err(MpmError::InvalidParameter {
+                name: "youngs_modulus",
+                value: self.youngs_modulus,
+                reason: "must lie between 1e-100 and 1e100 (material::MODULUS_RANGE)",
             });
         }
         if !(self.poisson_ratio > -1.0 && self.poisson_ratio < 0.5) {

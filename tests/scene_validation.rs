@@ -413,7 +413,9 @@ fn every_float_key_refuses_nan_and_infinity_naming_the_key_and_the_value() {
         (
             body("youngs_modulus = 1000.0", "youngs_modulus = 1e300")
                 .replace("density = 100.0", "density = 1e-300"),
-            vec!["`bodies[0].material`", "1e-300", "wave speed", "inf"],
+            // Refused by its range before the wave speed √(E/ρ) (which would be infinite) is
+            // formed.
+            vec!["`bodies[0].density`", "1e-300", "between 1e-100 and 1e100"],
         ),
         (
             body("density = 100.0", "density = 100.0\nbody_force = [0.0, inf]"),

@@ -4,6 +4,11 @@
 //! `mpm check` runs ([`sparse_mpm::limits::prepare_run`]), and the message names the key. The
 //! keys are found by walking the scenes, not listed here, so a key added to a scene is checked
 //! without touching this test.
+//!
+//! The same walk gives every number values a key may or may not have a meaning for (0, its
+//! negative, and its value times 10^±6, 10^±12, 10^±30, and ±10³⁰⁰): each is refused naming the
+//! key, or accepted and then runs its first steps without a panic and with finite energies,
+//! speeds and step (the ranges are in docs/simulation.md's key table).
 
 use std::path::{Path, PathBuf};
 
@@ -41,6 +46,29 @@ fn meaningless() -> [toml::Value; 4] {
         toml::Value::Float(f64::NEG_INFINITY),
         toml::Value::String("1.0".into()),
     ]
+}
+
+/// Values a key may or may not have a meaning for, from its value `v` in the scene: 0, `−v`,
+/// `v · 10^±6`, `v · 10^±12`, `v · 10^±30`, `±10³⁰⁰`; for an integer 0, −1, `−v`, 2⁴⁰ and the
+/// largest.
+fn extremes(v: &toml::Value) -> Vec<toml::Value> {
+    use toml::Value::{Float, Integer};
+    match *v {
+        Integer(i) => vec![
+            Integer(0),
+            Integer(-1),
+            Integer(-i),
+            Integer(1 << 40),
+            Integer(i64::MAX),
+        ],
+        Float(x) => {
+            let x = if x == 0.0 { 1.0 } else { x };
+            let mut out = vec![Float(0.0), Float(-x), Float(1e300), Float(-1e300)];
+            out.extend([1e6, 1e-6, 1e12, 1e-12, 1e30, 1e-30].map(|f| Float(x * f)));
+            out
+        }
+        _ => Vec::new(),
+    }
 }
 
 /// The last key of a path (what a message names at least).
@@ -99,11 +127,42 @@ fn scenes() -> Vec<PathBuf> {
 
 /// What `mpm check` says of the scene `text` read from `dir`: `Ok` when it accepts it.
 fn check(text: &str, dir: &Path) -> Result<(), String> {
+    accept(text, dir).map(|_| ())
+}
+
+/// The simulation `mpm check` builds from the scene `text` read from `dir`, or its message.
+fn accept(text: &str, dir: &Path) -> Result<sparse_mpm::simulation::Simulation, String> {
     let mut scene = Scene::from_toml_str(text).map_err(|e| e.to_string())?;
     scene.base_dir = Some(dir.to_path_buf());
     prepare_run(&scene, &Limits::default())
-        .map(|_| ())
+        .map(|(sim, _)| sim)
         .map_err(|e| e.to_string())
+}
+
+/// Whether a refusal names the key `last`, another key (in backquotes, as
+/// [`Scene::locate`] writes it) or a particle.
+fn names_what_is_wrong(message: &str, last: &str) -> bool {
+    message.contains(last) || message.matches('`').count() >= 2 || message.contains("particle ")
+}
+
+/// What is wrong with an accepted scene's first `steps` steps: an error, or a step, energy or
+/// speed that is not finite (`None`: nothing).
+fn first_steps(sim: &mut sparse_mpm::simulation::Simulation, steps: usize) -> Option<String> {
+    for _ in 0..steps {
+        match sim.step() {
+            Err(e) => return Some(format!("step {} failed: {e}", sim.steps())),
+            Ok(r) => {
+                let values = [r.dt, r.total_energy, r.kinetic_energy, r.strain_energy, r.max_speed];
+                if !values.iter().all(|v| v.is_finite()) || r.dt <= 0.0 {
+                    return Some(format!(
+                        "step {}: dt {}, energies {} {} {}, speed {}",
+                        r.step, r.dt, r.total_energy, r.kinetic_energy, r.strain_energy, r.max_speed
+                    ));
+                }
+            }
+        }
+    }
+    None
 }
 
 #[test]
@@ -141,6 +200,52 @@ fn no_numeric_key_accepts_nan_infinity_or_a_string() {
         }
     }
     assert!(cases > 100, "only {cases} cases");
+    assert!(
+        failures.is_empty(),
+        "{} of {cases}:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn every_numeric_key_refuses_an_extreme_value_by_name_or_runs_with_it() {
+    let mut failures = Vec::new();
+    let (mut cases, mut accepted) = (0, 0);
+    for file in scenes() {
+        let dir = file.parent().unwrap().to_path_buf();
+        let original: toml::Value = toml::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+        let mut paths = Vec::new();
+        numbers(&original, &mut Vec::new(), &mut paths);
+        for path in &paths {
+            let key = shown(path);
+            let last = last_key(path);
+            for value in extremes(at(&mut original.clone(), path)) {
+                let mut mutated = original.clone();
+                *at(&mut mutated, path) = value.clone();
+                let text = toml::to_string(&mutated).unwrap();
+                cases += 1;
+                let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match accept(&text, &dir) {
+                    // Refused naming the key, or the key the value makes wrong beside it (a
+                    // cell size that leaves a body outside the grid names the body's geometry,
+                    // a time step too short names `time.end`), or the particle it makes wrong.
+                    Err(message) => (!names_what_is_wrong(&message, &last))
+                        .then(|| format!("refused without naming `{last}` or what it makes wrong: {message}")),
+                    Ok(mut sim) => {
+                        accepted += 1;
+                        first_steps(&mut sim, 3).map(|what| format!("accepted, then {what}"))
+                    }
+                }));
+                match outcome {
+                    Err(_) => failures.push(format!("{}: `{key}` = {value}: panicked", file.display())),
+                    Ok(Some(what)) => failures.push(format!("{}: `{key}` = {value}: {what}", file.display())),
+                    Ok(None) => {}
+                }
+            }
+        }
+    }
+    eprintln!("{cases} cases, {accepted} accepted");
+    assert!(cases > 1000 && accepted > 100, "{cases} cases, {accepted} accepted");
     assert!(
         failures.is_empty(),
         "{} of {cases}:\n{}",

@@ -464,6 +464,21 @@ impl PySimulation {
         if !until.is_finite() {
             return Err(mpm_msg(format!("until = {until}: must be a finite time")));
         }
+        // One row of 8-byte numbers per step, kept until the run returns: the rows the steps to
+        // `until` need at today's step are checked against the memory this process can have,
+        // and again whenever the rows grow (the step may shorten on the way).
+        let row_bytes = (StepReport::COLUMNS.len() * std::mem::size_of::<f64>()) as f64;
+        let dt = match self.sim.options().time_step {
+            sparse_mpm::simulation::TimeStep::Fixed { dt } => dt,
+            sparse_mpm::simulation::TimeStep::Cfl { number } => number * self.sim.stable_time_step(),
+        };
+        let steps = ((until - self.sim.time()) / dt).max(0.0).ceil();
+        let what = |steps: f64| {
+            move || format!("run(until = {until}): the report rows of about {steps:.3e} steps (25 numbers each)")
+        };
+        if dt > 0.0 {
+            sparse_mpm::limits::ensure_memory(steps * row_bytes, what(steps)).map_err(mpm_err)?;
+        }
         // Whole steps without the GIL, in batches of about `SIGNAL_INTERVAL`; between batches a
         // signal's handler runs (Ctrl-C raises KeyboardInterrupt there, the steps taken stay taken).
         let mut rows: Vec<f64> = Vec::new();
@@ -473,6 +488,12 @@ impl PySimulation {
             let (done, error) = py.detach(|| {
                 let start = Instant::now();
                 while me.sim.time() < until * (1.0 - 1e-12) {
+                    if rows.len() == rows.capacity() {
+                        let grown = (2 * rows.capacity()).max(1024) as f64 * 8.0;
+                        if let Err(e) = sparse_mpm::limits::ensure_memory(grown, what(grown / row_bytes)) {
+                            return (true, Some(e));
+                        }
+                    }
                     match me.advance(until) {
                         Ok(r) => rows.extend_from_slice(&r.values()),
                         Err(e) => return (true, Some(e)),

@@ -49,6 +49,11 @@ pub const DEFAULT_GHOST_PENALTY: f64 = 0.1;
 pub const DEFAULT_LUMPING_THRESHOLD: f64 = 0.5;
 /// Default penalty weight γ of [`Stabilization::LinearExtension`].
 pub const DEFAULT_EXTENSION_WEIGHT: f64 = 0.3;
+/// Largest penalty weight γ accepted by [`Stabilization::LinearExtension`] and
+/// [`Stabilization::GhostPenalty`]: at 10⁶ the penalised modes are held to round-off already;
+/// far beyond, the mass's own entries are lost beside the penalty's (γ = 3·10²⁹ made the
+/// consistent mass of a shipped test scene singular in its first solve).
+pub const MAX_PENALTY_WEIGHT: f64 = 1e6;
 /// Default support threshold θ of [`Stabilization::LinearExtension`].
 pub const DEFAULT_EXTENSION_THRESHOLD: f64 = 0.5;
 /// Default onset ψ₀ of [`Stabilization::LinearExtension`] (kernels with continuous gradients).
@@ -111,11 +116,11 @@ impl Default for Stabilization {
 impl Stabilization {
     pub(crate) fn validate(&self) -> Result<()> {
         match *self {
-            Stabilization::GhostPenalty { gamma } if !(gamma.is_finite() && gamma > 0.0) => {
+            Stabilization::GhostPenalty { gamma } if !(gamma > 0.0 && gamma <= MAX_PENALTY_WEIGHT) => {
                 Err(MpmError::InvalidParameter {
                     name: "gamma",
                     value: gamma,
-                    reason: "the ghost-penalty weight must be positive and finite",
+                    reason: "the ghost-penalty weight must lie in (0, 1e6] (MAX_PENALTY_WEIGHT)",
                 })
             }
             Stabilization::PartialLumping { threshold } if !(threshold > 0.0 && threshold <= 1.0) => {
@@ -125,11 +130,11 @@ impl Stabilization {
                     reason: "the partial-lumping threshold must lie in (0, 1]",
                 })
             }
-            Stabilization::LinearExtension { gamma, .. } if !(gamma.is_finite() && gamma > 0.0) => {
+            Stabilization::LinearExtension { gamma, .. } if !(gamma > 0.0 && gamma <= MAX_PENALTY_WEIGHT) => {
                 Err(MpmError::InvalidParameter {
                     name: "gamma",
                     value: gamma,
-                    reason: "the linear-extension weight must be positive and finite",
+                    reason: "the linear-extension weight must lie in (0, 1e6] (MAX_PENALTY_WEIGHT)",
                 })
             }
             Stabilization::LinearExtension { threshold, .. } if !(threshold > 0.0 && threshold <= 1.0) => {

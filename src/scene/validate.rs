@@ -245,6 +245,13 @@ impl Scene {
                 format!("{} must be positive and finite", exact(b.density)),
             ));
         }
+        let [low, high] = crate::material::DENSITY_RANGE;
+        if !(low..=high).contains(&b.density) {
+            return Err(invalid(
+                key("density"),
+                format!("{} must lie between {low:e} and {high:e}", exact(b.density)),
+            ));
+        }
         let [hx, hy] = self.grid.cell_size;
         if !(b.density * hx * hy).is_finite() {
             return Err(invalid(

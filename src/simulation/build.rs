@@ -43,7 +43,11 @@ impl Simulation {
     /// fixed step above the stable step.
     pub fn new(grid: Grid, particles: Particles, bodies: Vec<Body>, options: Options) -> Result<Simulation> {
         let mut sim = Simulation::build(grid, particles, bodies, options, None)?;
-        sim.state.speeds = super::stability::measure_speeds(&sim.setup, &sim.state.particles);
+        sim.state.speeds = super::stability::Speeds {
+            load: sim.state.speeds.load,
+            wall: sim.state.speeds.wall,
+            ..super::stability::measure_speeds(&sim.setup, &sim.state.particles)
+        };
         // The stable step before the first step, so that a fixed step above it is refused now.
         sim.prepare_grid()?;
         super::stability::next_time_step(&sim.options, sim.state.steps, sim.stable_time_step())?;
@@ -76,7 +80,7 @@ impl Simulation {
         // Zeroed pages: the time loop writes the particles' span only.
         *mass.lumped_mut() = vec![0.0; grid.num_nodes()];
         let mut frequency_mode = Vec::new();
-        let (density, state) = match resume {
+        let (density, mut state) = match resume {
             None => (reference_densities(&particles, bodies.len()), State::start(particles)),
             Some(saved) => {
                 check_saved(&saved, grid.num_nodes(), bodies.len())?;
@@ -93,6 +97,9 @@ impl Simulation {
                 )
             }
         };
+        // Not saved in a checkpoint: they follow from the options and the particles.
+        state.speeds.load = super::stability::largest_load(options.gravity, &state.particles);
+        state.speeds.wall = super::stability::prescribed_speed(&prescribed);
         let setup = Setup {
             materials: bodies.iter().map(|b| b.material.prepared()).collect(),
             prescribed_velocity: std::sync::OnceLock::new(),

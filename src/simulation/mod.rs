@@ -285,6 +285,7 @@ impl Simulation {
         for k in 0..p.len() {
             [p.bx[k], p.by[k]] = b(p.id[k], [p.x[k], p.y[k]]);
         }
+        self.state.speeds.load = stability::largest_load(self.options.gravity, p);
     }
 
     /// Sets every particle's velocity to `v(id, v_p)` between steps, with `id` the particle's

@@ -130,6 +130,32 @@ pub(super) struct Speeds {
     pub(super) particle: f64,
     /// `max_p √(C11_p V_p / m_p)`.
     pub(super) wave: f64,
+    /// `max_p |g + b_p|`, gravity and the particle's body force ([`largest_load`]).
+    pub(super) load: f64,
+    /// The largest prescribed grid speed ([`prescribed_speed`]): a wall that moves drags the
+    /// particles beside it at its speed from the first step on.
+    pub(super) wall: f64,
+}
+
+/// The largest speed the boundary conditions prescribe, over the prescribed components:
+///
+/// ```text
+/// v_wall = |(max_{x prescribed} |v̄_x|, max_{y prescribed} |v̄_y|)|
+/// ```
+pub(super) fn prescribed_speed(prescribed: &crate::boundary::Prescribed) -> f64 {
+    let largest = |k: usize| prescribed.values[k].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    largest(0).hypot(largest(1))
+}
+
+/// The largest acceleration the loads give a particle, gravity `g` and its body force `b_p`:
+///
+/// ```text
+/// a_max = max_p |g + b_p|
+/// ```
+pub(super) fn largest_load(gravity: [f64; 2], p: &Particles) -> f64 {
+    (0..p.len())
+        .map(|k| (gravity[0] + p.bx[k]).hypot(gravity[1] + p.by[k]))
+        .fold(0.0, f64::max)
 }
 
 /// A particle's tangent P-wave speed `√(C11 / ρ)`, `ρ = m / V` (0 for a non-positive modulus).
@@ -142,7 +168,7 @@ impl Simulation {
     /// The stable time step for the current state:
     ///
     /// ```text
-    /// Δt_stable = 1 / (1/Δt_wave + max_p |v_p| / min(hx, hy)),
+    /// Δt_stable = min(1 / (1/Δt_wave + max(max_p |v_p|, v_wall) / min(hx, hy)),  √(min(hx, hy) / a_max)),
     /// Δt_wave = μ · TIME_STEP_SAFETY · √(2 (1 + α))/ω_max · min(1, c_est / c_now),
     ///           at most MAX_STEP_RISE times the previous estimate's
     /// ```
@@ -159,7 +185,12 @@ impl Simulation {
     /// shrinks if the largest tangent P-wave speed `c = √(C11/ρ)` over the particles rises above
     /// its value at the estimate. `α` is the transfer's [`Transfer::flip_weight`](super::Transfer::flip_weight) (FLIP is stable
     /// up to `2/ω_max`, PIC-type updates up to `√2/ω_max`). The particle-speed term keeps particles
-    /// from crossing more than a cell per step.
+    /// from crossing more than a cell per step, and a body from being dragged across more than
+    /// a cell by a wall whose velocity is prescribed (`v_wall`, the largest prescribed speed);
+    /// the load term (`a_max = max_p |g + b_p|`, the
+    /// gravity and body forces) keeps a particle that starts from rest from travelling more than
+    /// half a cell in its first step, where a very soft or very heavy body (a wave step of
+    /// seconds) would otherwise leave the grid or invert in one step.
     pub fn stable_time_step(&self) -> f64 {
         stable_time_step(&self.setup.grid, &self.state)
     }
@@ -182,14 +213,19 @@ pub(super) fn stable_time_step(grid: &Grid, state: &State) -> f64 {
     let Some(s) = state.stability else {
         return f64::INFINITY;
     };
-    let (max_speed, c_now) = (state.speeds.particle, state.speeds.wave);
+    let (max_speed, c_now) = (state.speeds.particle.max(state.speeds.wall), state.speeds.wave);
     let wave = if c_now > s.wave_speed {
         s.wave_step * s.wave_speed / c_now
     } else {
         s.wave_step
     };
-    let [hx, hy] = grid.cell_size();
-    1.0 / (1.0 / wave + max_speed / hx.min(hy))
+    let h = grid.cell_size()[0].min(grid.cell_size()[1]);
+    let by_load = if state.speeds.load > 0.0 {
+        (h / state.speeds.load).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    (1.0 / (1.0 / wave + max_speed / h)).min(by_load)
 }
 
 /// The largest particle speed and tangent P-wave speed `√(C11_p / ρ_p)`, `ρ_p = m_p / V_p`,

@@ -114,7 +114,8 @@ pub(crate) fn node_frequency_top(
     } = work;
     let diagonal = [&*diagonal, &*diagonal];
     owns.resize(n, 0.0);
-    let (mut top, mut at) = (0.0f64, 0);
+    // With no free degree of freedom (every node held) the top is 0 at the span's first node.
+    let (mut top, mut at) = (0.0f64, ops.node_span().start);
     for i in ops.node_span() {
         let (fx, fy) = (free[i], free[n + i]);
         if !(fx || fy) {
@@ -308,7 +309,7 @@ pub(crate) fn mpm_update_bound_estimate(
     let single_node = |x: &mut Vec<f64>| {
         x.clear();
         x.resize(2 * plen, 0.0);
-        for c in 0..2 {
+        for c in (0..2).filter(|_| span.contains(&top_node)) {
             x[at(c, top_node)] = mask[at(c, top_node)];
         }
     };

@@ -371,9 +371,12 @@ impl<'a> Payload<'a> {
                 failed,
                 transfer_loss,
                 strain_energy,
+                // The load and the wall speed are not saved: they follow from the options and
+                // the particles, and the build measures them.
                 speeds: Speeds {
                     particle: speeds[0],
                     wave: speeds[1],
+                    ..Speeds::default()
                 },
                 stability,
             },
