@@ -239,11 +239,12 @@ def test_ctrl_c_stops_run():
         x, y = (a.ravel() for a in np.meshgrid(np.arange(0.3, 0.7, 0.025), np.arange(0.3, 0.7, 0.025)))
         volume = np.full(x.size, 0.025**2)
         body = {"name": "b", "material": {"model": "neo_hookean", "youngs_modulus": 1e5, "poisson_ratio": 0.3}}
-        # A block at rest, no loads: it stays in place for days of steps, and only an interrupt
-        # ends this run.
+        # A block at rest, no loads: about a million steps (tens of seconds; the run keeps a
+        # report row of 200 bytes per step, which `run` checks it has the memory for), so an
+        # interrupt ends this run.
         sim = mpm.Simulation.from_arrays(
             grid, {"x": x, "y": y, "volume": volume, "mass": 1000.0 * volume}, [body],
-            {"time": {"end": 1.0e9}},
+            {"time": {"end": 2000.0}},
         )
         print("running", flush=True)
         try:
@@ -252,7 +253,7 @@ def test_ctrl_c_stops_run():
             # Stopped between whole steps: the state is usable and the next step runs.
             steps, t = sim.steps, sim.time
             p = sim.particles()
-            assert steps > 0 and 0.0 < t < 1.0e9, (steps, t)
+            assert steps > 0 and 0.0 < t < 2000.0, (steps, t)
             assert all(np.all(np.isfinite(a)) for a in p.values())
             sim.step()
             assert sim.steps == steps + 1 and sim.time > t
@@ -271,7 +272,7 @@ def test_ctrl_c_stops_run():
         time.sleep(1.0)  # well inside the run
         assert child.poll() is None, "the run ended by itself"
         child.send_signal(signal.SIGINT)
-        # Generous: the point is that it stops at all (it would run for days otherwise).
+        # Generous: the point is that it stops at all.
         out, err = child.communicate(timeout=60.0)
     except subprocess.TimeoutExpired:
         child.kill()
