@@ -187,3 +187,69 @@ fn a_body_costs_the_lattice_points_of_its_box_not_of_the_grid() {
         );
     }
 }
+
+#[test]
+fn boundary_conditions_cost_their_own_nodes_and_are_bounded_in_all() {
+    use sparse_mpm::boundary::{resolve, BoundaryCondition, Condition, Edge, MAX_NODE_VISITS_PER_NODE};
+    use sparse_mpm::{Grid, ShapeFunction};
+    let grid = Grid::new([-0.3, 0.1], [0.1, 0.05], [40, 60]).unwrap();
+    let tol = 1e-9 * 0.05;
+    // Rectangles on node lines, between them, over the grid's edges, a single node: the nodes
+    // found are those whose position lies inside (closed, within the tolerance), every one.
+    let rectangles = [
+        [[0.0, 0.5], [0.4, 0.9]],
+        [[-0.25, 0.12], [0.03, 0.13]],
+        [[-1.0, -1.0], [10.0, 10.0]],
+        [[3.6, 3.05], [3.7, 3.1]],
+        [[0.2, 1.1], [0.2, 1.1]],
+        [[-0.3, 0.1], [-0.3 + 1e-12, 0.1]],
+    ];
+    for r in rectangles {
+        let [[x0, y0], [x1, y1]] = r;
+        let inside: Vec<usize> = (0..grid.num_nodes())
+            .filter(|&id| {
+                let [x, y] = grid.node_position(id);
+                x >= x0 - tol && x <= x1 + tol && y >= y0 - tol && y <= y1 + tol
+            })
+            .collect();
+        let found = resolve(
+            &grid,
+            ShapeFunction::Linear,
+            &[BoundaryCondition::rectangle(r, Condition::Fixed)],
+        );
+        match found {
+            Ok(p) => assert_eq!(p.constraints.fixed_x, inside, "{r:?}"),
+            Err(e) => assert!(inside.is_empty(), "{r:?}: {e}"),
+        }
+    }
+    // Each edge with one and three layers: the band of node lines along it.
+    let [nx, ny] = grid.nodes_per_axis();
+    for edge in [Edge::Left, Edge::Right, Edge::Bottom, Edge::Top] {
+        for layers in [1, 3] {
+            let mut bc = BoundaryCondition::edge(edge, Condition::Fixed);
+            bc.layers = Some(layers);
+            let p = resolve(&grid, ShapeFunction::Linear, &[bc]).unwrap();
+            let band: Vec<usize> = (0..grid.num_nodes())
+                .filter(|&id| {
+                    let (i, j) = (id % nx, id / nx);
+                    match edge {
+                        Edge::Left => i < layers,
+                        Edge::Right => i >= nx - layers,
+                        Edge::Bottom => j < layers,
+                        Edge::Top => j >= ny - layers,
+                    }
+                })
+                .collect();
+            assert_eq!(p.constraints.fixed_x, band, "{edge:?}, {layers} layers");
+        }
+    }
+    // Whole-grid conditions, one more than the bound allows: refused naming the condition that
+    // passes it, before its nodes are visited.
+    let whole = BoundaryCondition::rectangle([[-1.0, -1.0], [10.0, 10.0]], Condition::Fixed);
+    let mut many = vec![whole; MAX_NODE_VISITS_PER_NODE];
+    assert!(resolve(&grid, ShapeFunction::Linear, &many).is_ok());
+    many.push(BoundaryCondition::edge(Edge::Left, Condition::Fixed));
+    let message = resolve(&grid, ShapeFunction::Linear, &many).unwrap_err().to_string();
+    let last = format!("boundaries[{MAX_NODE_VISITS_PER_NODE}]");
+    assert!(message.contains(&last) && message.contains("merge"), "{message}");
+}
