@@ -82,7 +82,7 @@ fn a_block_dropped_on_a_floor_keeps_its_energy_with_the_consistent_mass() {
 }
 
 /// Linear shape functions move energy on the same block with either mass as particles cross
-/// cells (FLIP): the consistent mass no more than the lumped one (measured: 3.9% and 15.5%);
+/// cells (FLIP): the consistent mass no more than the lumped one (measured: 3.2% and 15.5%);
 /// and APIC, which pairs with a lumped velocity projection, with the consistent mass in the
 /// acceleration solve loses energy (it ends 35–45% down) after a rise within 3% (measured
 /// 2.7% linear). About a minute in release.
@@ -174,7 +174,7 @@ fn a_block_at_rest_on_a_floor_with_one_particle_per_cell_keeps_its_energy_under_
 
 /// [`a_block_at_rest_on_a_floor_with_one_particle_per_cell_keeps_its_energy_under_the_fallback`]
 /// under `regularize:0.1`, whose stable step comes from the solves themselves. Measured:
-/// linear 0.0015%, quadratic 0.71%. About a minute in release.
+/// linear 0.0015%, quadratic 0.48%. About a minute in release.
 #[test]
 #[ignore = "about a minute in release; run with --ignored"]
 fn a_block_at_rest_on_a_floor_with_one_particle_per_cell_keeps_its_energy_when_regularized() {

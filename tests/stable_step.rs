@@ -130,10 +130,10 @@ fn two_disks(mass: &str, particles_per_cell: usize, policy: &str) -> (f64, bool)
 /// One particle per cell: the consistent mass is singular at times and nearly singular
 /// (`NEARLY_SINGULAR_RATIO`) at others; each policy carries the two disks to the end, and the
 /// energy moves by less than twice what the lumped mass moves on the same particles (the lumped
-/// mass loses energy in the impact, the consistent one gains). Measured: fallback 9.7%,
-/// regularize:0.1 8.6%, lumped 6.3% (before the policies acted on a nearly singular mass:
+/// mass loses energy in the impact, the consistent one gains). Measured: fallback 10.6%,
+/// regularize:0.1 9.5%, lumped 6.3% (before the policies acted on a nearly singular mass:
 /// 6.6% and 6.6%, in 12,000 steps against the lumped mass's 247); the same scenes by
-/// `mpm run`, whose steps land on the snapshot times: 5.5% and 6.3%. A run-away grows without
+/// `mpm run`, whose steps land on the snapshot times: 5.75% and 6.62% (lumped 6.36%). A run-away grows without
 /// bound.
 #[test]
 fn one_particle_per_cell_runs_the_two_disks_to_the_end_under_each_singularity_policy() {
