@@ -59,6 +59,7 @@ mod phases;
 mod profile;
 mod report;
 mod series;
+mod speeds;
 mod stability;
 
 pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, MAX_CHECKPOINT_BYTES};
