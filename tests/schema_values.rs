@@ -288,3 +288,49 @@ fn no_numeric_key_of_a_study_spec_accepts_nan_infinity_or_a_string() {
         failures.join("\n")
     );
 }
+
+/// The extremes of [`extremes`] for every number of the study spec: refused naming the key, or
+/// accepted with a meaning docs/verification.md gives (a mass tolerance of 0 or a tiny one);
+/// never a Courant number whose runs would not end (10⁻³⁰ was accepted), never a panic.
+#[test]
+fn every_number_of_a_study_spec_refuses_an_extreme_value_by_name_or_has_a_meaning() {
+    use sparse_mpm::study::StudySpec;
+    let text = toml::to_string(&StudySpec::default()).unwrap();
+    let original: toml::Value = toml::from_str(&text).unwrap();
+    let mut paths = Vec::new();
+    numbers(&original, &mut Vec::new(), &mut paths);
+    let (mut failures, mut cases, mut accepted) = (Vec::new(), 0, 0);
+    for path in &paths {
+        let (key, last) = (shown(path), last_key(path));
+        for value in extremes(at(&mut original.clone(), path)) {
+            let mut mutated = original.clone();
+            *at(&mut mutated, path) = value.clone();
+            cases += 1;
+            let outcome = std::panic::catch_unwind(|| {
+                match StudySpec::from_toml_str(&toml::to_string(&mutated).unwrap()) {
+                    Err(e) if !e.to_string().contains(&last) => Some(format!("refused without naming `{last}`: {e}")),
+                    Err(_) => None,
+                    Ok(spec) => {
+                        // The runs' count grows as 1/cfl and the cell counts: an accepted value
+                        // leaves the spec at most what the default's bounds allow.
+                        (spec.cfl < sparse_mpm::study::MIN_STUDY_CFL).then(|| format!("cfl {} accepted", spec.cfl))
+                    }
+                }
+            });
+            match outcome {
+                Err(_) => failures.push(format!("`{key}` = {value}: panicked")),
+                Ok(Some(what)) => failures.push(format!("`{key}` = {value}: {what}")),
+                Ok(None) => {
+                    accepted += usize::from(StudySpec::from_toml_str(&toml::to_string(&mutated).unwrap()).is_ok())
+                }
+            }
+        }
+    }
+    assert!(cases > 100, "only {cases} cases");
+    assert!(
+        failures.is_empty(),
+        "{} of {cases} ({accepted} accepted):\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}

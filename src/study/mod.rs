@@ -120,6 +120,11 @@ impl Part {
     }
 }
 
+/// The smallest Courant number a [`StudySpec`] takes (`cfl`): a study's runs take about
+/// `1/cfl` times their steps, so that 10⁻³⁰ (accepted before) planned runs that would never
+/// end; at 0.01 the study takes 20 times the steps of the default 0.2.
+pub const MIN_STUDY_CFL: f64 = 0.01;
+
 /// The most values of one list of a [`StudySpec`] (masses, shapes, cell counts …): a study's
 /// runs grow as the product of its lists.
 pub const MAX_LIST_VALUES: usize = 64;

@@ -1,7 +1,7 @@
 //! The checks of a study spec ([`StudySpec::validate`]): every value in its range, every list
 //! bounded and without a value listed twice, each mass pair held to a scene's bounds.
 
-use super::{StudySpec, MAX_LIST_VALUES};
+use super::{StudySpec, MAX_LIST_VALUES, MIN_STUDY_CFL};
 use crate::error::{MpmError, Result};
 
 impl StudySpec {
@@ -17,8 +17,11 @@ impl StudySpec {
                 reason: reason.into(),
             })
         };
-        if !(self.cfl > 0.0 && self.cfl <= 1.0) {
-            return bad("cfl", "the Courant number must lie in (0, 1]");
+        if !(self.cfl >= MIN_STUDY_CFL && self.cfl <= 1.0) {
+            return bad(
+                "cfl",
+                "the Courant number must lie in [0.01, 1] (study::MIN_STUDY_CFL: a study's runs take about 1/cfl times their steps)",
+            );
         }
         // The work of a study grows as the product of its lists: each list is bounded before
         // anything is compared or planned.
