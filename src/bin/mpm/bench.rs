@@ -173,6 +173,15 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
             each(c.guard_steps, c.guards),
             c.raised
         );
+        // The update bound estimates at most every BOUND_INTERVAL steps: a shorter window holds
+        // one estimate or none, so its cost per step is not a long run's.
+        let bound = sparse_mpm::simulation::BOUND_INTERVAL;
+        if c.guards > 0 && row.steps < bound {
+            println!(
+                "N = {}: note: a long run makes an estimate at least every {bound} steps; a window of {} steps holds one or none, not its share: `--steps {bound}` or more gives a long run's cost per step",
+                row.particles, row.steps
+            );
+        }
         if let Some(profile) = &row.profile {
             let total = profile.total();
             let steps = profile.steps().max(1) as f64;
