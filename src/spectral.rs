@@ -263,8 +263,9 @@ pub fn lobpcg_top(
     work: &mut LobpcgWork,
 ) -> Option<(f64, usize)> {
     let len = x.len();
+    // Every vector is written whole before it is read (the direction `p` and its images at
+    // the first step without reading them), so stale values from a previous call may stay.
     for v in work.v.iter_mut() {
-        v.clear();
         v.resize(len, 0.0);
     }
     let [ax, bx, w, aw, bw, p, ap, bp, r] = &mut work.v;
@@ -302,9 +303,19 @@ pub fn lobpcg_top(
         let c1 = c.get(1).copied().unwrap_or(0.0);
         let triples: [(&mut Vec<f64>, &Vec<f64>, &mut Vec<f64>); 3] = [(p, w, x), (ap, aw, ax), (bp, bw, bx)];
         for (pv, wv, xv) in triples {
-            for ((pk, wk), xk) in pv.iter_mut().zip(wv.iter()).zip(xv.iter_mut()) {
-                *pk = c1 * wk + c2 * *pk;
-                *xk = c[0] * *xk + *pk;
+            let lanes = pv.iter_mut().zip(wv.iter()).zip(xv.iter_mut());
+            if with_direction {
+                for ((pk, wk), xk) in lanes {
+                    *pk = c1 * wk + c2 * *pk;
+                    *xk = c[0] * *xk + *pk;
+                }
+            } else {
+                // `c₂ p` is `0` at the first step whatever `p` holds (`+ 0.0`: the same bits
+                // as the product with a zeroed `p`).
+                for ((pk, wk), xk) in lanes {
+                    *pk = c1 * wk + 0.0;
+                    *xk = c[0] * *xk + *pk;
+                }
             }
         }
         with_direction = true;

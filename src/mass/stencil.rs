@@ -19,6 +19,9 @@ use crate::operators::Operators;
 use crate::shape::ShapeFunction;
 use crate::with_support;
 
+mod assembly;
+use assembly::assemble_into;
+
 /// The consistent mass (optionally partially lumped) stored per node over the node span.
 #[derive(Debug, Clone, Default)]
 pub struct StencilMass {
@@ -539,92 +542,6 @@ fn apply_segments_pair(m: &StencilMass, x: [&[f64]; 2], out: [&mut [f64]; 2], ma
             }
             if mb[lo + i] == 0.0 {
                 yb[i] = 0.0;
-            }
-        }
-    }
-}
-
-fn assemble_into<const S: usize>(s: &mut StencilMass, ops: &Operators, m: &[f64], extended: bool) {
-    let w = 2 * S - 1;
-    let [sx, sy] = ops.strides();
-    let span = ops.node_span();
-    s.num_nodes = ops.num_nodes();
-    s.shape = ops.shape_function();
-    s.strides = [sx, sy];
-    s.start = span.start;
-    s.len = span.len();
-    let len = s.len;
-    // The square of the kernel's couplings, `dx` fastest, then where each lands in the
-    // ascending list of stored offsets.
-    let mut square = Vec::with_capacity(w * w);
-    for dy in -(S as isize - 1)..S as isize {
-        for dx in -(S as isize - 1)..S as isize {
-            square.push(dx * sx as isize + dy * sy as isize);
-        }
-    }
-    s.offsets.clone_from(&square);
-    if extended && S < 3 {
-        s.offsets
-            .extend([-2 * sx as isize, 2 * sx as isize, -2 * sy as isize, 2 * sy as isize]);
-    }
-    s.offsets.sort_unstable();
-    s.offsets.dedup();
-    let k = s.offsets.len();
-    assert!(k <= 64, "at most 64 couplings per node");
-    let at: Vec<usize> = square
-        .iter()
-        .map(|o| s.offsets.binary_search(o).expect("every square offset is stored"))
-        .collect();
-    s.pad = s.offsets.iter().map(|o| o.unsigned_abs()).max().unwrap_or(0);
-    let plen = len + 2 * s.pad;
-    let centre = k / 2;
-    // Where a square offset's value goes, relative to `pad + row`: its own slot past the
-    // list's centre, or the mirror slot of the node it couples to (when the node order makes
-    // the square's upper half differ from the list's).
-    let rel: Vec<isize> = square
-        .iter()
-        .zip(&at)
-        .map(|(&o, &i)| {
-            if i >= centre {
-                ((i - centre) * plen) as isize
-            } else {
-                ((k - 1 - i - centre) * plen) as isize + o
-            }
-        })
-        .collect();
-    s.values.clear();
-    s.values.resize((k - centre) * plen, 0.0);
-    s.pattern.clear();
-    s.pattern.resize(len, 0);
-    // The offsets a node at (a, b) of a stencil shares with the others.
-    let masks: [[u64; S]; S] = std::array::from_fn(|b| {
-        std::array::from_fn(|a| {
-            let mut bits = 0u64;
-            for d in 0..S {
-                for c in 0..S {
-                    bits |= 1 << at[(d + S - 1 - b) * w + c + S - 1 - a];
-                }
-            }
-            bits
-        })
-    });
-    for (p, &mp) in m.iter().enumerate() {
-        let st = ops.stencil::<S>(p);
-        let wxx: [[f64; S]; S] = std::array::from_fn(|a| std::array::from_fn(|c| st.wx[a] * st.wx[c]));
-        for b in 0..S {
-            for a in 0..S {
-                let row = st.first + a * sx + b * sy - s.start;
-                s.pattern[row] |= masks[b][a];
-                // Each coupling once: the square offsets (d − b + S − 1) w + (c − a + S − 1)
-                // past the square's centre, stored where `rel` says.
-                for d in b..S {
-                    let cy = mp * st.wy[b] * st.wy[d];
-                    let base = (d + S - 1 - b) * w + S - 1 - a;
-                    let c0 = if d == b { a } else { 0 };
-                    for c in c0..S {
-                        s.values[(rel[base + c] + (s.pad + row) as isize) as usize] += cy * wxx[a][c];
-                    }
-                }
             }
         }
     }
