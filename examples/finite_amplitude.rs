@@ -8,9 +8,9 @@
 //! ```
 
 use sparse_mpm::simulation::{Transfer, UpdateScheme};
-use sparse_mpm::verification::manufactured::{self, AxisAlignedMms};
-use sparse_mpm::verification::Choices;
 use sparse_mpm::ShapeFunction;
+use sparse_mpm_study::verification::manufactured::{self, AxisAlignedMms};
+use sparse_mpm_study::verification::Choices;
 
 fn error(update: UpdateScheme, transfer: Transfer, cfl: f64, cells: usize) -> f64 {
     let choices = Choices {

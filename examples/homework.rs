@@ -6,14 +6,14 @@
 //! cargo run --release --example homework -- --json  # one JSON object with every quantity
 //! ```
 //!
-//! The computation is `sparse_mpm::homework::solve` (src/homework.rs), written top-down as the
+//! The computation is `sparse_mpm_study::homework::solve` (src/homework.rs), written top-down as the
 //! assignment reads; docs/homework.md maps each question to the functions it calls.
 
 use std::io::Write;
 
 fn main() {
     let json = std::env::args().skip(1).any(|a| a == "--json");
-    let answers = match sparse_mpm::homework::solve() {
+    let answers = match sparse_mpm_study::homework::solve() {
         Ok(answers) => answers,
         Err(e) => {
             eprintln!("error: {e}");

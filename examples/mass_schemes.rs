@@ -10,11 +10,11 @@
 //! mass diagnostics. The check at the end: the truncated series `Σ_{l<k} (I − M_L⁻¹M)^l M_L⁻¹`
 //! must approach the consistent solve as k grows, and `Blended{γ = 1}` must equal it.
 
-use sparse_mpm::homework::data::*;
 use sparse_mpm::mass::{Constraints, GridMass, MassDiagnostics, MassOptions, MassScheme, Role};
 use sparse_mpm::stiffness::critical_time_step;
 use sparse_mpm::transfer::{external_force, internal_force, VectorField};
 use sparse_mpm::{Operators, ShapeFunction};
+use sparse_mpm_study::homework::data::*;
 
 const SCHEMES: [MassScheme; 8] = [
     MassScheme::Lumped,
@@ -32,7 +32,7 @@ const SCHEMES: [MassScheme; 8] = [
 
 fn main() -> sparse_mpm::Result<()> {
     // Setup: the seed's grid (nodes numbered up each column, as x_g, y_g) and particles.
-    let (grid, particles, material) = sparse_mpm::homework::setup()?;
+    let (grid, particles, material) = sparse_mpm_study::homework::setup()?;
     let ops = Operators::assemble(&grid, ShapeFunction::Linear, &particles)?;
     let (m, vol) = (&particles.mass, &particles.volume);
 

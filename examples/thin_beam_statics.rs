@@ -28,7 +28,7 @@ use sparse_mpm::material::{LinearElastic, PlaneCondition};
 use sparse_mpm::scene::Scene;
 use sparse_mpm::stiffness::stiffness_matrix;
 
-use sparse_mpm::verification::cantilever::thin_beam::{
+use sparse_mpm_study::verification::cantilever::thin_beam::{
     self, GRAVITY as G, LENGTH, POISSON_RATIO as NU, YOUNGS_MODULUS as E,
 };
 

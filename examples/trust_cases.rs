@@ -10,8 +10,8 @@
 use sparse_mpm::bench::{falling_block, BenchSpec};
 use sparse_mpm::mass::{MassOptions, MassScheme, Stabilization};
 use sparse_mpm::simulation::{TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
-use sparse_mpm::verification::{cantilever, rotation, Choices};
 use sparse_mpm::ShapeFunction;
+use sparse_mpm_study::verification::{cantilever, rotation, Choices};
 
 /// The choices of every case: `shape`, FLIP, MUSL, the consistent mass in both solves under
 /// `stabilization` (or the lumped mass for `None`).

@@ -6,14 +6,14 @@
 //! ```
 //!
 //! E = 100, ρ = 1, L = 25, v₀ = 0.1, first mode, two periods, 2 × 2 particles per cell, MUSL,
-//! Courant number 0.2 of each scheme's stable step (`sparse_mpm::verification::bar`). Printed:
+//! Courant number 0.2 of each scheme's stable step (`sparse_mpm_study::verification::bar`). Printed:
 //! the RMS error of the centre-of-mass velocity (relative to its amplitude), the period error
 //! and the energy drift; and the fitted order of the period error over the resolutions.
 
 use sparse_mpm::mass::{MassOptions, MassScheme};
 use sparse_mpm::simulation::Transfer;
-use sparse_mpm::verification::bar::{Bar, Ends};
-use sparse_mpm::verification::{fitted_order, Choices};
+use sparse_mpm_study::verification::bar::{Bar, Ends};
+use sparse_mpm_study::verification::{fitted_order, Choices};
 
 const CELLS: [usize; 3] = [10, 20, 40];
 

@@ -8,11 +8,11 @@
 //! The shipped scene `scenes/cantilever.toml` (a 4 × 1 neo-Hookean beam, E = 1e7, ν = 0.3,
 //! ρ = 1050, g = 10, clamped at x = 0, released at rest, to t = 1.5) on 8, 16 and 32 cells along
 //! the beam, quadratic B-splines (bilinear functions lock in bending), MUSL, FLIP, Courant number
-//! 0.2 (`sparse_mpm::verification::cantilever`).
+//! 0.2 (`sparse_mpm_study::verification::cantilever`).
 
 use sparse_mpm::mass::{MassOptions, MassScheme};
-use sparse_mpm::verification::{cantilever, Choices};
 use sparse_mpm::ShapeFunction;
+use sparse_mpm_study::verification::{cantilever, Choices};
 
 const CELLS: [usize; 3] = [8, 16, 32];
 

@@ -6,15 +6,15 @@
 //! cargo run --release --example verify_mms
 //! ```
 //!
-//! `sparse_mpm::verification::manufactured`: B5 on the unit square (E = 1e4, ν = 0.3, ρ₀ = 1,
+//! `sparse_mpm_study::verification::manufactured`: B5 on the unit square (E = 1e4, ν = 0.3, ρ₀ = 1,
 //! A = 0.05, one period, rollers), B6 on the ring 0.75 < R < 1.25 (E = 1000, ν = 0.3,
 //! ρ₀ = 1000, A = 0.05 here: the published A = 1 shears the ring sevenfold), to the time of the
 //! largest shear. 2 × 2 particles per cell, MUSL, FLIP, lumped mass, Courant number 0.2.
 //! Printed: `max_t` of the volume-weighted RMS displacement error over the amplitude.
 
-use sparse_mpm::verification::manufactured::{run, AxisAlignedMms, GeneralisedVortex, Manufactured};
-use sparse_mpm::verification::{fitted_order, Choices};
 use sparse_mpm::ShapeFunction;
+use sparse_mpm_study::verification::manufactured::{run, AxisAlignedMms, GeneralisedVortex, Manufactured};
+use sparse_mpm_study::verification::{fitted_order, Choices};
 
 fn study(problem: &impl Manufactured, cells: &[usize]) -> Result<(), sparse_mpm::MpmError> {
     println!("{}:", problem.name());

@@ -5,10 +5,10 @@
 //! ```
 //!
 //! L = 1, x₀ = ½, M = V = 1, E = 4π², ρ = 1, v₀ = 0.1, Δt = 0.001, to t = 2
-//! (`sparse_mpm::verification::single_point`); lumped mass, every update scheme, PIC and FLIP.
+//! (`sparse_mpm_study::verification::single_point`); lumped mass, every update scheme, PIC and FLIP.
 
 use sparse_mpm::simulation::{Transfer, UpdateScheme};
-use sparse_mpm::verification::{single_point, Choices};
+use sparse_mpm_study::verification::{single_point, Choices};
 
 fn main() -> Result<(), sparse_mpm::MpmError> {
     println!("single material point: v(t) = v0 cos(2 pi t), x(t) = x0 exp((v0 / 2 pi) sin(2 pi t))");

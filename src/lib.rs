@@ -60,8 +60,11 @@
 //! gravity and boundary conditions ([`boundary`]); bodies carry their own
 //! [`material::Material`] (linear elastic or neo-Hookean). Each step returns a
 //! [`simulation::StepReport`] of energies, momenta and solver outcomes. [`scene::Scene`] reads
-//! and writes the same description as TOML, and [`run::run_scene`] writes a run as VTK
-//! snapshots, a ParaView time series and a CSV report (the `mpm` program; docs/simulation.md).
+//! and writes the same description as TOML. The applications are crates of their own in the
+//! same workspace: `sparse-mpm-cli` (the `mpm` program: a scene run to a folder of VTK
+//! snapshots, a ParaView time series and a CSV report; docs/simulation.md) and
+//! `sparse-mpm-study` (the verification problems and the study of consistent against lumped
+//! mass; docs/verification.md).
 //!
 //! ```
 //! use sparse_mpm::scene::Scene;
@@ -113,7 +116,6 @@ pub mod boundary;
 pub mod error;
 mod fields;
 pub mod grid;
-pub mod homework;
 pub mod implicit;
 pub mod io;
 pub mod kernels;
@@ -127,8 +129,6 @@ pub mod operators;
 mod pairs;
 pub mod parallel;
 pub mod particles;
-pub mod render;
-pub mod run;
 pub mod scene;
 mod schemes;
 pub mod shape;
@@ -136,9 +136,7 @@ pub mod simulation;
 pub mod spectral;
 pub mod step;
 pub mod stiffness;
-pub mod study;
 pub mod transfer;
-pub mod verification;
 
 pub use error::{MpmError, Result};
 pub use grid::{Grid, NodeOrder};

@@ -6,8 +6,8 @@
 use std::f64::consts::PI;
 
 use sparse_mpm::mass::MassScheme;
-use sparse_mpm::verification::dispersion::{dispersion, Symbols};
 use sparse_mpm::ShapeFunction;
+use sparse_mpm_study::verification::dispersion::{dispersion, Symbols};
 
 const LUMPED: MassScheme = MassScheme::Lumped;
 const CONSISTENT: MassScheme = MassScheme::Consistent;
@@ -240,8 +240,8 @@ fn a_periodic_bar_samples_its_own_wavenumbers_and_bad_input_names_the_parameter(
 #[test]
 fn the_vibrating_bar_measures_the_dispersion_at_its_wavenumber() {
     use sparse_mpm::mass::MassOptions;
-    use sparse_mpm::verification::bar::{Bar, Ends};
-    use sparse_mpm::verification::Choices;
+    use sparse_mpm_study::verification::bar::{Bar, Ends};
+    use sparse_mpm_study::verification::Choices;
     let cells = 32;
     for shape in [
         ShapeFunction::Linear,

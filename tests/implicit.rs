@@ -155,8 +155,8 @@ fn at_zero_displacement_the_force_is_the_explicit_internal_force_and_the_linear_
 mod newmark {
     use sparse_mpm::mass::{MassOptions, MassScheme};
     use sparse_mpm::simulation::{Integrator, Newmark, Simulation, TimeStep};
-    use sparse_mpm::verification::bar::{newmark_period, Bar, Ends};
-    use sparse_mpm::verification::{cantilever, disks, Choices};
+    use sparse_mpm_study::verification::bar::{newmark_period, Bar, Ends};
+    use sparse_mpm_study::verification::{cantilever, disks, Choices};
 
     fn choices(scheme: MassScheme) -> Choices {
         Choices {
@@ -398,8 +398,8 @@ fn a_scene_selects_newmark_and_a_cfl_step_is_refused_naming_the_key() {
 #[test]
 fn the_closed_form_space_discrete_period_is_the_one_the_explicit_bar_measures() {
     use sparse_mpm::mass::{MassOptions, MassScheme};
-    use sparse_mpm::verification::bar::{Bar, Ends};
-    use sparse_mpm::verification::Choices;
+    use sparse_mpm_study::verification::bar::{Bar, Ends};
+    use sparse_mpm_study::verification::Choices;
     let bar = Bar {
         amplitude: 1e-3,
         ..Bar::new(Ends::FixedFixed)

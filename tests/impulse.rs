@@ -4,8 +4,8 @@
 
 use sparse_mpm::mass::{MassOptions, MassScheme};
 use sparse_mpm::shape::ShapeFunction;
-use sparse_mpm::verification::impulse::ImpulseBar;
-use sparse_mpm::verification::{fitted_order, Choices};
+use sparse_mpm_study::verification::impulse::ImpulseBar;
+use sparse_mpm_study::verification::{fitted_order, Choices};
 
 /// Central differences of the closed form: u_tt = c² u_xx inside, u(0, t) = 0, E u_x(L, t) =
 /// −p(t), and a bar at rest before the load.

@@ -256,7 +256,7 @@ fn every_numeric_key_refuses_an_extreme_value_by_name_or_runs_with_it() {
 
 #[test]
 fn no_numeric_key_of_a_study_spec_accepts_nan_infinity_or_a_string() {
-    use sparse_mpm::study::StudySpec;
+    use sparse_mpm_study::StudySpec;
     // The default spec written out in full: every key a spec has, each list with its values.
     let text = toml::to_string(&StudySpec::default()).unwrap();
     let original: toml::Value = toml::from_str(&text).unwrap();
@@ -294,7 +294,7 @@ fn no_numeric_key_of_a_study_spec_accepts_nan_infinity_or_a_string() {
 /// never a Courant number whose runs would not end (10⁻³⁰ was accepted), never a panic.
 #[test]
 fn every_number_of_a_study_spec_refuses_an_extreme_value_by_name_or_has_a_meaning() {
-    use sparse_mpm::study::StudySpec;
+    use sparse_mpm_study::StudySpec;
     let text = toml::to_string(&StudySpec::default()).unwrap();
     let original: toml::Value = toml::from_str(&text).unwrap();
     let mut paths = Vec::new();
@@ -313,7 +313,7 @@ fn every_number_of_a_study_spec_refuses_an_extreme_value_by_name_or_has_a_meanin
                     Ok(spec) => {
                         // The runs' count grows as 1/cfl and the cell counts: an accepted value
                         // leaves the spec at most what the default's bounds allow.
-                        (spec.cfl < sparse_mpm::study::MIN_STUDY_CFL).then(|| format!("cfl {} accepted", spec.cfl))
+                        (spec.cfl < sparse_mpm_study::MIN_STUDY_CFL).then(|| format!("cfl {} accepted", spec.cfl))
                     }
                 }
             });

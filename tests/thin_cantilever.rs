@@ -5,7 +5,7 @@
 //! zero-energy modes and the static deflection of the MUSL update depends on the mass
 //! (`examples/thin_beam_statics.rs`: 0.0563 lumped, 0.0617 consistent, 0.0596 four cells thick).
 
-use sparse_mpm::verification::cantilever::thin_beam::{self, LENGTH};
+use sparse_mpm_study::verification::cantilever::thin_beam::{self, LENGTH};
 
 /// The largest downward deflection of the middle of the free end of the thin beam
 /// (`verification::cantilever::thin_beam`) `cells_thick` cells thick with `mass` in both

@@ -4,10 +4,10 @@
 
 use sparse_mpm::mass::{MassOptions, MassScheme};
 use sparse_mpm::simulation::{Transfer, UpdateScheme};
-use sparse_mpm::verification::bar::{Bar, Ends};
-use sparse_mpm::verification::manufactured::{self, AxisAlignedMms, GeneralisedVortex};
-use sparse_mpm::verification::{cantilever, fitted_order, single_point, Choices};
 use sparse_mpm::ShapeFunction;
+use sparse_mpm_study::verification::bar::{Bar, Ends};
+use sparse_mpm_study::verification::manufactured::{self, AxisAlignedMms, GeneralisedVortex};
+use sparse_mpm_study::verification::{cantilever, fitted_order, single_point, Choices};
 
 /// The bar at a small amplitude, so that particles stay within a fraction of a cell of their
 /// start and the grid-crossing error of bilinear functions does not mix in.
@@ -317,7 +317,7 @@ fn the_vortex_profiles_derivatives_match_finite_differences() {
 /// the exact first Piola stress and of the exact motion (not of the formula it evaluates).
 #[test]
 fn the_expanding_rings_body_force_balances_its_motion_and_stress() {
-    use sparse_mpm::verification::manufactured::{ExpandingRing, Manufactured};
+    use sparse_mpm_study::verification::manufactured::{ExpandingRing, Manufactured};
     let ring = ExpandingRing {
         amplitude: 0.05,
         ..ExpandingRing::default()
@@ -362,7 +362,7 @@ fn the_expanding_rings_body_force_balances_its_motion_and_stress() {
 #[test]
 fn the_expanding_ring_converges_at_second_order_with_gimp_and_b_splines() {
     use sparse_mpm::simulation::Transfer;
-    use sparse_mpm::verification::manufactured::ExpandingRing;
+    use sparse_mpm_study::verification::manufactured::ExpandingRing;
     let ring = ExpandingRing::default();
     for shape in [
         ShapeFunction::Gimp { half_width: 0.25 },

@@ -5,10 +5,10 @@ use sparse_mpm::boundary::{self, BoundaryCondition, Condition, Edge, WallRule};
 use sparse_mpm::mass::{lumped_mass, MassOptions, MassScheme};
 use sparse_mpm::shape;
 use sparse_mpm::simulation::{Options, Simulation};
-use sparse_mpm::verification::bar::{Bar, Ends};
-use sparse_mpm::verification::Choices;
 use sparse_mpm::ShapeFunction;
 use sparse_mpm::{Grid, MpmError, Operators, Particles};
+use sparse_mpm_study::verification::bar::{Bar, Ends};
+use sparse_mpm_study::verification::Choices;
 
 /// The bar at amplitude 1e-3 (particles stay within a small fraction of a cell).
 fn bar(ends: Ends, wall: Option<WallRule>) -> Bar {
@@ -428,7 +428,7 @@ fn mirrored_walls_give_bit_identical_runs_for_any_thread_count_and_across_a_chec
 #[test]
 #[ignore = "prints the order of the manufactured solution (about a minute in release)"]
 fn manufactured_order() {
-    use sparse_mpm::verification::manufactured::{self, AxisAlignedMms};
+    use sparse_mpm_study::verification::manufactured::{self, AxisAlignedMms};
     for shape in [ShapeFunction::QuadraticBSpline, ShapeFunction::CubicBSpline] {
         let c = Choices {
             shape,
@@ -455,7 +455,7 @@ fn manufactured_order() {
 /// `spatial_period` of that measured period is `2π/ω` again.
 #[test]
 fn spatial_period_removes_the_leapfrog_error_of_an_oscillator() {
-    use sparse_mpm::verification::bar::spatial_period;
+    use sparse_mpm_study::verification::bar::spatial_period;
     let omega = 3.0_f64;
     for dt in [0.05, 0.2, 0.5] {
         let (mut u, mut v) = (1.0_f64, -0.5 * dt * omega * omega);

@@ -3,9 +3,9 @@
 //! lumped mass's short waves trail behind the front, the consistent mass's run ahead of it.
 
 use sparse_mpm::mass::{MassOptions, MassScheme};
-use sparse_mpm::verification::wave::Wave;
-use sparse_mpm::verification::Choices;
 use sparse_mpm::ShapeFunction;
+use sparse_mpm_study::verification::wave::Wave;
+use sparse_mpm_study::verification::Choices;
 
 fn choices(velocity: MassScheme, acceleration: MassScheme) -> Choices {
     Choices {
@@ -72,7 +72,7 @@ fn the_consistent_mass_rings_ahead_of_the_front_and_the_lumped_mass_behind_it() 
             let consistent = wave
                 .run(cells, &choices(MassScheme::Consistent, MassScheme::Consistent))
                 .unwrap();
-            let m = |o: &sparse_mpm::verification::Outcome, n: &str| o.metric(n).unwrap();
+            let m = |o: &sparse_mpm_study::verification::Outcome, n: &str| o.metric(n).unwrap();
             let (lp, lt) = (m(&lumped, "precursor"), m(&lumped, "trailing"));
             let (cp, ct) = (m(&consistent, "precursor"), m(&consistent, "trailing"));
             println!(

@@ -11,10 +11,10 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use sparse_mpm::limits::{prepare_run, Limits};
-use sparse_mpm::run::SnapshotClock;
 use sparse_mpm::scene::Scene;
 use sparse_mpm::simulation::{Simulation, StepReport};
 use sparse_mpm::Particles;
+use sparse_mpm_cli::run::SnapshotClock;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -276,7 +276,7 @@ impl PySimulation {
     /// Writes the particles to a `.vtp` snapshot as `mpm run` does (`run::write_snapshot`).
     fn write_snapshot(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         let sim = &self.sim;
-        py.detach(|| sparse_mpm::run::write_snapshot(sim, &path))
+        py.detach(|| sparse_mpm_cli::run::write_snapshot(sim, &path))
             .map_err(mpm_err)
     }
 

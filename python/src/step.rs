@@ -120,7 +120,7 @@ pub(crate) fn dispersion<'py>(
         Some(a) => mass_scheme(a)?,
         None => velocity,
     };
-    let curve = sparse_mpm::verification::dispersion::dispersion(
+    let curve = sparse_mpm_study::verification::dispersion::dispersion(
         shape,
         velocity,
         acceleration,

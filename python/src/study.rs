@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use sparse_mpm::study::{merge_study, plan_study, read_plan, run_share, Part, Share, StudySpec};
+use sparse_mpm_study::{merge_study, plan_study, read_plan, run_share, Part, Share, StudySpec};
 
 use crate::{mpm_err, mpm_msg};
 

@@ -13,7 +13,7 @@ use crate::numbers::push_round_trip;
 
 /// How the entries of a matrix are stored in the file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Storage {
+pub enum Storage {
     /// Every stored entry (`general`).
     General,
     /// Only the lower triangle, `row ≥ column` (`symmetric`); the matrix is checked first.
@@ -124,7 +124,7 @@ pub fn read_matrix_market(path: &Path) -> Result<CscMatrix<f64>> {
 
 /// Writes `matrix` to `path` with the given storage and `comment` (one `% ` line per line of
 /// it) after the banner. See [`write_matrix_market`] and [`write_matrix_market_symmetric`].
-pub(crate) fn write_with_comment(matrix: &CscMatrix<f64>, path: &Path, storage: Storage, comment: &str) -> Result<()> {
+pub fn write_with_comment(matrix: &CscMatrix<f64>, path: &Path, storage: Storage, comment: &str) -> Result<()> {
     if storage == Storage::Symmetric {
         check_symmetric(matrix, path)?;
     }

@@ -5,10 +5,6 @@
 //!   of a matrix checked to be symmetric), both with the standard `%%MatrixMarket` banner that
 //!   SciPy, MATLAB and Julia read, written whole (temporary file, then rename); and
 //!   [`read_matrix_market`].
-//! * Particle snapshots for ParaView: [`vtk::write_vtp`] writes one VTK XML PolyData file
-//!   (`.vtp`) per snapshot, [`vtk::PvdWriter`] keeps a `.pvd` collection that lists them with their
-//!   times, so ParaView opens a whole run as a time series. The crate only writes these files;
-//!   ParaView, VTK's own readers and the `vtkio` crate read them.
 //! * Time histories (energies, probe values …) as CSV, through the `csv` crate:
 //!   [`csv::CsvWriter`], read back with [`csv::read_csv`].
 //!
@@ -23,12 +19,9 @@ use crate::operators::{Operator, Operators};
 
 pub mod csv;
 mod matrix_market;
-pub mod vtk;
 
 pub use matrix_market::{read_matrix_market, write_matrix_market, write_matrix_market_symmetric};
-pub(crate) use matrix_market::{
-    write_with_comment as write_matrix_market_with_comment, Storage as MatrixMarketStorage,
-};
+pub use matrix_market::{write_with_comment as write_matrix_market_with_comment, Storage as MatrixMarketStorage};
 
 /// Writes N, Gx and Gy to `dir/N.mtx`, `dir/Gx.mtx`, `dir/Gy.mtx` as Matrix Market
 /// coordinate files with `general` storage (rows = nodes, columns = particles), as
@@ -75,7 +68,7 @@ pub fn write_operators(ops: &Operators, dir: &Path) -> crate::error::Result<()> 
 ///
 /// # Errors
 /// [`MpmError::Io`] naming `path` (kind `InvalidInput` when `path` names no file, such as `..`).
-pub(crate) fn write_atomically(
+pub fn write_atomically(
     path: &Path,
     body: impl FnOnce(&mut std::io::BufWriter<&std::fs::File>) -> std::io::Result<()>,
 ) -> crate::error::Result<()> {
@@ -142,7 +135,7 @@ fn create_temporary(path: &Path, file_name: &std::ffi::OsStr) -> crate::error::R
 
 /// `NAME` when `entry` is `.NAME.PID-N-R.tmp` (or `.NAME.PID-N.tmp` of earlier versions), a
 /// temporary file of the atomic writer.
-pub(crate) fn temporary_of(entry: &str) -> Option<&str> {
+pub fn temporary_of(entry: &str) -> Option<&str> {
     let inner = entry.strip_prefix('.')?.strip_suffix(".tmp")?;
     let (name, serial) = inner.rsplit_once('.')?;
     let mut parts = serial.split('-');
@@ -153,7 +146,7 @@ pub(crate) fn temporary_of(entry: &str) -> Option<&str> {
 }
 
 /// Wraps an I/O error with the file it concerns.
-pub(crate) fn io_error(path: &Path, source: std::io::Error) -> MpmError {
+pub fn io_error(path: &Path, source: std::io::Error) -> MpmError {
     MpmError::Io {
         path: path.to_path_buf(),
         source,
@@ -161,7 +154,7 @@ pub(crate) fn io_error(path: &Path, source: std::io::Error) -> MpmError {
 }
 
 /// An [`MpmError::Io`] of kind `InvalidData` (a file that does not have the expected layout).
-pub(crate) fn invalid_data(path: &Path, message: impl Into<String>) -> MpmError {
+pub fn invalid_data(path: &Path, message: impl Into<String>) -> MpmError {
     io_error(
         path,
         std::io::Error::new(std::io::ErrorKind::InvalidData, message.into()),
@@ -169,7 +162,7 @@ pub(crate) fn invalid_data(path: &Path, message: impl Into<String>) -> MpmError 
 }
 
 /// `Ok` for a regular file; else what it is, in words ("a named pipe (FIFO)", "a folder").
-pub(crate) fn regular_file_kind(meta: &std::fs::Metadata) -> std::result::Result<(), &'static str> {
+pub fn regular_file_kind(meta: &std::fs::Metadata) -> std::result::Result<(), &'static str> {
     let kind = meta.file_type();
     if kind.is_file() {
         return Ok(());

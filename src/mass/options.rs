@@ -68,7 +68,11 @@ impl MassScheme {
         }
     }
 
-    pub(crate) fn validate(&self) -> Result<()> {
+    /// Checks the parameters (`γ` of a blend in `[0, 1]`, terms, tolerances and iterations in range).
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidParameter`] naming the parameter out of range.
+    pub fn validate(&self) -> Result<()> {
         match *self {
             MassScheme::Blended { gamma } if !(0.0..=1.0).contains(&gamma) => Err(MpmError::InvalidParameter {
                 name: "gamma",

@@ -114,7 +114,11 @@ impl Default for Stabilization {
 }
 
 impl Stabilization {
-    pub(crate) fn validate(&self) -> Result<()> {
+    /// Checks the parameters (a weight `γ` in `(0, MAX_PENALTY_WEIGHT]`, fractions in range).
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidParameter`] naming the parameter out of range.
+    pub fn validate(&self) -> Result<()> {
         match *self {
             Stabilization::GhostPenalty { gamma } if !(gamma > 0.0 && gamma <= MAX_PENALTY_WEIGHT) => {
                 Err(MpmError::InvalidParameter {

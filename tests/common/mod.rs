@@ -9,8 +9,9 @@
 
 use nalgebra::{DMatrix, DVector};
 
-pub mod program;
 pub mod scratch;
+#[allow(unused_imports)]
+pub use scratch::unique_temp_dir;
 use sparse_mpm::{Grid, NodeOrder, Particles};
 
 // ---------------------------------------------------------------------------------------------
@@ -417,18 +418,4 @@ pub fn random_particles_at(x: Vec<f64>, y: Vec<f64>, seed: u64) -> Particles {
 pub fn random_particles(grid: &Grid, count: usize, seed: u64) -> Particles {
     let (x, y) = random_positions(grid, count, seed);
     random_particles_at(x, y, seed)
-}
-
-/// A directory under the system temp dir that no other test (or test run) uses.
-pub fn unique_temp_dir(tag: &str) -> std::path::PathBuf {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos());
-    std::env::temp_dir().join(format!(
-        "sparse_mpm_test_{tag}_{}_{}_{nanos}",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ))
 }
