@@ -190,7 +190,7 @@ fn a_second_solve_starts_from_the_first_and_needs_fewer_iterations() {
             stabilization: stabilization.parse().unwrap(),
             ..MassOptions::both(scheme)
         };
-        let mass = GridMass::new(&ops, &m, &options, &Constraints::none()).unwrap();
+        let mut mass = GridMass::new(&ops, &m, &options, &Constraints::none()).unwrap();
         let (mut u1, mut u2) = (VectorField::default(), VectorField::default());
         let first = mass.solve_warm_into(Role::Velocity, &r, None, &ops, &mut u1).unwrap();
         let second = mass.solve_warm_into(Role::Velocity, &r, None, &ops, &mut u2).unwrap();

@@ -60,15 +60,14 @@ impl GridMass {
     /// solution on nodes that were not free then), which this one then replaces: the
     /// solution, the iterations and the largest relative residual; or the failing component,
     /// the iterations before it, and the reason.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn solve_cg(
         &self,
         role: Role,
+        state: &mut CgState,
         warm_start: bool,
         rhs: &VectorField,
-        tolerance: f64,
+        [tolerance, norm_r]: [f64; 2],
         max_iterations: usize,
-        norm_r: f64,
     ) -> std::result::Result<(VectorField, usize, f64), (usize, usize, String)> {
         let m = self
             .matrices
@@ -77,8 +76,7 @@ impl GridMass {
         let mut x = VectorField::default();
         self.solve_lumped(rhs, None, &mut x);
         let (mut iterations, mut worst) = (0, 0.0f64);
-        let mut state = self.cg.lock().expect("no solve panics holding it");
-        let CgState { warm, work } = &mut *state;
+        let CgState { warm, work } = state;
         for (c, dofs) in self.dofs.iter().enumerate() {
             let (b, xc) = if c == 0 { (&rhs.x, &mut x.x) } else { (&rhs.y, &mut x.y) };
             let last = &mut warm[2 * (role as usize) + c];

@@ -123,8 +123,9 @@ pub struct GridMass {
     pub(super) matrices: Matrices,
     pub(super) velocity: SchemeSolver,
     pub(super) acceleration: SchemeSolver,
-    /// What the conjugate gradient keeps between solves.
-    pub(super) cg: std::sync::Mutex<super::cg::CgState>,
+    /// What the conjugate gradient keeps between the time loop's warm solves
+    /// ([`GridMass::solve_warm_into`]).
+    pub(super) cg: super::cg::CgState,
 }
 
 impl GridMass {
@@ -578,19 +579,14 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
     /// solution over all nodes (NaN where a node was not free), empty before the first solve.
     /// The next solves start from them, so they are part of a checkpoint.
     pub(crate) fn warm_start(&self) -> [Vec<f64>; 4] {
-        self.cg
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
-            .warm
-            .clone()
+        self.cg.warm.clone()
     }
 
     /// Makes `w` the start of the next warm velocity solve, on the active nodes (the lumped
     /// solution elsewhere): the updated grid velocity of a step is the next step's projection
     /// but for the particles' motion.
-    pub(crate) fn set_velocity_warm_start(&self, w: &crate::fields::VectorField) {
-        let mut guard = self.cg.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let state = &mut *guard;
+    pub(crate) fn set_velocity_warm_start(&mut self, w: &crate::fields::VectorField) {
+        let state = &mut self.cg;
         if state.warm[0].is_empty() {
             return;
         }
@@ -608,10 +604,7 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
 
     /// Sets the warm-start vectors of [`GridMass::warm_start`] (resuming from a checkpoint).
     pub(crate) fn set_warm_start(&mut self, warm: [Vec<f64>; 4]) {
-        self.cg
-            .get_mut()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
-            .warm = warm;
+        self.cg.warm = warm;
     }
 
     /// Replaces the lumped mass (resuming from a checkpoint: what [`GridMass::lumped`] shows

@@ -1,6 +1,7 @@
 //! [`GridMass::solve`]: `u = M⁻¹ r` with the scheme of a role, one match on the scheme that
 //! sends each to its file (`lumped.rs`, `direct.rs`, `series.rs`, `cg.rs`).
 
+use super::cg::CgState;
 use super::cholesky::SparseCholesky;
 use super::grid_mass::Dofs;
 use super::options::{MassScheme, SingularityPolicy, SolveOutcome, SolveReport};
@@ -10,8 +11,8 @@ use crate::fields::VectorField;
 use crate::operators::Operators;
 
 /// Where the conjugate gradient starts and what it leaves for the next solve.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) enum Start {
+#[derive(Debug)]
+pub(crate) enum Start<'a> {
     /// From the lumped solution, leaving the warm-start vectors as they were: the same `r`
     /// gives the same `u` whatever was solved before. The tolerance is the larger of the
     /// scheme's and `tolerance_floor`.
@@ -20,8 +21,8 @@ pub(crate) enum Start {
         tolerance_floor: f64,
     },
     /// From the last warm solve of the same role (the time loop's, whose right-hand sides change
-    /// little from one step to the next), and kept for the next one.
-    Warm,
+    /// little from one step to the next) kept in the state, which this one then replaces.
+    Warm(&'a mut CgState),
 }
 
 /// The relative residual of the mass solves inside a frequency estimate
@@ -104,14 +105,17 @@ impl GridMass {
     /// # Panics
     /// As [`GridMass::solve`].
     pub fn solve_warm_into(
-        &self,
+        &mut self,
         role: Role,
         r: &VectorField,
         prescribed: Option<&VectorField>,
         ops: &Operators,
         u: &mut VectorField,
     ) -> Result<SolveReport> {
-        self.solve_from(Start::Warm, role, r, prescribed, ops, u)
+        let mut state = std::mem::take(&mut self.cg);
+        let report = self.solve_from(Start::Warm(&mut state), role, r, prescribed, ops, u);
+        self.cg = state;
+        report
     }
 
     /// What a lumped solve of `role` reports ([`GridMass::solve_lumped`]'s, when the time loop
@@ -143,7 +147,7 @@ impl GridMass {
     /// [`GridMass::solve_into`] from `start`.
     fn solve_from(
         &self,
-        start: Start,
+        start: Start<'_>,
         role: Role,
         r: &VectorField,
         prescribed: Option<&VectorField>,
@@ -183,11 +187,13 @@ impl GridMass {
             } => {
                 let rhs = self.coupled_rhs(scheme, 1.0, r, prescribed);
                 let norm_r = self.free_norm(r);
-                let tolerance = match start {
-                    Start::Cold { tolerance_floor } => tolerance.max(tolerance_floor),
-                    Start::Warm => tolerance,
+                // A cold solve works in buffers of its own and leaves the warm state alone.
+                let mut cold = CgState::default();
+                let (state, warm, tolerance) = match start {
+                    Start::Cold { tolerance_floor } => (&mut cold, false, tolerance.max(tolerance_floor)),
+                    Start::Warm(state) => (state, true, tolerance),
                 };
-                match self.solve_cg(role, start == Start::Warm, &rhs, tolerance, max_iterations, norm_r) {
+                match self.solve_cg(role, state, warm, &rhs, [tolerance, norm_r], max_iterations) {
                     Ok((x, iterations, residual)) => {
                         self.write_solution(&x, prescribed, u);
                         Ok(report(iterations, residual, outcome))

@@ -130,9 +130,9 @@ impl Simulation {
             profile,
         } = self;
         let series = SeriesTransfer::of(options.transfer);
-        let (prescribed, active) = (&setup.prescribed, mass.is_active());
+        let prescribed = &setup.prescribed;
         if lumped_grid_pass(setup, options) {
-            let (inverse, gravity) = (mass.inverse_lumped(), options.gravity);
+            let (inverse, gravity, active) = (mass.inverse_lumped(), options.gravity, mass.is_active());
             timed(profile, Phase::LumpedGrid, || {
                 let workers = &setup.workers;
                 kernels::update_lumped_grid(nodes, inverse, active, gravity, dt, prescribed, workers)
@@ -168,11 +168,12 @@ impl Simulation {
         })?; // (7)
         let (v, a) = (&nodes.projected, &nodes.acceleration);
         timed(profile, Phase::GridVelocity, || {
-            update_grid_velocity(prescribed, active, v, a, dt, &mut nodes.updated)
+            update_grid_velocity(prescribed, mass.is_active(), v, a, dt, &mut nodes.updated)
         }); // (8)
             // The next projection is w but for the particles' motion (FLIP: N m (v_p + Nᵀ(w − v)) =
             // M w at fixed operators; PIC and APIC alike): its conjugate gradient starts there.
         mass.set_velocity_warm_start(&nodes.updated);
+        let active = mass.is_active();
         timed(profile, Phase::Extend, || {
             extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension)
         }); // (8b)
@@ -362,7 +363,7 @@ fn apic_inertia(options: &Options, grid: &Grid) -> Option<ApicInertia> {
 pub(super) fn project_velocity(
     setup: &Setup,
     ops: &Operators,
-    mass: &GridMass,
+    mass: &mut GridMass,
     q: &VectorField,
     v: &mut VectorField,
 ) -> Result<SolveReport> {
@@ -378,7 +379,7 @@ pub(super) fn project_velocity(
 pub(super) fn solve_acceleration(
     prescribed: &Prescribed,
     ops: &Operators,
-    mass: &GridMass,
+    mass: &mut GridMass,
     f: &VectorField,
     a: &mut VectorField,
 ) -> Result<SolveReport> {
