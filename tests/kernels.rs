@@ -4,7 +4,7 @@
 
 mod common;
 
-use sparse_mpm::kernels::{self, ApicInertia, G2pRule, GridField, GridState, ParticleScratch, Stress};
+use sparse_mpm::kernels::{self, ApicInertia, G2pRule, GridField, GridState, P2gTerms, ParticleScratch, Stress};
 use sparse_mpm::mass::lumped_mass;
 use sparse_mpm::parallel::Workers;
 use sparse_mpm::simulation::Transfer;
@@ -105,9 +105,11 @@ fn p2g_equals_the_single_products_for_every_shape_function_with_and_without_apic
             kernels::p2g(
                 &ops,
                 &p,
-                apic,
-                gravity,
-                Stress::Include,
+                P2gTerms {
+                    apic,
+                    gravity,
+                    stress: Stress::Include,
+                },
                 &mut lumped,
                 &mut state,
                 &Workers::default(),
@@ -123,9 +125,11 @@ fn p2g_equals_the_single_products_for_every_shape_function_with_and_without_apic
             kernels::p2g(
                 &ops,
                 &p,
-                apic,
-                gravity,
-                omit,
+                P2gTerms {
+                    apic,
+                    gravity,
+                    stress: omit,
+                },
                 &mut lumped,
                 &mut state,
                 &Workers::default(),
@@ -293,16 +297,12 @@ fn p2g_angular_momentum_equals_the_sum_over_node_positions_in_both_node_orders()
             let mut state = GridState::new(&grid);
             let mut lumped = vec![0.0; grid.num_nodes()];
             let workers = Workers::default();
-            kernels::p2g(
-                &ops,
-                &p,
-                None,
-                [0.0, 0.0],
-                Stress::Include,
-                &mut lumped,
-                &mut state,
-                &workers,
-            );
+            let terms = P2gTerms {
+                apic: None,
+                gravity: [0.0, 0.0],
+                stress: Stress::Include,
+            };
+            kernels::p2g(&ops, &p, terms, &mut lumped, &mut state, &workers);
             let expected: f64 = (0..grid.num_nodes())
                 .map(|i| {
                     let [x, y] = grid.node_position(i);

@@ -215,6 +215,19 @@ impl ApicInertia {
     }
 }
 
+/// What a particle-to-grid pass ([`p2g`]) adds beside `m_L = N m` and `q = N (m ∘ v)`: the
+/// APIC affine momentum, gravity, and whether the internal force.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct P2gTerms {
+    /// The kernel's APIC inertia when the transfer is APIC (`q` gains
+    /// `Σ_p N_Ip m_p C_p (x_I − x_p)`), `None` otherwise.
+    pub apic: Option<ApicInertia>,
+    /// Gravity `g`: the force gains `m_L g`.
+    pub gravity: [f64; 2],
+    /// Whether the force includes `f_int`.
+    pub stress: Stress,
+}
+
 /// Whether [`p2g`] adds the internal force (USF adds it after its stress update instead).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stress {

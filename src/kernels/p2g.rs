@@ -2,7 +2,7 @@
 //! accumulators over bands of grid lines (one band per worker, see [`crate::parallel`]).
 
 use super::columns::Columns;
-use super::{apic_affine, ApicInertia, GridState, Stress};
+use super::{apic_affine, ApicInertia, GridState, P2gTerms, Stress};
 use crate::fields::VectorField;
 use crate::lanes::dispatch;
 #[cfg(target_arch = "x86_64")]
@@ -13,7 +13,8 @@ use crate::parallel::Workers;
 use crate::particles::Particles;
 
 /// (2)–(5) in one pass over the shared pattern of N, Gx, Gy, into `lumped` (`m_L`),
-/// `grid.momentum`, `grid.force` and `grid.angular_momentum`:
+/// `grid.momentum`, `grid.force` and `grid.angular_momentum`, with the `terms` of
+/// [`P2gTerms`]:
 ///
 /// ```text
 /// m_L = N m,   q = N (m ∘ v) [+ APIC: Σ_p N_Ip m_p C_p (x_I − x_p)],
@@ -22,35 +23,30 @@ use crate::particles::Particles;
 ///
 /// # Panics
 /// If `lumped` or `grid` does not have one entry per node of the operators.
-#[allow(clippy::too_many_arguments)]
 pub fn p2g(
     ops: &Operators,
     p: &Particles,
-    apic: Option<ApicInertia>,
-    gravity: [f64; 2],
-    stress: Stress,
+    terms: P2gTerms,
     lumped: &mut [f64],
     grid: &mut GridState,
     workers: &Workers,
 ) {
-    p2g_with(ops, p, apic, gravity, stress, lumped, grid, workers, true);
+    p2g_with(ops, p, terms, lumped, grid, workers, true);
 }
 
 /// [`p2g`], writing `grid.momentum` and `grid.force` when `fields` (otherwise only `m_L` and
 /// the angular momentum: the lumped grid pass, [`super::update_lumped_grid`], reads the rest
 /// from the accumulator).
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn p2g_with(
     ops: &Operators,
     p: &Particles,
-    apic: Option<ApicInertia>,
-    gravity: [f64; 2],
-    stress: Stress,
+    terms: P2gTerms,
     lumped: &mut [f64],
     grid: &mut GridState,
     workers: &Workers,
     fields: bool,
 ) {
+    let P2gTerms { apic, gravity, stress } = terms;
     let n = ops.num_nodes();
     assert!(
         lumped.len() == n && grid.momentum.len() == n,

@@ -9,8 +9,8 @@ use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::kernels::{
-    self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState, ParticleSums,
-    Stress, StressInput, StressOutput, StressPartials, StressSums,
+    self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState, P2gTerms,
+    ParticleSums, Stress, StressInput, StressOutput, StressPartials, StressSums,
 };
 use crate::mass::{GridMass, Role, SolveReport};
 use crate::operators::Operators;
@@ -56,17 +56,12 @@ impl Simulation {
         let (ops, mass, nodes) = (&cache.ops, &mut cache.mass, &mut cache.nodes);
         let fields = !lumped_grid_pass(setup, options);
         timed(profile, Phase::P2g, || {
-            kernels::p2g_with(
-                ops,
-                p,
+            let terms = P2gTerms {
                 apic,
-                options.gravity,
+                gravity: options.gravity,
                 stress,
-                mass.lumped_mut(),
-                nodes,
-                workers,
-                fields,
-            );
+            };
+            kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, fields);
             mirror.fold_lumped(grid, options.shape, &p.x, &p.y, &p.mass, ops, mass.lumped_mut());
         }); // (2)–(5)
         let constraints = &setup.prescribed.constraints;
