@@ -48,7 +48,7 @@ pub use options::{
     Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome, SolveReport, MAX_CG_ITERATIONS,
     MAX_SERIES_TERMS,
 };
-pub use series::{series_velocity_into, SeriesScratch};
+pub use series::{series_velocity_into, SeriesOperator, SeriesScratch};
 pub use stabilization::Stabilization;
 pub use stencil::StencilMass;
 

@@ -69,6 +69,21 @@ pub(crate) fn series_into(
     }
 }
 
+/// The operator of [`series_velocity_into`]: `M = N diag(m) Nᵀ` applied through the operators
+/// (never assembled), `M_L⁻¹` as `inv_m`, and `Π₀`, which zeroes the prescribed components of a
+/// field.
+#[derive(Clone, Copy)]
+pub struct SeriesOperator<'a> {
+    /// The operators (`N`).
+    pub ops: &'a Operators,
+    /// Particle masses `m`.
+    pub m: &'a [f64],
+    /// `1/m_L,I` on active nodes, 0 elsewhere.
+    pub inv_m: &'a [f64],
+    /// `Π₀`: zeroes the prescribed components of a field.
+    pub constrain: &'a dyn Fn(&mut VectorField),
+}
+
 /// The truncated series applied to a lumped grid velocity `u` by particle–grid products only
 /// (Nairn's FMPM loop):
 ///
@@ -77,24 +92,26 @@ pub(crate) fn series_into(
 /// ```
 ///
 /// which is `Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ u = M_k⁻¹ M_L u`, `M_k⁻¹` the series of
-/// [`crate::mass::MassScheme::TruncatedSeries`], when no component is constrained. `inv_m` holds
-/// `1/m_L,I` on active nodes and 0 elsewhere; `constrain` (`Π₀`) zeroes the prescribed components
+/// [`crate::mass::MassScheme::TruncatedSeries`], when no component is constrained. `op.inv_m` holds
+/// `1/m_L,I` on active nodes and 0 elsewhere; `op.constrain` (`Π₀`) zeroes the prescribed components
 /// of each increment, so that the velocity boundary conditions `u` satisfies hold for `v(k)`
 /// too. `k = 1` returns `u`.
 ///
 /// # Panics
 /// On length mismatch, or `k = 0`.
-#[allow(clippy::too_many_arguments)]
 pub fn series_velocity_into(
-    ops: &Operators,
-    m: &[f64],
-    inv_m: &[f64],
+    op: SeriesOperator<'_>,
     k: usize,
-    constrain: &dyn Fn(&mut VectorField),
     u: &VectorField,
     out: &mut VectorField,
     scratch: &mut SeriesScratch,
 ) {
+    let SeriesOperator {
+        ops,
+        m,
+        inv_m,
+        constrain,
+    } = op;
     assert_eq!(inv_m.len(), ops.num_nodes(), "one inverse mass per node");
     let np = ops.num_particles();
     let mut apply_m = |x: &VectorField, mx: &mut VectorField, up: &mut VectorField| {

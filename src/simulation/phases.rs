@@ -2,7 +2,7 @@
 //! takes what it reads by `&` and what it writes by `&mut`.
 
 use super::profile::{timed, Phase};
-use super::series::{series_of, SeriesTransfer};
+use super::series::{with_series_operator, SeriesTransfer};
 use super::{stability, Body, Cache, Options, Scratch, Setup, Simulation, State, StepReport, Transfer};
 use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};
@@ -12,7 +12,7 @@ use crate::kernels::{
     self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState, P2gTerms,
     ParticleSums, Stress, StressInput, StressOutput, StressPartials, StressSums,
 };
-use crate::mass::{GridMass, Role, SolveReport};
+use crate::mass::{series_velocity_into, GridMass, Role, SolveReport};
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::schemes::StressFrom;
@@ -317,7 +317,9 @@ fn series_velocity(
 ) {
     let prescribed = &setup.prescribed;
     let (v, w, out) = (&nodes.projected, &nodes.updated, &mut nodes.series);
-    series.particle_velocity(ops, &p.mass, mass, prescribed, v, w, out, &mut scratch.series);
+    with_series_operator(ops, &p.mass, mass, prescribed, |op| {
+        series.particle_velocity(op, v, w, out, &mut scratch.series);
+    });
     extend(
         ops,
         prescribed,
@@ -435,7 +437,9 @@ fn stress_gradient(
     let read = SeriesTransfer::stress_field(series, field);
     if let Some(k) = series.and_then(SeriesTransfer::stress_terms) {
         let (u, out) = nodes.source_and_series(field);
-        series_of(ops, m, mass, prescribed, k, u, out, &mut scratch.series);
+        with_series_operator(ops, m, mass, prescribed, |op| {
+            series_velocity_into(op, k, u, out, &mut scratch.series);
+        });
     }
     extend(
         ops,

@@ -13,7 +13,7 @@
 use crate::boundary::Prescribed;
 use crate::fields::VectorField;
 use crate::kernels::GridField;
-use crate::mass::{series_velocity_into, GridMass, SeriesScratch};
+use crate::mass::{series_velocity_into, GridMass, SeriesOperator, SeriesScratch};
 use crate::operators::Operators;
 use crate::schemes::Transfer;
 
@@ -56,22 +56,18 @@ impl SeriesTransfer {
     }
 
     /// `v*` of the module docs into `series`, from the projected `v` and updated `w`.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn particle_velocity(
         self,
-        ops: &Operators,
-        m: &[f64],
-        mass: &GridMass,
-        prescribed: &Prescribed,
+        op: SeriesOperator<'_>,
         v: &VectorField,
         w: &VectorField,
         series: &mut VectorField,
         scratch: &mut SeriesScratch,
     ) {
         match self {
-            SeriesTransfer::Fmpm { k } => series_of(ops, m, mass, prescribed, k, w, series, scratch),
+            SeriesTransfer::Fmpm { k } => series_velocity_into(op, k, w, series, scratch),
             SeriesTransfer::Xpic { k } => {
-                series_of(ops, m, mass, prescribed, k, v, series, scratch);
+                series_velocity_into(op, k, v, series, scratch);
                 for i in 0..w.len() {
                     series.x[i] += w.x[i] - v.x[i];
                     series.y[i] += w.y[i] - v.y[i];
@@ -81,18 +77,20 @@ impl SeriesTransfer {
     }
 }
 
-/// `series = Σ_{ℓ<k} (I − M_L⁻¹M)^ℓ u`, each increment with its prescribed components zeroed.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn series_of(
+/// The time loop's [`SeriesOperator`] (the particles' masses `m`, the grid mass's `1/m_L`, the
+/// prescribed components held) handed to `f`.
+pub(super) fn with_series_operator<T>(
     ops: &Operators,
     m: &[f64],
     mass: &GridMass,
     prescribed: &Prescribed,
-    k: usize,
-    u: &VectorField,
-    series: &mut VectorField,
-    scratch: &mut SeriesScratch,
-) {
+    f: impl FnOnce(SeriesOperator<'_>) -> T,
+) -> T {
     let constrain = |u: &mut VectorField| prescribed.zero(&mut u.x, &mut u.y);
-    series_velocity_into(ops, m, mass.inverse_lumped(), k, &constrain, u, series, scratch);
+    f(SeriesOperator {
+        ops,
+        m,
+        inv_m: mass.inverse_lumped(),
+        constrain: &constrain,
+    })
 }

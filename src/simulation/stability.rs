@@ -8,7 +8,7 @@ use super::{Cache, Options, Setup, Simulation, State, TimeStep};
 use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::grid::Grid;
-use crate::mass::{series_velocity_into, GridMass, MassScheme, Role, SeriesScratch};
+use crate::mass::{series_velocity_into, GridMass, MassScheme, Role, SeriesOperator, SeriesScratch};
 use crate::stiffness::{self, FrequencyEstimate, Inverse};
 
 /// The stable step found by the last frequency estimate.
@@ -507,16 +507,13 @@ pub(super) fn estimate_by(
                 }
             };
             let (mut out, mut scratch) = (VectorField::default(), SeriesScratch::default());
-            series_velocity_into(
+            let op = SeriesOperator {
                 ops,
-                &p.mass,
-                mass.inverse_lumped(),
-                k,
-                &constrain,
-                &u,
-                &mut out,
-                &mut scratch,
-            );
+                m: &p.mass,
+                inv_m: mass.inverse_lumped(),
+                constrain: &constrain,
+            };
+            series_velocity_into(op, k, &u, &mut out, &mut scratch);
             Ok(out)
         }
     };
