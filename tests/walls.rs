@@ -236,9 +236,7 @@ fn folded_operators_and_lumped_mass_equal_the_hand_fold_at_walls_and_corners() {
         prescribed.mirror.fold(&grid, shape, &x, &y, &mut ops);
         let nodes = grid.num_nodes();
         let mut lumped = lumped_mass(&ops, &m);
-        prescribed
-            .mirror
-            .fold_lumped(&grid, shape, &x, &y, &m, &ops, &mut lumped);
+        prescribed.mirror.fold_lumped(&grid, &particles, &ops, &mut lumped);
         let mut expected_lumped = vec![0.0; nodes];
         for p in 0..n {
             let expected = hand_fold(&grid, shape, [w, e], [x[p], y[p]], m[p], &mut expected_lumped);

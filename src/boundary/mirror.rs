@@ -41,6 +41,7 @@ use super::{Edge, WallRule};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::operators::Operators;
+use crate::particles::Particles;
 use crate::shape::{AxisFrame, ShapeFunction, MAX_SUPPORT};
 
 /// A mirrored wall: the node line it lies on (index along its axis) and the reflection sign.
@@ -242,20 +243,11 @@ impl MirrorWalls {
     /// # Panics
     /// If `ops` were not folded by [`MirrorWalls::fold`] for these particles, or `lumped` does
     /// not have one entry per node.
-    #[allow(clippy::too_many_arguments)]
-    pub fn fold_lumped(
-        &self,
-        grid: &Grid,
-        shape: ShapeFunction,
-        x: &[f64],
-        y: &[f64],
-        m: &[f64],
-        ops: &Operators,
-        lumped: &mut [f64],
-    ) {
+    pub fn fold_lumped(&self, grid: &Grid, particles: &Particles, ops: &Operators, lumped: &mut [f64]) {
         if self.is_empty() {
             return;
         }
+        let (shape, x, y, m) = (ops.shape_function(), &particles.x, &particles.y, &particles.mass);
         let frames = [shape.axis_frame(grid, 0), shape.axis_frame(grid, 1)];
         let (len, [sx, sy]) = (ops.support(), grid.strides());
         for (p, first) in ops.first_nodes().iter().enumerate() {

@@ -89,10 +89,15 @@ impl GridMass {
             let own = dofs.free.iter().map(|&i| b[i] * b[i]).sum::<f64>().sqrt();
             let scale = norm_r.max(own);
             let preconditioner = self.matrices.preconditioner.as_deref().unwrap_or(&self.lumped);
-            let args = (&dofs.free[..], preconditioner, &b[..], tolerance, max_iterations, scale);
+            let stop = CgStop {
+                tolerance,
+                max_iterations,
+                scale,
+            };
+            let free = &dofs.free[..];
             let solved = match m {
-                MassOperator::Stencil(s) => pcg(s, args.0, args.1, args.2, xc, args.3, args.4, args.5, work),
-                MassOperator::Csc(s) => pcg(s, args.0, args.1, args.2, xc, args.3, args.4, args.5, work),
+                MassOperator::Stencil(s) => pcg(s, free, preconditioner, b, xc, stop, work),
+                MassOperator::Csc(s) => pcg(s, free, preconditioner, b, xc, stop, work),
             };
             let (its, residual) = solved.map_err(|reason| (c, iterations, reason))?;
             iterations += its;
@@ -122,24 +127,38 @@ pub(crate) struct CgState {
 #[derive(Debug, Default)]
 pub(crate) struct CgWork([Vec<f64>; 7]);
 
+/// When [`pcg`] stops: at the relative residual `tolerance` of `scale`, or after
+/// `max_iterations`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CgStop {
+    /// The relative residual to reach.
+    pub(crate) tolerance: f64,
+    /// The most iterations.
+    pub(crate) max_iterations: usize,
+    /// What the residual is relative to.
+    pub(crate) scale: f64,
+}
+
 /// Preconditioned conjugate gradient on `M_FF x = b` for the free nodes `free` (ascending),
 /// with the diagonal preconditioner `lumped` and the initial guess `x` (`b`, `x` and `lumped`
 /// over all nodes; only `F` is read and written), to the residual `‖b − M_FF x‖ ≤ tolerance ·
 /// scale` (the recurrence's residual; `scale` is `‖b_F‖` or the norm of the whole vector
 /// problem `b` is a component of). Returns the iterations and `‖b − M_FF x‖ / scale`, or the
 /// reason for failure.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn pcg(
     m: &impl CgLayout,
     free: &[usize],
     lumped: &[f64],
     b: &[f64],
     x: &mut [f64],
-    tolerance: f64,
-    max_iterations: usize,
-    scale: f64,
+    stop: CgStop,
     work: &mut CgWork,
 ) -> std::result::Result<(usize, f64), String> {
+    let CgStop {
+        tolerance,
+        max_iterations,
+        scale,
+    } = stop;
     if free.is_empty() || free.iter().all(|&i| b[i] == 0.0) {
         free.iter().for_each(|&i| x[i] = 0.0);
         return Ok((0, 0.0));

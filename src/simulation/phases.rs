@@ -62,7 +62,7 @@ impl Simulation {
                 stress,
             };
             kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, fields);
-            mirror.fold_lumped(grid, options.shape, &p.x, &p.y, &p.mass, ops, mass.lumped_mut());
+            mirror.fold_lumped(grid, p, ops, mass.lumped_mut());
         }); // (2)–(5)
         let constraints = &setup.prescribed.constraints;
         timed(profile, Phase::Mass, || {
