@@ -280,7 +280,7 @@ pub enum MpmError {
         names: Vec<String>,
     },
     /// A snapshot (`.vtp`) or time series (`.pvd`) cannot be read
-    /// ([`io::vtk::read_vtp`](crate::io::vtk::read_vtp), [`io::vtk::read_pvd`](crate::io::vtk::read_pvd)):
+    /// (`sparse_mpm_cli::vtk::read_vtp`, `sparse_mpm_cli::vtk::read_pvd`: the `mpm` program's reader):
     /// not such a file, an encoding this reader does not take, truncated or inconsistent data.
     #[error("{path}: {reason}")]
     Snapshot {

@@ -45,7 +45,7 @@ pub struct BenchRow {
     /// LOBPCG steps they took in all ([`sparse_mpm::stiffness::FrequencyEstimate::lanczos_steps`]).
     pub estimates: [usize; 2],
     /// The estimates and guards of the stable step over the timed steps of every repetition
-    /// ([`Simulation::estimate_counts`]).
+    /// ([`sparse_mpm::simulation::Simulation::estimate_counts`]).
     pub counts: EstimateCounts,
     /// Simulated time of the timed steps of each repetition.
     pub simulated: Vec<f64>,

@@ -231,13 +231,13 @@ pub(super) fn estimate_due(options: &Options, state: &State, mass: &GridMass) ->
 /// margin, [`stiffness::TIME_STEP_SAFETY`]): a steady configuration keeps a constant step.
 pub const STEP_HYSTERESIS: f64 = 0.01;
 
-/// LOBPCG steps of the [`guard`] from the tracked mode where the step takes the whole frozen
+/// LOBPCG steps of the guard (`guard`) from the tracked mode where the step takes the whole frozen
 /// limit: with 1 or 2 the quadratic random block of [`BOUND_INTERVAL`] gained up to 102% and
 /// 23% of its energy (an estimate every 10 steps); with 1 and the estimates on the travel
 /// clock, 65% (1,024 particles, one seed of 16).
 pub const GUARD_STEPS: usize = 3;
 
-/// LOBPCG steps of the [`guard`] where the step keeps a crossing margin below one
+/// LOBPCG steps of the guard (`guard`) where the step keeps a crossing margin below one
 /// ([`stiffness::crossing_margin`]: linear shape functions under FLIP), whose step is half the
 /// frozen limit and so leaves the frequency four times the room: with 1 the random block of
 /// [`BOUND_INTERVAL`] (linear, cg, 16 seeds, 256 and 1,024 particles) rose by at most 2.6%, as
@@ -258,7 +258,7 @@ pub(super) fn guard_steps(options: &Options) -> usize {
 
 /// Steps from one estimate of the update bound to the next at the latest (fewer when
 /// [`Options::stability_interval`] is smaller); an estimate comes sooner when the particles
-/// have travelled [`ESTIMATE_TRAVEL`] cell widths since the last. The [`guard`] runs at every
+/// have travelled [`ESTIMATE_TRAVEL`] cell widths since the last. The guard (`guard`) runs at every
 /// step between.
 ///
 /// The update bound's frequency changes as particles move across the grid (a particle nearing
@@ -277,7 +277,7 @@ pub const BOUND_INTERVAL: usize = 100;
 /// ([`BOUND_INTERVAL`]): one, about 100–150 steps of the benchmark's falling block at a
 /// Courant number of 0.9 (its block moves about 0.006–0.01 cell widths a step), so that
 /// [`BOUND_INTERVAL`] sets the clock there and the travel only for faster bodies. Between
-/// estimates the [`guard`] at every step holds the step: at 0.2 cell widths (an estimate about
+/// estimates the guard (`guard`) at every step holds the step: at 0.2 cell widths (an estimate about
 /// every 20 steps) the 16 random blocks of 256 and 1,024 particles at 0.9 of the reported step
 /// rose by at most 2.62% / 1.76% (linear, cg) and 3.47% / 9.82% (quadratic), at 1.0 by 1.19% /
 /// 1.86% and 1.08% / 3.00%; a quadratic cg step of the 262,144-particle block cost 181–192 ms

@@ -390,7 +390,7 @@ pub(crate) fn mpm_update_bound_estimate(
     (estimate, node_top)
 }
 
-/// Most LOBPCG steps of the band estimate of [`mpm_update_bound_estimate`] (the interior's
+/// Most LOBPCG steps of the band estimate of `mpm_update_bound_estimate` (the interior's
 /// checkerboard band converges in about ten; beyond, the iterate creeps towards the localised
 /// modes, which the other two parts find).
 pub const BAND_STEPS: usize = 150;

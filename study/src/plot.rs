@@ -18,7 +18,7 @@ use std::sync::OnceLock;
 
 /// The embedded font (Noto Sans Regular, SIL Open Font License 1.1).
 const FONT: &[u8] = include_bytes!("../../assets/fonts/NotoSans-Regular.ttf");
-/// Family name under which [`FONT`] is registered; plotters' default family.
+/// Family name under which the embedded font (Noto Sans) is registered; plotters' default family.
 pub const FAMILY: &str = "sans-serif";
 /// Colour-blind-friendly palette (Okabe & Ito, 2008), yellow left out.
 const PALETTE: [RGBColor; 7] = [
