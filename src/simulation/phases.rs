@@ -2,6 +2,7 @@
 //! takes what it reads by `&` and what it writes by `&mut`.
 
 use super::profile::{timed, Phase};
+use super::report::StepTaken;
 use super::series::{with_series_operator, SeriesTransfer};
 use super::{stability, Body, Cache, Options, Scratch, Setup, Simulation, State, StepReport, Transfer};
 use crate::boundary::Prescribed;
@@ -273,17 +274,12 @@ impl Simulation {
         state.time += dt;
         state.steps += 1;
         let mut report = timed(profile, Phase::Report, || {
-            super::report::report(
-                setup,
-                options,
-                state,
-                &cache.mass,
-                &cache.nodes,
-                scratch,
+            let taken = StepTaken {
                 dt,
-                stable,
+                stable_time_step: stable,
                 solves,
-            )
+            };
+            super::report::report(setup, options, state, cache, scratch, taken)
         })?;
         state.keep(&report, &scratch.particle.kinetic);
         stability::travel(state, dt, setup.grid.cell_size());

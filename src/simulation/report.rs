@@ -1,9 +1,9 @@
 //! What one step did: [`StepReport`], and its CSV columns.
 
-use super::{Options, Scratch, Setup, State};
+use super::{Cache, Options, Scratch, Setup, State};
 use crate::error::{MpmError, Result};
-use crate::kernels::{GridState, ParticleSums, SumInput, SumPartials};
-use crate::mass::{GridMass, SolveOutcome, SolveReport};
+use crate::kernels::{ParticleSums, SumInput, SumPartials};
+use crate::mass::{SolveOutcome, SolveReport};
 use crate::parallel::Workers;
 use crate::particles::Particles;
 
@@ -130,21 +130,30 @@ impl StepReport {
     }
 }
 
+/// What the step just taken was: its length, the stable step it was checked against, and the
+/// velocity and acceleration solves' reports.
+pub(super) struct StepTaken {
+    pub(super) dt: f64,
+    pub(super) stable_time_step: f64,
+    pub(super) solves: [SolveReport; 2],
+}
+
 /// The report of the step just taken: energies, momenta and mass summed over the particles and
-/// the grid, after checking every particle velocity is finite. `solves` are the velocity and
-/// acceleration solves' reports.
-#[allow(clippy::too_many_arguments)]
+/// the grid, after checking every particle velocity is finite.
 pub(super) fn report(
     setup: &Setup,
     options: &Options,
     state: &State,
-    mass: &GridMass,
-    nodes: &GridState,
+    cache: &Cache,
     scratch: &mut Scratch,
-    dt: f64,
-    stable_time_step: f64,
-    solves: [SolveReport; 2],
+    taken: StepTaken,
 ) -> Result<StepReport> {
+    let (mass, nodes) = (&cache.mass, &cache.nodes);
+    let StepTaken {
+        dt,
+        stable_time_step,
+        solves,
+    } = taken;
     let p = &state.particles;
     let t = match scratch.sums.take() {
         Some(sums) => sums,
