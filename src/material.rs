@@ -128,6 +128,23 @@ impl LinearElastic {
         (self.normal_stiffness().0 / density).sqrt()
     }
 
+    /// The stiffness as a `4 × 4` matrix on the displacement gradient `∇u` (row-major
+    /// `[xx, xy, yx, yy]`), `Δσ_ab = Σ_cd C_abcd (∇u)_cd` with the symmetric part taken:
+    ///
+    /// ```text
+    /// C: xx,xx = yy,yy = C11;  xx,yy = yy,xx = C12;  {xy, yx} × {xy, yx} = G
+    /// ```
+    pub fn stiffness_tensor(&self) -> [[f64; 4]; 4] {
+        let (c11, c12) = self.normal_stiffness();
+        let g = self.shear_modulus();
+        [
+            [c11, 0.0, 0.0, c12],
+            [0.0, g, g, 0.0],
+            [0.0, g, g, 0.0],
+            [c12, 0.0, 0.0, c11],
+        ]
+    }
+
     /// Stress increment for a strain increment `(Δεxx, Δεyy, Δεxy)` (tensor shear):
     ///
     /// ```text
@@ -294,6 +311,45 @@ impl NeoHookean {
     /// ```
     pub fn strain_energy_density(&self, f: [f64; 4]) -> f64 {
         self.constants().at(f).energy_density
+    }
+
+    /// The first Piola–Kirchhoff stress and its derivative at `F` (each `2 × 2` index pair
+    /// row-major, `[xx, xy, yx, yy]`): the stress and tangent of the implicit integrators
+    /// ([`crate::implicit`]), the same model as [`NeoHookean::stress`] (`σ = P Fᵀ / J`):
+    ///
+    /// ```text
+    /// P(F) = μ F + (λ ln J − μ) F⁻ᵀ,
+    /// A_aBcD = ∂P_aB/∂F_cD = μ δ_ac δ_BD + λ F⁻¹_Ba F⁻¹_Dc + (μ − λ ln J) F⁻¹_Bc F⁻¹_Da
+    /// ```
+    ///
+    /// `J ≤ 0` gives non-finite values; the callers check `J` first.
+    pub fn first_piola_kirchhoff(&self, f: [f64; 4]) -> ([f64; 4], [[f64; 4]; 4]) {
+        let (mu, lambda) = self.lame();
+        let j = f[0] * f[3] - f[1] * f[2];
+        let inv = [f[3] / j, -f[1] / j, -f[2] / j, f[0] / j]; // F⁻¹
+        let ln_j = j.ln();
+        // (F^{-T})_aB = F⁻¹_Ba.
+        let at = |r: usize, c: usize| inv[2 * r + c];
+        let mut big_p = [0.0; 4];
+        for a in 0..2 {
+            for b in 0..2 {
+                big_p[2 * a + b] = mu * f[2 * a + b] + (lambda * ln_j - mu) * at(b, a);
+            }
+        }
+        let delta = |i: usize, k: usize| if i == k { 1.0 } else { 0.0 };
+        let mut big_a = [[0.0; 4]; 4];
+        for a in 0..2 {
+            for bb in 0..2 {
+                for c in 0..2 {
+                    for d in 0..2 {
+                        big_a[2 * a + bb][2 * c + d] = mu * delta(a, c) * delta(bb, d)
+                            + lambda * at(bb, a) * at(d, c)
+                            + (mu - lambda * ln_j) * at(bb, c) * at(d, a);
+                    }
+                }
+            }
+        }
+        (big_p, big_a)
     }
 
     /// The Lamé constants of [`NeoHookean::lame`].
@@ -514,6 +570,68 @@ mod tests {
             assert_eq!(s, expected);
             assert_eq!(e, material.strain_energy(volume, s, f));
             assert_eq!(c11, material.tangent(f)[0]);
+        }
+    }
+
+    /// `P(F)` is the Cauchy stress pulled back (`σ = P Fᵀ / J`), `P` the derivative of `W(F)`
+    /// and `A` the derivative of `P`, both by central differences; the linear stiffness tensor
+    /// maps `∇u` to the stress increment.
+    #[test]
+    fn the_first_piola_kirchhoff_stress_and_its_tangent_are_derivatives_of_the_energy() {
+        let neo = NeoHookean {
+            youngs_modulus: 2.0e5,
+            poisson_ratio: 0.3,
+        };
+        let f = [1.04, 0.07, -0.05, 0.93];
+        let (p, a) = neo.first_piola_kirchhoff(f);
+        let j = f[0] * f[3] - f[1] * f[2];
+        let sigma = neo.stress(f);
+        // σ = P Fᵀ / J, as [xx, yy, xy].
+        let pulled = [
+            (p[0] * f[0] + p[1] * f[1]) / j,
+            (p[2] * f[2] + p[3] * f[3]) / j,
+            (p[0] * f[2] + p[1] * f[3]) / j,
+        ];
+        for k in 0..3 {
+            assert!(
+                (pulled[k] - sigma[k]).abs() < 1e-10 * 2.0e5,
+                "σ {k}: {} against {}",
+                pulled[k],
+                sigma[k]
+            );
+        }
+        let h = 1e-6;
+        let shifted = |c: usize, d: f64| {
+            let mut g = f;
+            g[c] += d;
+            g
+        };
+        for c in 0..4 {
+            let dw = (neo.strain_energy_density(shifted(c, h)) - neo.strain_energy_density(shifted(c, -h))) / (2.0 * h);
+            assert!((dw - p[c]).abs() < 1e-6 * 2.0e5, "∂W/∂F {c}: {dw} against {}", p[c]);
+            let (pp, _) = neo.first_piola_kirchhoff(shifted(c, h));
+            let (pm, _) = neo.first_piola_kirchhoff(shifted(c, -h));
+            for r in 0..4 {
+                let dp = (pp[r] - pm[r]) / (2.0 * h);
+                assert!(
+                    (dp - a[r][c]).abs() < 1e-5 * 2.0e5,
+                    "A[{r}][{c}]: {dp} against {}",
+                    a[r][c]
+                );
+            }
+        }
+        let linear = LinearElastic::new(2.0e5, 0.3, PlaneCondition::Strain).unwrap();
+        let grad = [1e-3, 4e-4, -2e-4, -3e-4];
+        let c = linear.stiffness_tensor();
+        let by_tensor: Vec<f64> = (0..4).map(|r| (0..4).map(|k| c[r][k] * grad[k]).sum()).collect();
+        let d = linear.stress_increment(grad[0], grad[3], 0.5 * (grad[1] + grad[2]));
+        for (got, want) in [
+            (by_tensor[0], d[0]),
+            (by_tensor[1], d[2]),
+            (by_tensor[2], d[2]),
+            (by_tensor[3], d[1]),
+        ] {
+            assert!((got - want).abs() < 1e-12 * 2.0e5, "{got} against {want}");
         }
     }
 }

@@ -100,24 +100,12 @@ pub fn particle_stress(
     }
     match material {
         Material::LinearElastic(m) => {
-            let (c11, c12) = m.normal_stiffness();
-            let g = m.shear_modulus();
-            let sigma = [
-                particles.sxx[p] + c11 * h[0] + c12 * h[3],
-                particles.sxy[p] + g * (h[1] + h[2]),
-                particles.sxy[p] + g * (h[1] + h[2]),
-                particles.syy[p] + c12 * h[0] + c11 * h[3],
-            ];
-            let a = [
-                [c11, 0.0, 0.0, c12],
-                [0.0, g, g, 0.0],
-                [0.0, g, g, 0.0],
-                [c12, 0.0, 0.0, c11],
-            ];
-            Ok((sigma, a))
+            let [dxx, dyy, dxy] = m.stress_increment(h[0], h[3], 0.5 * (h[1] + h[2]));
+            let sxy = particles.sxy[p] + dxy;
+            let sigma = [particles.sxx[p] + dxx, sxy, sxy, particles.syy[p] + dyy];
+            Ok((sigma, m.stiffness_tensor()))
         }
         Material::NeoHookean(m) => {
-            let (mu, lambda) = m.lame();
             let fn_ = [particles.fxx[p], particles.fxy[p], particles.fyx[p], particles.fyy[p]];
             let j_n = fn_[0] * fn_[3] - fn_[1] * fn_[2];
             // F = F_inc F_n (row-major [xx, xy, yx, yy]).
@@ -131,30 +119,7 @@ pub fn particle_stress(
                     reason: "the deformation gradient must have a positive determinant",
                 });
             }
-            let inv = [f[3] / j, -f[1] / j, -f[2] / j, f[0] / j]; // F⁻¹
-            let ln_j = j.ln();
-            // P = μ F + (λ ln J − μ) F^{-T};  (F^{-T})_aB = F⁻¹_Ba.
-            let at = |r: usize, c: usize| inv[2 * r + c];
-            let mut big_p = [0.0; 4];
-            for a in 0..2 {
-                for b in 0..2 {
-                    big_p[2 * a + b] = mu * f[2 * a + b] + (lambda * ln_j - mu) * at(b, a);
-                }
-            }
-            // A_aBcD.
-            let delta = |i: usize, k: usize| if i == k { 1.0 } else { 0.0 };
-            let mut big_a = [[0.0; 4]; 4];
-            for a in 0..2 {
-                for bb in 0..2 {
-                    for c in 0..2 {
-                        for d in 0..2 {
-                            big_a[2 * a + bb][2 * c + d] = mu * delta(a, c) * delta(bb, d)
-                                + lambda * at(bb, a) * at(d, c)
-                                + (mu - lambda * ln_j) * at(bb, c) * at(d, a);
-                        }
-                    }
-                }
-            }
+            let (big_p, big_a) = m.first_piola_kirchhoff(f);
             // P̃ = P F_nᵀ / J_n;  𝔸_abce = (1/J_n) Σ_{B,D} A_aBcD (F_n)_bB (F_n)_eD.
             let fnm = |r: usize, c: usize| fn_[2 * r + c];
             let mut stress = [0.0; 4];
