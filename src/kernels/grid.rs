@@ -20,7 +20,6 @@ use crate::parallel::Workers;
 ///
 /// # Panics
 /// If the inverse, the active set or the grid state do not have one entry per node.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn update_lumped_grid(
     grid: &mut GridState,
     inverse: &[f64],

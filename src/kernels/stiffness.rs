@@ -90,7 +90,6 @@ fn tangent_block_body<const S: usize, const V: usize>(
 
 /// Particles `k … k + R::LANES − 1`.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn particles<R: Real, const S: usize>(
     ops: &Operators,
     volume: &[f64],

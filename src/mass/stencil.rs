@@ -277,7 +277,6 @@ impl StencilMass {
     /// # Panics
     /// On length mismatch, or if the couplings two grid lines apart are not stored (assemble
     /// with [`StencilMass::reassemble_extended`]).
-    #[allow(clippy::too_many_arguments)]
     pub fn add_extension_penalty(
         &mut self,
         nodes_per_axis: [usize; 2],

@@ -424,7 +424,6 @@ struct Patch {
 /// frequency `own` that lie far enough apart; `K_PP` is summed from the particles that read the
 /// patch (one pass over the particles), `B_PP` from the stencil of
 /// `B`. Returns the value and its mode as `(component, node, value)`.
-#[allow(clippy::too_many_arguments)]
 fn patch_top(
     ops: &Operators,
     volume: &[f64],

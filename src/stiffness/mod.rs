@@ -376,7 +376,6 @@ pub struct FrequencyEstimate {
 ///
 /// # Panics
 /// On length mismatch.
-#[allow(clippy::too_many_arguments)]
 pub fn mpm_max_frequency_squared(
     ops: &Operators,
     mass: &[f64],
