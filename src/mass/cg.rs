@@ -68,7 +68,7 @@ impl GridMass {
         rhs: &VectorField,
         [tolerance, norm_r]: [f64; 2],
         max_iterations: usize,
-    ) -> std::result::Result<(VectorField, usize, f64), (usize, usize, String)> {
+    ) -> std::result::Result<(VectorField, usize, f64), CgFailure> {
         let m = self
             .matrices
             .operator(MassScheme::Consistent)
@@ -99,7 +99,11 @@ impl GridMass {
                 MassOperator::Stencil(s) => pcg(s, free, preconditioner, b, xc, stop, work),
                 MassOperator::Csc(s) => pcg(s, free, preconditioner, b, xc, stop, work),
             };
-            let (its, residual) = solved.map_err(|reason| (c, iterations, reason))?;
+            let (its, residual) = solved.map_err(|reason| CgFailure {
+                component: c,
+                iterations,
+                reason,
+            })?;
             iterations += its;
             worst = worst.max(residual);
             if !warm_start {
@@ -113,6 +117,15 @@ impl GridMass {
         }
         Ok((x, iterations, worst))
     }
+}
+
+/// A conjugate gradient that did not converge: the component (0 for x, 1 for y), the
+/// iterations of the components before it, and why.
+#[derive(Debug)]
+pub(super) struct CgFailure {
+    pub(super) component: usize,
+    pub(super) iterations: usize,
+    pub(super) reason: String,
 }
 
 /// What the conjugate gradient keeps between solves.

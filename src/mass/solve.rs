@@ -1,7 +1,7 @@
 //! [`GridMass::solve`]: `u = M⁻¹ r` with the scheme of a role, one match on the scheme that
 //! sends each to its file (`lumped.rs`, `direct.rs`, `series.rs`, `cg.rs`).
 
-use super::cg::CgState;
+use super::cg::{CgFailure, CgState};
 use super::cholesky::SparseCholesky;
 use super::grid_mass::Dofs;
 use super::options::{MassScheme, SingularityPolicy, SolveOutcome, SolveReport};
@@ -198,8 +198,9 @@ impl GridMass {
                         self.write_solution(&x, prescribed, u);
                         Ok(report(iterations, residual, outcome))
                     }
-                    Err((component, iterations, reason)) => {
-                        let (outcome, residual) = self.cg_failed(component, &rhs, r, prescribed, ops, u, reason)?;
+                    Err(failure) => {
+                        let iterations = failure.iterations;
+                        let (outcome, residual) = self.cg_failed(failure, &rhs, r, prescribed, ops, u)?;
                         Ok(report(iterations + max_iterations, residual, outcome))
                     }
                 }
@@ -324,19 +325,18 @@ impl GridMass {
         worst
     }
 
-    /// What the singularity policy makes of a conjugate-gradient failure on `component`: an
-    /// error, the lumped solve of `r`, or a regularized factorization of the coupled `rhs`.
-    #[allow(clippy::too_many_arguments)]
+    /// What the singularity policy makes of a conjugate-gradient `failure`: an error, the lumped
+    /// solve of `r`, or a regularized factorization of the coupled `rhs`.
     fn cg_failed(
         &self,
-        component: usize,
+        failure: CgFailure,
         rhs: &VectorField,
         r: &VectorField,
         prescribed: Option<&VectorField>,
         ops: &Operators,
         u: &mut VectorField,
-        reason: String,
     ) -> Result<(SolveOutcome, f64)> {
+        let CgFailure { component, reason, .. } = failure;
         let located = self.locate_singularity(&self.dofs[component]);
         match self.options.singularity {
             SingularityPolicy::Error => Err(match located {

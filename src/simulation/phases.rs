@@ -152,7 +152,7 @@ impl Simulation {
         if options.update.schedule().stress_first {
             timed(profile, Phase::StressFirst, || {
                 let m = &state.particles.mass;
-                stress_gradient(setup, ops, mass, m, series, GridField::Projected, nodes, scratch);
+                stress_gradient(setup, ops, mass, m, series, nodes, scratch);
                 update_stress(setup, state, scratch, dt)?;
                 let p = &state.particles;
                 kernels::add_internal_force(ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut nodes.force);
@@ -251,7 +251,7 @@ impl Simulation {
                 kernels::reproject_momentum(ops, &state.particles, apic, nodes, workers); // (11)
                 project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?;
                 let m = &state.particles.mass;
-                stress_gradient(setup, ops, mass, m, series, GridField::Projected, nodes, scratch);
+                stress_gradient(setup, ops, mass, m, series, nodes, scratch);
                 update_stress(setup, state, scratch, dt)
             })?; // (11)–(13)
             timed(profile, Phase::Move, || {
@@ -415,20 +415,18 @@ fn extend(
 }
 
 /// (11) `L = [Gxᵀ u, Gyᵀ u]` into the particle scratch, for the grid velocity the stress update
-/// reads when the update scheme gives it `field`: `field` itself, or under FMPM(k) its series
-/// (into the series field); extended to the massless support nodes first (8b). Returns the
-/// field read.
-#[allow(clippy::too_many_arguments)]
+/// of USF reads: the projected velocity (6) itself, or under FMPM(k) its series (into the
+/// series field); extended to the massless support nodes first (8b). Returns the field read.
 fn stress_gradient(
     setup: &Setup,
     ops: &Operators,
     mass: &GridMass,
     m: &[f64],
     series: Option<SeriesTransfer>,
-    field: GridField,
     nodes: &mut GridState,
     scratch: &mut Scratch,
 ) -> GridField {
+    let field = GridField::Projected;
     let prescribed = &setup.prescribed;
     let read = SeriesTransfer::stress_field(series, field);
     if let Some(k) = series.and_then(SeriesTransfer::stress_terms) {

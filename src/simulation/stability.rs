@@ -9,7 +9,7 @@ use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::mass::{series_velocity_into, GridMass, MassScheme, Role, SeriesOperator, SeriesScratch};
-use crate::stiffness::{self, FrequencyEstimate, Inverse};
+use crate::stiffness::{self, BoundRun, FrequencyEstimate, Inverse, ParticleStiffness};
 
 /// The stable step found by the last frequency estimate.
 #[derive(Debug, Clone, Copy)]
@@ -411,18 +411,13 @@ fn guard(
         mode,
         nearly_singular: singular,
     } = tracking;
-    let (found, node_now) = stiffness::mpm_update_bound_estimate(
+    let particles = ParticleStiffness {
         ops,
-        &p.volume,
-        &tangent_of,
-        &free,
-        &bound,
-        steps,
-        0.0,
-        work,
-        mode,
-        Some(steps),
-    );
+        volume: &p.volume,
+        tangent: &tangent_of,
+    };
+    let guard = BoundRun::Guard { steps };
+    let (found, node_now) = stiffness::mpm_update_bound_estimate(particles, &free, &bound, guard, work, mode);
     counts.guards += 1;
     counts.guard_steps += found.lanczos_steps;
     *singular = nearly_singular(found.omega_squared, node_now, mode);
@@ -530,18 +525,17 @@ pub(super) fn estimate_by(
     let mut node_top = 0.0;
     let estimate = match bound {
         Some(m) => {
-            let (estimate, top) = stiffness::mpm_update_bound_estimate(
+            let particles = ParticleStiffness {
                 ops,
-                &p.volume,
-                &tangent_of,
-                free,
-                &m,
-                stiffness::FREQUENCY_MAX_STEPS,
-                stiffness::FREQUENCY_TOLERANCE,
-                &mut tracking.work,
-                &mut tracking.mode,
-                None,
-            );
+                volume: &p.volume,
+                tangent: &tangent_of,
+            };
+            let run = BoundRun::Estimate {
+                max_steps: stiffness::FREQUENCY_MAX_STEPS,
+                tolerance: stiffness::FREQUENCY_TOLERANCE,
+            };
+            let (work, mode) = (&mut tracking.work, &mut tracking.mode);
+            let (estimate, top) = stiffness::mpm_update_bound_estimate(particles, free, &m, run, work, mode);
             node_top = top;
             tracking.nearly_singular = nearly_singular(estimate.omega_squared, top, &tracking.mode);
             estimate

@@ -174,6 +174,27 @@ fn node_diagonals(
     b.diagonal_into(diagonal);
 }
 
+/// The particles' stiffness `K = Σ_p V_p Gᵀ D_p G` as the bound estimate reads it, never
+/// formed: the operators, the volumes `V_p` and each particle's tangent `[C11, C12, G]`.
+pub(crate) struct ParticleStiffness<'a, T: Fn(usize) -> [f64; 3]> {
+    /// The operators (`G` from Gx, Gy).
+    pub(crate) ops: &'a Operators,
+    /// Particle volumes `V_p`.
+    pub(crate) volume: &'a [f64],
+    /// The tangent `[C11, C12, G]` of particle `p`.
+    pub(crate) tangent: &'a T,
+}
+
+/// What [`mpm_update_bound_estimate`] runs.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum BoundRun {
+    /// A full estimate (patches, the polish and the band), LOBPCG to the relative `tolerance`
+    /// in at most `max_steps` steps.
+    Estimate { max_steps: usize, tolerance: f64 },
+    /// The guard: `steps` LOBPCG steps from the tracked mode.
+    Guard { steps: usize },
+}
+
 /// The upper bound of the update's `ω²_max` for a solve mass `M_s = M + R` in both solves, `R`
 /// positive semi-definite (the linear-extension penalty), from products only:
 ///
@@ -198,28 +219,28 @@ fn node_diagonals(
 /// - LOBPCG from a start alternating in sign from node to node (the band, at most
 ///   [`BAND_STEPS`] steps).
 ///
-/// `warm = Some(k)` is the guard between estimates: `k` LOBPCG steps from `mode`, the tracked
-/// top mode over all `2n` degrees of freedom, beside the single-node frequency. Either way
-/// `mode` is left holding the top mode found.
+/// [`BoundRun::Guard`] is the guard between estimates: its LOBPCG steps from `mode`, the
+/// tracked top mode over all `2n` degrees of freedom, beside the single-node frequency. Either
+/// way `mode` is left holding the top mode found.
 ///
 /// Products: `K` without forming it ([`apply_tangent_stiffness`]) and `B` in stencil form
 /// ([`crate::mass::StencilMass::penalty_twice_into`]), both components in one sweep, on the
 /// padded layout of the stencil (no gathering of the free degrees of freedom); preconditioned
 /// by `diag(B)⁻¹`. Returns the estimate (LOBPCG steps summed) and the
 /// single-node frequency.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn mpm_update_bound_estimate(
-    ops: &Operators,
-    volume: &[f64],
-    tangent: &impl Fn(usize) -> [f64; 3],
+pub(crate) fn mpm_update_bound_estimate<T: Fn(usize) -> [f64; 3]>(
+    stiffness: ParticleStiffness<'_, T>,
     free: &[bool],
     bound: &crate::mass::BoundingMass<'_>,
-    max_steps: usize,
-    tolerance: f64,
+    run: BoundRun,
     work: &mut BoundWork,
     mode: &mut Vec<f64>,
-    warm: Option<usize>,
 ) -> (FrequencyEstimate, f64) {
+    let ParticleStiffness { ops, volume, tangent } = stiffness;
+    let (max_steps, tolerance, warm) = match run {
+        BoundRun::Estimate { max_steps, tolerance } => (max_steps, tolerance, None),
+        BoundRun::Guard { steps } => (steps, 0.0, Some(steps)),
+    };
     let n = ops.num_nodes();
     assert_eq!(free.len(), 2 * n, "one flag per degree of freedom");
     let (node_top, top_node) = node_frequency_top(ops, volume, tangent, free, bound, work);

@@ -26,7 +26,7 @@ use crate::transfer::VectorField;
 
 mod bound;
 pub use bound::BAND_STEPS;
-pub(crate) use bound::{mpm_update_bound_estimate, BoundWork};
+pub(crate) use bound::{mpm_update_bound_estimate, BoundRun, BoundWork, ParticleStiffness};
 
 /// The grid stiffness `K = Bᵀ D B` (2n × 2n, x degrees of freedom first), from four weighted
 /// products per block as in the [module docs](self).

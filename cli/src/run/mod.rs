@@ -286,7 +286,8 @@ pub fn run_scene_with(
     let pvd = PvdWriter::create(&out.join("particles.pvd"))?;
     claim.add("report.csv")?;
     let csv = CsvWriter::create(&out.join("report.csv"), &StepReport::COLUMNS)?;
-    drive(sim, state, out, claim, options, pvd, csv, start, progress)
+    let folder = OpenFolder { out, claim, pvd, csv };
+    drive(sim, state, folder, options, start, progress)
 }
 
 /// Copies `from` to `to` through the atomic writer: `to` holds the whole copy or does not exist
@@ -332,19 +333,25 @@ fn write_scene_copy(scene: &Scene, out: &Path, claim: &mut OutputClaim) -> Resul
     })
 }
 
+/// A run folder ready for the time loop: its path, what the run has claimed in it, and the
+/// open series and report.
+struct OpenFolder<'a> {
+    out: &'a Path,
+    claim: OutputClaim,
+    pvd: PvdWriter,
+    csv: CsvWriter,
+}
+
 /// The time loop of [`run_scene_with`] and [`resume_run`], from the state of `sim` and `state`.
-#[allow(clippy::too_many_arguments)]
 fn drive(
     mut sim: Simulation,
     mut state: RunState,
-    out: &Path,
-    claim: OutputClaim,
+    folder: OpenFolder<'_>,
     options: &RunOptions,
-    pvd: PvdWriter,
-    csv: CsvWriter,
     start: Instant,
     mut progress: impl FnMut(&Progress),
 ) -> Result<RunSummary> {
+    let OpenFolder { out, claim, pvd, csv } = folder;
     let end_time = state.end_time;
     // The displacement's reference: the positions now at the start, else those of the first
     // snapshot (a resumed run writes the same displacements as the uninterrupted one).

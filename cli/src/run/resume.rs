@@ -3,7 +3,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::{copy, drive, OutputClaim, OutputPolicy, Progress, RunOptions, RunState, RunSummary, RUN_STATE_FORMAT};
+use super::{
+    copy, drive, OpenFolder, OutputClaim, OutputPolicy, Progress, RunOptions, RunState, RunSummary, RUN_STATE_FORMAT,
+};
 use crate::vtk::PvdWriter;
 use sparse_mpm::error::{MpmError, Result};
 use sparse_mpm::io::csv::CsvWriter;
@@ -167,7 +169,13 @@ pub fn resume_run(
     }
     let pvd = PvdWriter::with_entries(&out.join("particles.pvd"), &state.snapshots)?;
     let csv = CsvWriter::append_after(&out.join("report.csv"), &StepReport::COLUMNS, state.report_rows)?;
-    let summary = drive(sim, state, &out, claim, options, pvd, csv, start, progress)?;
+    let folder = OpenFolder {
+        out: &out,
+        claim,
+        pvd,
+        csv,
+    };
+    let summary = drive(sim, state, folder, options, start, progress)?;
     Ok((summary, out))
 }
 
