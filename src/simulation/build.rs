@@ -2,6 +2,7 @@
 //! restore (a saved state) both go through [`Simulation::build`], which validates the parts,
 //! resolves the boundary conditions, starts the workers and assembles the operators.
 
+use super::phases::StepPlan;
 use super::stability::Speeds;
 use super::{Body, Cache, Options, Scratch, Setup, Simulation, State};
 use crate::boundary::{self, Prescribed};
@@ -49,7 +50,8 @@ impl Simulation {
             ..super::stability::measure_speeds(&sim.setup, &sim.state.particles)
         };
         // The stable step before the first step, so that a fixed step above it is refused now.
-        sim.prepare_grid()?;
+        let plan = StepPlan::of(&sim.setup, &sim.options);
+        sim.prepare_grid(&plan)?;
         super::stability::next_time_step(&sim.options, sim.state.steps, sim.stable_time_step())?;
         Ok(sim)
     }

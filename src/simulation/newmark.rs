@@ -24,7 +24,7 @@
 
 use nalgebra_sparse::{CooMatrix, CscMatrix};
 
-use super::phases::{project_velocity, solve_acceleration};
+use super::phases::{project_velocity, solve_acceleration, StepPlan};
 use super::{Cache, Simulation, StepReport, TimeStep, Transfer};
 use crate::error::{MpmError, Result};
 use crate::implicit::{displacement_gradients, gradient_operator, internal_force_and_tangent, Newmark};
@@ -184,7 +184,8 @@ fn norm(v: impl Iterator<Item = f64>) -> f64 {
 impl Simulation {
     /// One Newmark step of at most `max_dt` (the steps of the [module docs](self)).
     pub(super) fn newmark_phases(&mut self, newmark: Newmark, max_dt: f64) -> Result<StepReport> {
-        self.prepare_grid()?; // (1)–(5)
+        let plan = StepPlan::of(&self.setup, &self.options);
+        self.prepare_grid(&plan)?; // (1)–(5)
         let TimeStep::Fixed { dt } = self.options.time_step else {
             return Err(MpmError::InvalidOption {
                 option: "integrator",

@@ -22,7 +22,7 @@ use crate::shape::ShapeFunction;
 impl Simulation {
     /// (1)–(5) and the grid mass for the current particle configuration (re-sorting the
     /// particles first when due), and the stable-step estimate when due.
-    pub(super) fn prepare_grid(&mut self) -> Result<()> {
+    pub(super) fn prepare_grid(&mut self, plan: &StepPlan) -> Result<()> {
         let Simulation {
             setup,
             options,
@@ -48,17 +48,16 @@ impl Simulation {
             mirror.fold(grid, options.shape, &p.x, &p.y, &mut cache.ops); // mirrored walls
             Ok::<_, MpmError>(())
         })?; // (1)
-        let stress = if options.update.schedule().stress_first && options.integrator == super::Integrator::Explicit {
+        let stress = if plan.stress_first {
             Stress::Omit
         } else {
             Stress::Include
         };
-        let apic = apic_inertia(options, grid);
         let (ops, mass, nodes) = (&cache.ops, &mut cache.mass, &mut cache.nodes);
-        let fields = !lumped_grid_pass(setup, options);
+        let fields = !plan.lumped_grid_pass;
         timed(profile, Phase::P2g, || {
             let terms = P2gTerms {
-                apic,
+                apic: plan.apic,
                 gravity: options.gravity,
                 stress,
             };
@@ -103,20 +102,21 @@ impl Simulation {
         if let super::Integrator::Newmark(newmark) = self.options.integrator {
             return self.newmark_phases(newmark, max_dt);
         }
-        self.prepare_grid()?; // (1)–(5), mass
+        let plan = StepPlan::of(&self.setup, &self.options);
+        self.prepare_grid(&plan)?; // (1)–(5), mass
         let (setup, state) = (&self.setup, &self.state);
         let stable = timed(&mut self.profile, Phase::StableStep, || {
             stability::stable_time_step(&setup.grid, state)
         });
         let dt = stability::next_time_step(&self.options, self.state.steps, stable)?.min(max_dt);
-        let solves = self.grid_phases(dt)?; // (6)–(8b), XPIC/FMPM
-        self.particle_phases(dt)?; // (9)–(13)
+        let solves = self.grid_phases(&plan, dt)?; // (6)–(8b), XPIC/FMPM
+        self.particle_phases(&plan, dt)?; // (9)–(13)
         self.finish_step(dt, stable, solves)
     }
 
     /// (6)–(8b) and XPIC/FMPM's series velocity (USF: the stress update after (6)); the
     /// reports of the velocity and acceleration solves.
-    fn grid_phases(&mut self, dt: f64) -> Result<[SolveReport; 2]> {
+    fn grid_phases(&mut self, plan: &StepPlan, dt: f64) -> Result<[SolveReport; 2]> {
         let Simulation {
             setup,
             options,
@@ -125,9 +125,9 @@ impl Simulation {
             scratch,
             profile,
         } = self;
-        let series = SeriesTransfer::of(options.transfer);
+        let series = plan.series;
         let prescribed = &setup.prescribed;
-        if lumped_grid_pass(setup, options) {
+        if plan.lumped_grid_pass {
             let (inverse, gravity, active) = (mass.inverse_lumped(), options.gravity, mass.is_active());
             timed(profile, Phase::LumpedGrid, || {
                 let workers = &setup.workers;
@@ -149,7 +149,7 @@ impl Simulation {
         let velocity_solve = timed(profile, Phase::Project, || {
             project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)
         })?; // (6)
-        if options.update.schedule().stress_first {
+        if plan.stress_first {
             timed(profile, Phase::StressFirst, || {
                 let m = &state.particles.mass;
                 stress_gradient(setup, ops, mass, m, series, nodes, scratch);
@@ -184,7 +184,7 @@ impl Simulation {
     /// (9)–(13): the grid-to-particle pass, the stress update of USL and MUSL, the positions.
     /// USL updates the stress in the pass itself, and USL and USF move the particles there (and
     /// sum them for the report), from the same per-particle code as the passes of their own.
-    fn particle_phases(&mut self, dt: f64) -> Result<()> {
+    fn particle_phases(&mut self, plan: &StepPlan, dt: f64) -> Result<()> {
         let Simulation {
             setup,
             options,
@@ -193,10 +193,7 @@ impl Simulation {
             scratch,
             profile,
         } = self;
-        let (series, stress_last) = (
-            SeriesTransfer::of(options.transfer),
-            options.update.schedule().stress_last,
-        );
+        let (series, stress_last) = (plan.series, plan.stress_last);
         let rule = G2pRule {
             transfer: options.transfer,
             position: options.position_update,
@@ -211,7 +208,7 @@ impl Simulation {
         let (p, workers) = (&mut state.particles, &setup.workers);
         let mut blocks = std::mem::take(&mut scratch.g2p_blocks);
         let mut packed = std::mem::take(&mut scratch.packed);
-        let by_grid_pass = lumped_grid_pass(setup, options);
+        let by_grid_pass = plan.lumped_grid_pass;
         timed(profile, Phase::G2p, || {
             // The lumped grid pass left [w, v] in p2g's accumulator; otherwise pack them.
             let velocities = if by_grid_pass {
@@ -247,8 +244,7 @@ impl Simulation {
         }
         if stress_last == Some(StressFrom::Reprojected) {
             timed(profile, Phase::Stress, || {
-                let apic = apic_inertia(options, &setup.grid);
-                kernels::reproject_momentum(ops, &state.particles, apic, nodes, workers); // (11)
+                kernels::reproject_momentum(ops, &state.particles, plan.apic, nodes, workers); // (11)
                 project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?;
                 let m = &state.particles.mass;
                 stress_gradient(setup, ops, mass, m, series, nodes, scratch);
@@ -335,16 +331,43 @@ fn mass_nodes(ops: &Operators, mirror: &crate::boundary::MirrorWalls) -> std::op
     }
 }
 
-/// Whether the step makes (6)–(8) in one pass over the grid ([`kernels::update_lumped_grid`]):
-/// the lumped mass in both solves, no stress update between them (not USF), no series
-/// velocity (not XPIC, FMPM) and no mirrored walls (whose lumped mass is folded).
-fn lumped_grid_pass(setup: &Setup, options: &Options) -> bool {
-    options.mass.velocity == crate::mass::MassScheme::Lumped
-        && options.mass.acceleration == crate::mass::MassScheme::Lumped
-        && !options.update.schedule().stress_first
-        && SeriesTransfer::of(options.transfer).is_none()
-        && setup.prescribed.mirror.is_empty()
-        && options.integrator == super::Integrator::Explicit
+/// What a step does, decided once per step from the options and the walls: which grid pass,
+/// where the stress update goes, which series and affine terms.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct StepPlan {
+    /// (6)–(8) in one pass over the grid ([`kernels::update_lumped_grid`]): the lumped mass in
+    /// both solves, no stress update between them (not USF), no series velocity (not XPIC,
+    /// FMPM), no mirrored walls (whose lumped mass is folded), the explicit integrator.
+    pub(super) lumped_grid_pass: bool,
+    /// USF: the stress update between (6) and (7), so p2g leaves out `f_int`.
+    pub(super) stress_first: bool,
+    /// USL, MUSL: the velocity the stress update after the particle pass reads.
+    pub(super) stress_last: Option<StressFrom>,
+    /// XPIC(k), FMPM(k).
+    pub(super) series: Option<SeriesTransfer>,
+    /// The APIC inertia of the shape functions, when the transfer is APIC.
+    pub(super) apic: Option<ApicInertia>,
+}
+
+impl StepPlan {
+    /// The plan of the next step of a simulation with `setup` and `options`.
+    pub(super) fn of(setup: &Setup, options: &Options) -> StepPlan {
+        let schedule = options.update.schedule();
+        let explicit = options.integrator == super::Integrator::Explicit;
+        let series = SeriesTransfer::of(options.transfer);
+        StepPlan {
+            lumped_grid_pass: options.mass.velocity == crate::mass::MassScheme::Lumped
+                && options.mass.acceleration == crate::mass::MassScheme::Lumped
+                && !schedule.stress_first
+                && series.is_none()
+                && setup.prescribed.mirror.is_empty()
+                && explicit,
+            stress_first: schedule.stress_first && explicit,
+            stress_last: schedule.stress_last,
+            series,
+            apic: apic_inertia(options, &setup.grid),
+        }
+    }
 }
 
 /// The APIC inertia of the shape functions, when the transfer is APIC.
