@@ -15,7 +15,7 @@ use std::marker::PhantomData;
 use std::str::FromStr;
 
 use serde::de::{self, MapAccess, Visitor};
-use serde::{Deserialize, Deserializer, Serializer};
+use serde::{Deserialize, Deserializer};
 
 use crate::numbers::{exact, human};
 
@@ -58,7 +58,7 @@ impl<'a> Spelled<'a> {
 
     /// Parameter `i` parsed as `T`, or `default` when it is absent (`None`: required).
     pub(crate) fn param<T: FromStr>(&self, i: usize, default: Option<T>) -> Result<T, String> {
-        match (self.params[i], default) {
+        match (self.params[i].filter(|p| !p.is_empty()), default) {
             (Some(p), _) => p
                 .parse()
                 .map_err(|_| format!("`{}`: `{p}` is not a valid parameter", self.text)),
@@ -107,23 +107,40 @@ pub(crate) fn write_params(f: &mut fmt::Formatter<'_>, name: &str, params: &[Par
     f.pad(&text)
 }
 
-/// Serializes a choice as its text.
-pub(crate) fn serialize<T: fmt::Display, S: Serializer>(value: &T, s: S) -> Result<S::Ok, S::Error> {
-    s.collect_str(value)
+/// A choice type's two spellings: its text (`Display`, `FromStr`) and, in scene files, its
+/// table form `{ name = { parameter = value, … } }`, read into the text by the parameters'
+/// names: the one list of what each choice takes.
+pub(crate) trait Choice: FromStr<Err = String> + fmt::Display {
+    /// What a message says is expected (`a mass scheme (lumped, consistent, …)`).
+    const EXPECTING: &'static str;
+    /// The names that take parameters (aliases included), each with its parameters' table keys
+    /// in the order of the text.
+    const PARAMETERS: &'static [(&'static str, &'static [&'static str])];
 }
 
-/// Deserializes a choice from its text (`FromStr`) or, in self-describing formats such as
-/// TOML, from the table form `Table` (`{ name = { field = value } }`) converted with `Into`.
-pub(crate) fn deserialize<'de, D, T, Table>(d: D, expecting: &'static str) -> Result<T, D::Error>
-where
-    D: Deserializer<'de>,
-    T: FromStr<Err = String>,
-    Table: Deserialize<'de> + Into<T>,
-{
-    let visitor = ChoiceVisitor::<T, Table> {
-        expecting,
-        marker: PhantomData,
+/// `Serialize` as the text and `Deserialize` from the text or the table form, for a
+/// [`Choice`].
+macro_rules! choice_serde {
+    ($t:ty) => {
+        impl serde::Serialize for $t {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+                s.collect_str(self)
+            }
+        }
+
+        impl<'de> serde::Deserialize<'de> for $t {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<$t, D::Error> {
+                $crate::names::deserialize(d)
+            }
+        }
     };
+}
+pub(crate) use choice_serde;
+
+/// Deserializes a choice from its text (`FromStr`) or, in self-describing formats such as
+/// TOML, from its table form.
+pub(crate) fn deserialize<'de, D: Deserializer<'de>, T: Choice>(d: D) -> Result<T, D::Error> {
+    let visitor = ChoiceVisitor::<T>(PhantomData);
     if d.is_human_readable() {
         d.deserialize_any(visitor)
     } else {
@@ -131,28 +148,82 @@ where
     }
 }
 
-struct ChoiceVisitor<T, Table> {
-    expecting: &'static str,
-    marker: PhantomData<(T, Table)>,
+struct ChoiceVisitor<T>(PhantomData<T>);
+
+/// A parameter's value in a table form.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum Value {
+    Count(u64),
+    Real(f64),
 }
 
-impl<'de, T, Table> Visitor<'de> for ChoiceVisitor<T, Table>
-where
-    T: FromStr<Err = String>,
-    Table: Deserialize<'de> + Into<T>,
-{
+impl<'de, T: Choice> Visitor<'de> for ChoiceVisitor<T> {
     type Value = T;
 
     fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.expecting)
+        f.write_str(T::EXPECTING)
     }
 
     fn visit_str<E: de::Error>(self, v: &str) -> Result<T, E> {
         v.parse().map_err(E::custom)
     }
 
-    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<T, A::Error> {
-        Table::deserialize(de::value::MapAccessDeserializer::new(map)).map(Into::into)
+    /// `{ name = { parameter = value, … } }` as the text `name:value:…`, each parameter in its
+    /// place (an absent one empty, so that it takes its default).
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<T, A::Error> {
+        let Some((name, table)) = map.next_entry::<String, std::collections::BTreeMap<String, Value>>()? else {
+            return Err(de::Error::custom(format!("an empty table: expected {}", T::EXPECTING)));
+        };
+        if let Some(other) = map.next_key::<String>()? {
+            return Err(de::Error::custom(format!(
+                "one choice per table: `{name}` and `{other}` are given"
+            )));
+        }
+        let keys = T::PARAMETERS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map_or(&[][..], |(_, k)| k);
+        if let Some(unknown) = table.keys().find(|k| !keys.contains(&k.as_str())) {
+            // A name the choice does not have is named before its keys.
+            if let Err(e) = name.parse::<T>() {
+                if keys.is_empty() && !e.contains("needs a parameter") {
+                    return Err(de::Error::custom(e));
+                }
+            }
+            let takes = if keys.is_empty() {
+                "no parameters".to_string()
+            } else {
+                keys.join(", ")
+            };
+            return Err(de::Error::custom(format!(
+                "unknown key `{unknown}` in the table of `{name}` (it takes {takes})"
+            )));
+        }
+        let mut text = name.clone();
+        let given = keys.iter().rposition(|k| table.contains_key(*k)).map_or(0, |i| i + 1);
+        let mut values = Vec::new();
+        for key in &keys[..given] {
+            let value = match table.get(*key) {
+                Some(Value::Count(k)) => k.to_string(),
+                Some(Value::Real(v)) => exact(*v),
+                None => String::new(),
+            };
+            text.push(':');
+            text.push_str(&value);
+            values.push((key, value));
+        }
+        text.parse().map_err(|e: String| {
+            // The message names the key whose value the text refused, or the keys it takes.
+            let culprit = values
+                .iter()
+                .find(|(_, v)| !v.is_empty() && e.contains(&format!("`{v}` is not")));
+            de::Error::custom(match culprit {
+                Some((key, value)) => format!("`{name}.{key}` = {value}: {e}"),
+                None if keys.is_empty() => e,
+                None => format!("{e} (the table of `{name}` takes {})", keys.join(", ")),
+            })
+        })
     }
 }
 

@@ -22,55 +22,96 @@ pub const MAX_ACCELERATION: f64 = 1e12;
 /// step's reports square speeds, which overflows from about 10¹⁵⁴ on.
 pub const MAX_SPEED: f64 = 1e12;
 
-/// The state of all particles. Fields are public so a program can read and set them directly;
-/// [`Particles::validate`] checks a state built by hand.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Particles {
-    /// x coordinate `x_p`.
-    pub x: Vec<f64>,
-    /// y coordinate `y_p`.
-    pub y: Vec<f64>,
-    /// x velocity `vx_p`.
-    pub vx: Vec<f64>,
-    /// y velocity `vy_p`.
-    pub vy: Vec<f64>,
-    /// Mass `m_p` (positive).
-    pub mass: Vec<f64>,
-    /// Volume `V_p` (positive; an area times unit thickness in 2D).
-    pub volume: Vec<f64>,
-    /// Stress `σxx_p`.
-    pub sxx: Vec<f64>,
-    /// Stress `σyy_p`.
-    pub syy: Vec<f64>,
-    /// Shear stress `σxy_p`.
-    pub sxy: Vec<f64>,
-    /// Body force per unit mass, x component `bx_p`.
-    pub bx: Vec<f64>,
-    /// Body force per unit mass, y component `by_p`.
-    pub by: Vec<f64>,
-    /// Deformation gradient `F_xx`.
-    pub fxx: Vec<f64>,
-    /// Deformation gradient `F_xy = ∂x/∂X_y`.
-    pub fxy: Vec<f64>,
-    /// Deformation gradient `F_yx = ∂y/∂X_x`.
-    pub fyx: Vec<f64>,
-    /// Deformation gradient `F_yy`.
-    pub fyy: Vec<f64>,
-    /// APIC moment `B_xx` of `B_p = Σ_I N_I w_I (x_I − x_p)ᵀ`; the particle's affine velocity
-    /// is `C_p = B_p D_p⁻¹` with `D_p = Σ_I N_I (x_I − x_p)(x_I − x_p)ᵀ` at its current position.
-    /// With linear shape functions the four fields hold `C_p = Σ_I w_I ∇N_Iᵀ` itself.
-    pub affine_xx: Vec<f64>,
-    /// APIC moment `B_xy`.
-    pub affine_xy: Vec<f64>,
-    /// APIC moment `B_yx`.
-    pub affine_yx: Vec<f64>,
-    /// APIC moment `B_yy`.
-    pub affine_yy: Vec<f64>,
-    /// Index of the body (material) the particle belongs to.
-    pub body: Vec<usize>,
-    /// Permanent particle id: the particle's index when the state was created. Re-sorting
-    /// permutes the particles but not their ids.
-    pub id: Vec<usize>,
+/// Defines [`Particles`] from the one list of its fields (each a `Vec` of one entry per
+/// particle) and, from the same list, the views the sort's permutation, `append`, the checks and
+/// the checkpoint record take: a new particle field is one line here.
+macro_rules! particle_fields {
+    (real { $($(#[$doc:meta])* $real:ident,)* } index { $($(#[$idoc:meta])* $index:ident,)* }) => {
+        /// The state of all particles. Fields are public so a program can read and set them
+        /// directly; [`Particles::validate`] checks a state built by hand.
+        #[derive(Debug, Clone, PartialEq, Default)]
+        pub struct Particles {
+            $($(#[$doc])* pub $real: Vec<f64>,)*
+            $($(#[$idoc])* pub $index: Vec<usize>,)*
+        }
+
+        /// The number of real-valued particle fields.
+        pub(crate) const REAL_FIELDS: usize = [$(stringify!($real)),*].len();
+
+        impl Particles {
+            /// Each real-valued field with its name, in the list's order.
+            pub(crate) fn fields(&self) -> [(&'static str, &Vec<f64>); REAL_FIELDS] {
+                [$((stringify!($real), &self.$real)),*]
+            }
+
+            /// [`Particles::fields`], to write.
+            pub(crate) fn fields_mut(&mut self) -> [(&'static str, &mut Vec<f64>); REAL_FIELDS] {
+                [$((stringify!($real), &mut self.$real)),*]
+            }
+
+            /// Each index field (body, id), in the list's order.
+            pub(crate) fn index_fields(&self) -> [&Vec<usize>; 2] {
+                [$(&self.$index),*]
+            }
+
+            /// [`Particles::index_fields`], to write.
+            pub(crate) fn index_fields_mut(&mut self) -> [&mut Vec<usize>; 2] {
+                [$(&mut self.$index),*]
+            }
+        }
+    };
+}
+
+particle_fields! {
+    real {
+        /// x coordinate `x_p`.
+        x,
+        /// y coordinate `y_p`.
+        y,
+        /// x velocity `vx_p`.
+        vx,
+        /// y velocity `vy_p`.
+        vy,
+        /// Mass `m_p` (positive).
+        mass,
+        /// Volume `V_p` (positive; an area times unit thickness in 2D).
+        volume,
+        /// Stress `σxx_p`.
+        sxx,
+        /// Stress `σyy_p`.
+        syy,
+        /// Shear stress `σxy_p`.
+        sxy,
+        /// Body force per unit mass, x component `bx_p`.
+        bx,
+        /// Body force per unit mass, y component `by_p`.
+        by,
+        /// Deformation gradient `F_xx`.
+        fxx,
+        /// Deformation gradient `F_xy = ∂x/∂X_y`.
+        fxy,
+        /// Deformation gradient `F_yx = ∂y/∂X_x`.
+        fyx,
+        /// Deformation gradient `F_yy`.
+        fyy,
+        /// APIC moment `B_xx` of `B_p = Σ_I N_I w_I (x_I − x_p)ᵀ`; the particle's affine velocity
+        /// is `C_p = B_p D_p⁻¹` with `D_p = Σ_I N_I (x_I − x_p)(x_I − x_p)ᵀ` at its current position.
+        /// With linear shape functions the four fields hold `C_p = Σ_I w_I ∇N_Iᵀ` itself.
+        affine_xx,
+        /// APIC moment `B_xy`.
+        affine_xy,
+        /// APIC moment `B_yx`.
+        affine_yx,
+        /// APIC moment `B_yy`.
+        affine_yy,
+    }
+    index {
+        /// Index of the body (material) the particle belongs to.
+        body,
+        /// Permanent particle id: the particle's index when the state was created. Re-sorting
+        /// permutes the particles but not their ids.
+        id,
+    }
 }
 
 impl Particles {
@@ -85,29 +126,21 @@ impl Particles {
         check_len("y", n, y.len())?;
         check_len("mass", n, mass.len())?;
         check_len("volume", n, volume.len())?;
-        let particles = Particles {
+        let mut particles = Particles {
             x,
             y,
-            vx: vec![0.0; n],
-            vy: vec![0.0; n],
             mass,
             volume,
-            sxx: vec![0.0; n],
-            syy: vec![0.0; n],
-            sxy: vec![0.0; n],
-            bx: vec![0.0; n],
-            by: vec![0.0; n],
             fxx: vec![1.0; n],
-            fxy: vec![0.0; n],
-            fyx: vec![0.0; n],
             fyy: vec![1.0; n],
-            affine_xx: vec![0.0; n],
-            affine_xy: vec![0.0; n],
-            affine_yx: vec![0.0; n],
-            affine_yy: vec![0.0; n],
             body: vec![0; n],
             id: (0..n).collect(),
+            ..Particles::default()
         };
+        // The rest start at zero: at rest, stress-free, no body force or APIC moment.
+        for (_, field) in particles.fields_mut() {
+            field.resize(n, 0.0);
+        }
         particles.validate()?;
         Ok(particles)
     }
@@ -281,8 +314,9 @@ impl Particles {
         for ((_, a), (_, b)) in self.fields_mut().into_iter().zip(other.fields_mut()) {
             a.append(b);
         }
-        self.body.append(&mut other.body);
-        self.id.append(&mut other.id);
+        for (a, b) in self.index_fields_mut().into_iter().zip(other.index_fields_mut()) {
+            a.append(b);
+        }
         Ok(())
     }
 
@@ -316,7 +350,7 @@ impl Particles {
             std::mem::swap(field, scratch);
         }
         // The index fields go through the same buffer as bit patterns, then back.
-        for field in [&mut self.body, &mut self.id] {
+        for field in self.index_fields_mut() {
             for (k, s) in scratch.iter_mut().enumerate() {
                 *s = f64::from_bits(field[from(k)] as u64);
             }
@@ -324,54 +358,6 @@ impl Particles {
                 *f = s.to_bits() as usize;
             }
         }
-    }
-
-    fn fields_mut(&mut self) -> [(&'static str, &mut Vec<f64>); 19] {
-        [
-            ("x", &mut self.x),
-            ("y", &mut self.y),
-            ("vx", &mut self.vx),
-            ("vy", &mut self.vy),
-            ("mass", &mut self.mass),
-            ("volume", &mut self.volume),
-            ("sxx", &mut self.sxx),
-            ("syy", &mut self.syy),
-            ("sxy", &mut self.sxy),
-            ("bx", &mut self.bx),
-            ("by", &mut self.by),
-            ("fxx", &mut self.fxx),
-            ("fxy", &mut self.fxy),
-            ("fyx", &mut self.fyx),
-            ("fyy", &mut self.fyy),
-            ("affine_xx", &mut self.affine_xx),
-            ("affine_xy", &mut self.affine_xy),
-            ("affine_yx", &mut self.affine_yx),
-            ("affine_yy", &mut self.affine_yy),
-        ]
-    }
-
-    fn fields(&self) -> [(&'static str, &Vec<f64>); 19] {
-        [
-            ("x", &self.x),
-            ("y", &self.y),
-            ("vx", &self.vx),
-            ("vy", &self.vy),
-            ("mass", &self.mass),
-            ("volume", &self.volume),
-            ("sxx", &self.sxx),
-            ("syy", &self.syy),
-            ("sxy", &self.sxy),
-            ("bx", &self.bx),
-            ("by", &self.by),
-            ("fxx", &self.fxx),
-            ("fxy", &self.fxy),
-            ("fyx", &self.fyx),
-            ("fyy", &self.fyy),
-            ("affine_xx", &self.affine_xx),
-            ("affine_xy", &self.affine_xy),
-            ("affine_yx", &self.affine_yx),
-            ("affine_yy", &self.affine_yy),
-        ]
     }
 }
 

@@ -6,7 +6,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use serde::{Deserialize, Serialize};
 
 use crate::names::{self, Param, Spelled};
 
@@ -134,42 +134,13 @@ impl FromStr for Transfer {
     }
 }
 
-/// The table form of a transfer in a scene file.
-#[derive(Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-enum TransferTable {
-    Pic,
-    Flip,
-    Blend { flip: f64 },
-    Apic,
-    Xpic { k: usize },
-    Fmpm { k: usize },
+impl names::Choice for Transfer {
+    const EXPECTING: &'static str = "a transfer (pic, flip, apic, blend:α, xpic:k, fmpm:k)";
+    const PARAMETERS: &'static [(&'static str, &'static [&'static str])] =
+        &[("blend", &["flip"]), ("xpic", &["k"]), ("fmpm", &["k"])];
 }
 
-impl From<TransferTable> for Transfer {
-    fn from(t: TransferTable) -> Transfer {
-        match t {
-            TransferTable::Pic => Transfer::Pic,
-            TransferTable::Flip => Transfer::Flip,
-            TransferTable::Blend { flip } => Transfer::Blend { flip },
-            TransferTable::Apic => Transfer::Apic,
-            TransferTable::Xpic { k } => Transfer::Xpic { k },
-            TransferTable::Fmpm { k } => Transfer::Fmpm { k },
-        }
-    }
-}
-
-impl Serialize for Transfer {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        names::serialize(self, s)
-    }
-}
-
-impl<'de> Deserialize<'de> for Transfer {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Transfer, D::Error> {
-        names::deserialize::<D, Transfer, TransferTable>(d, "a transfer (pic, flip, apic, blend:α, xpic:k, fmpm:k)")
-    }
-}
+names::choice_serde!(Transfer);
 
 impl fmt::Display for UpdateScheme {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -265,4 +236,21 @@ impl FromStr for PositionUpdate {
             _ => Err(format!("unknown position update `{text}` (grid_velocity, trapezoidal)")),
         }
     }
+}
+
+/// How the time step is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum TimeStep {
+    /// A fixed step; it must not exceed the stable estimate unless
+    /// [`Options::allow_unstable_time_step`](crate::simulation::Options::allow_unstable_time_step) is set.
+    Fixed {
+        /// Step length (> 0).
+        dt: f64,
+    },
+    /// `Δt = number · Δt_stable`, recomputed every step (see [`Simulation::stable_time_step`](crate::simulation::Simulation::stable_time_step)).
+    Cfl {
+        /// Courant number in (0, 1].
+        number: f64,
+    },
 }

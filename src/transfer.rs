@@ -6,6 +6,8 @@
 pub use crate::fields::{deformation_increment, StrainRate, VectorField, VelocityGradient};
 pub use crate::kernels::{extend_to_inactive_nodes, ExtensionScratch};
 pub use crate::mass::{series_velocity_into, SeriesScratch};
+use nalgebra_sparse::{CooMatrix, CscMatrix};
+
 use crate::operators::{Operator, Operators};
 
 /// Grid momentum (the numerator of the seed's 4(A)):
@@ -206,4 +208,39 @@ fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
 pub fn extend_to_massless_nodes(ops: &Operators, is_active: &[bool], v: &mut VectorField) {
     let mut scratch = ExtensionScratch::default();
     extend_to_inactive_nodes(ops, is_active, v, &mut scratch);
+}
+
+/// The extension of [`extend_to_massless_nodes`] as a matrix: `E = D⁻¹ S Nᵀ` (nodes × nodes),
+/// with `S` the support of the inactive nodes (`S_Ip = 1` when inactive node `I` is in the
+/// support of particle `p`) and `D = diag(S 1)` the number of particles whose support holds
+/// each, so that
+///
+/// ```text
+/// E_IJ = (1/|P_I|) Σ_{p ∈ P_I} N_Jp     for inactive I in some support (other rows empty)
+/// ```
+///
+/// and `(E v)_I` is the extended value of node `I` for the values `v` before the extension. The
+/// implicit step eliminates these nodes with it (their displacement follows the nodes they read).
+///
+/// # Panics
+/// If `is_active` does not have one entry per node.
+pub fn extension_matrix(ops: &Operators, is_active: &[bool]) -> CscMatrix<f64> {
+    let n = ops.num_nodes();
+    assert_eq!(is_active.len(), n, "one flag per node");
+    let mut count = vec![0usize; n];
+    for p in 0..ops.num_particles() {
+        for (i, ..) in ops.column(p) {
+            count[i] += usize::from(!is_active[i]);
+        }
+    }
+    let mut s = CooMatrix::new(n, ops.num_particles());
+    for p in 0..ops.num_particles() {
+        for (i, ..) in ops.column(p) {
+            if !is_active[i] {
+                s.push(i, p, 1.0 / count[i] as f64);
+            }
+        }
+    }
+    let n_transposed = ops.n_matrix().transpose();
+    &CscMatrix::from(&s) * &n_transposed
 }

@@ -15,12 +15,7 @@ use sparse_mpm::{Grid, Operators, Particles, ShapeFunction};
 /// Round-off allowance relative to the largest magnitude compared.
 const ROUND_OFF: f64 = 1e-12;
 
-const SHAPES: [ShapeFunction; 4] = [
-    ShapeFunction::Linear,
-    ShapeFunction::Gimp { half_width: 0.25 },
-    ShapeFunction::QuadraticBSpline,
-    ShapeFunction::CubicBSpline,
-];
+const SHAPES: [ShapeFunction; 4] = sparse_mpm::shape::FAMILIES;
 
 fn close(a: &[f64], b: &[f64], what: &str) {
     assert_eq!(a.len(), b.len(), "{what}: lengths");
@@ -149,7 +144,7 @@ fn p2g_equals_the_single_products_for_every_shape_function_with_and_without_apic
     }
 }
 
-/// A grid state with random projected and updated velocities (and a series field).
+/// A grid state with random projected and updated velocities (and series and motion fields).
 fn random_grid(grid: &Grid, seed: u64) -> GridState {
     let mut state = GridState::new(grid);
     let n = grid.num_nodes();
@@ -161,6 +156,8 @@ fn random_grid(grid: &Grid, seed: u64) -> GridState {
         state.updated.y[i] = f(i, 1.3) - 0.2 * f(i, 0.4);
         state.series.x[i] = f(i, 0.9);
         state.series.y[i] = f(i, 1.9);
+        state.motion.x[i] = f(i, 0.3);
+        state.motion.y[i] = f(i, 2.7);
     }
     state
 }
@@ -183,10 +180,25 @@ fn g2p_equals_the_single_products_for_every_transfer_position_rule_and_update_sc
         let v_pic = interpolate(&ops, w);
         let v_ref = interpolate(&ops, v);
         let v_series = interpolate(&ops, series);
+        let v_motion = interpolate(&ops, &state.motion);
+        // The implicit step moves the particles by its motion field (never with a series
+        // transfer).
+        let motions = |t: Transfer| match t {
+            Transfer::Xpic { .. } | Transfer::Fmpm { .. } => vec![None],
+            _ => vec![None, Some(GridField::Motion)],
+        };
         for transfer in transfers {
-            for position in [PositionUpdate::GridVelocity, PositionUpdate::Trapezoidal] {
+            for (position, motion) in [PositionUpdate::GridVelocity, PositionUpdate::Trapezoidal]
+                .into_iter()
+                .flat_map(|position| motions(transfer).into_iter().map(move |m| (position, m)))
+            {
                 // USL asks for the gradient of the field the stress reads; MUSL and USF do not.
-                for gradient in [None, Some(GridField::Updated), Some(GridField::Series)] {
+                for gradient in [
+                    None,
+                    Some(GridField::Updated),
+                    Some(GridField::Series),
+                    Some(GridField::Motion),
+                ] {
                     let mut p = p0.clone();
                     let mut scratch = ParticleScratch::default();
                     let rule = G2pRule {
@@ -194,9 +206,10 @@ fn g2p_equals_the_single_products_for_every_transfer_position_rule_and_update_sc
                         position,
                         inertia: ApicInertia::of(shape, &grid),
                         gradient,
+                        motion,
                     };
                     kernels::g2p(&ops, &state, &rule, dt, &mut p, &mut scratch, &Workers::default());
-                    let what = format!("{} {transfer:?} {position:?} {gradient:?}", shape.name());
+                    let what = format!("{} {transfer:?} {position:?} {gradient:?} {motion:?}", shape.name());
                     let expected: (Vec<f64>, Vec<f64>) = (0..p.len())
                         .map(|k| {
                             let (old, pic, dv) = (
@@ -219,6 +232,7 @@ fn g2p_equals_the_single_products_for_every_transfer_position_rule_and_update_sc
                         .map(|k| {
                             let (old, new) = ([p0.vx[k], p0.vy[k]], [p.vx[k], p.vy[k]]);
                             let rate = |c: usize| match transfer {
+                                _ if motion.is_some() => [v_motion.x[k], v_motion.y[k]][c],
                                 Transfer::Xpic { .. } => [v_ref.x[k], v_ref.y[k]][c] + 0.5 * (new[c] - old[c]),
                                 Transfer::Fmpm { .. } => 0.5 * (old[c] + new[c]),
                                 _ if position == PositionUpdate::Trapezoidal => {
@@ -382,6 +396,29 @@ fn the_massless_node_extension_with_reused_work_arrays_equals_the_mean_of_its_pa
                 &expected,
                 &format!("{} seed {seed}: extended velocity", shape.name()),
             );
+            // The extension as a matrix: E v0 on the nodes it reaches, nothing elsewhere.
+            let e = sparse_mpm::transfer::extension_matrix(&ops, &is_active);
+            let (mut ex, mut ey) = (vec![0.0; n], vec![0.0; n]);
+            for (i, j, &w) in e.triplet_iter() {
+                ex[i] += w * v0.x[j];
+                ey[i] += w * v0.y[j];
+            }
+            for i in 0..n {
+                let (want, got) = if count[i] > 0 {
+                    ([v.x[i], v.y[i]], [ex[i], ey[i]])
+                } else {
+                    ([0.0, 0.0], [ex[i], ey[i]])
+                };
+                for c in 0..2 {
+                    assert!(
+                        (got[c] - want[c]).abs() <= 1e-12 * (1.0 + want[c].abs()),
+                        "{} seed {seed}: E v at node {i}: {} against {}",
+                        shape.name(),
+                        got[c],
+                        want[c]
+                    );
+                }
+            }
         }
     }
 }

@@ -149,6 +149,53 @@ fn scene_tables_read_as_the_same_choices() {
     assert_eq!(p, SingularityPolicy::Regularize { epsilon: 0.1 });
 }
 
+/// The table form is read by each choice's parameter names into its text: parameters may come
+/// in any order, an omitted one takes its default (also before one that is given), and a key
+/// the choice does not take is an error naming it and the keys it takes.
+#[test]
+fn table_forms_take_parameters_by_name_with_their_defaults_and_refuse_unknown_keys() {
+    let m: MassScheme = from_toml("{ cg = { max_iterations = 300 } }");
+    assert_eq!(
+        m,
+        MassScheme::Iterative {
+            tolerance: sparse_mpm::mass::DEFAULT_CG_TOLERANCE,
+            max_iterations: 300
+        }
+    );
+    let m: MassScheme = from_toml("{ cg = { max_iterations = 40, tolerance = 1e-6 } }");
+    assert_eq!(
+        m,
+        MassScheme::Iterative {
+            tolerance: 1e-6,
+            max_iterations: 40
+        }
+    );
+    let m: MassScheme = from_toml("{ lumped = {} }");
+    assert_eq!(m, MassScheme::Lumped);
+    let s: Stabilization = from_toml("{ linear_extension = { threshold = 0.4 } }");
+    assert_eq!(s, "linear_extension::0.4".parse::<Stabilization>().unwrap());
+    let s: ShapeFunction = from_toml("{ gimp = {} }");
+    assert_eq!(s, ShapeFunction::Gimp { half_width: 0.25 });
+    let read = |text: &str| {
+        toml::from_str::<Holder<MassScheme>>(&format!("value = {text}"))
+            .unwrap_err()
+            .to_string()
+    };
+    let e = read("{ cg = { tol = 1e-6 } }");
+    assert!(
+        e.contains("unknown key `tol`") && e.contains("tolerance, max_iterations"),
+        "{e}"
+    );
+    let e = read("{ lumped = { gamma = 0.5 } }");
+    assert!(e.contains("unknown key `gamma`") && e.contains("no parameters"), "{e}");
+    let e = read("{ blended = {} }");
+    assert!(e.contains("needs a parameter"), "{e}");
+    let e = read("{ blended = { gamma = 0.5 }, series = { k = 2 } }");
+    assert!(e.contains("one choice per table"), "{e}");
+    let e = read("{ bogus = { k = 2 } }");
+    assert!(e.contains("unknown mass scheme"), "{e}");
+}
+
 #[test]
 fn unknown_names_and_bad_parameters_are_errors_that_quote_the_text() {
     let e = "bogus".parse::<MassScheme>().unwrap_err();

@@ -65,12 +65,7 @@ fn run(spec: &BenchSpec, particles: usize, steps: usize) -> Result<Vec<u64>, Str
 
 #[test]
 fn threaded_runs_equal_the_serial_run_bit_for_bit() {
-    let shapes = [
-        ShapeFunction::Linear,
-        ShapeFunction::Gimp { half_width: 0.25 },
-        ShapeFunction::QuadraticBSpline,
-        ShapeFunction::CubicBSpline,
-    ];
+    let shapes = sparse_mpm::shape::FAMILIES;
     let (mut cases, mut completed) = (0, 0);
     for shape in shapes {
         for (update, transfer) in [

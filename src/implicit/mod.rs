@@ -4,6 +4,7 @@
 //! The tangent is the building block of Newmark integration on the grid, where the consistent
 //! mass costs no stable step (docs/implicit.md).
 
+pub(crate) mod newton;
 pub mod solve;
 pub mod tangent;
 
@@ -16,6 +17,7 @@ pub use tangent::{
 use serde::{Deserialize, Serialize};
 
 use crate::error::{MpmError, Result};
+use crate::schemes::TimeStep;
 
 /// How the grid equations are integrated in time.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -118,6 +120,35 @@ impl Newmark {
             );
         }
         Ok(())
+    }
+}
+
+impl Newmark {
+    /// The step of at most `max_dt` the integrator takes at time `time` after `steps` steps:
+    /// the fixed step.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidOption`] for a step that is not fixed; [`MpmError::StepRejected`] when
+    /// the clock cannot resolve the step or 1/(β Δt²) is not a number.
+    pub fn time_step(&self, time_step: TimeStep, time: f64, steps: usize, max_dt: f64) -> Result<f64> {
+        let TimeStep::Fixed { dt } = time_step else {
+            return Err(MpmError::InvalidOption {
+                option: "integrator",
+                reason: "the Newmark integrator takes a fixed time step".into(),
+            });
+        };
+        let dt = dt.min(max_dt);
+        let inertia = 1.0 / (self.beta * dt * dt);
+        if dt > 0.0 && time + dt > time && inertia.is_normal() {
+            return Ok(dt);
+        }
+        Err(MpmError::StepRejected {
+            step: steps + 1,
+            reason: format!(
+                "a step of {dt:e} at t = {time} is too short for the Newmark integrator (the time does not \
+                 advance, or 1/(β Δt²) is not a number): give a longer step"
+            ),
+        })
     }
 }
 

@@ -76,13 +76,17 @@ pub struct G2pRule {
     pub inertia: ApicInertia,
     /// The grid velocity whose gradient to write into the scratch (USL), if any.
     pub gradient: Option<GridField>,
+    /// The grid field `u` that moves the particles, `Δx_p = Δt Nᵀ u`, in place of the position
+    /// update (the implicit step: its converged displacement over `Δt`, [`GridField::Motion`]).
+    pub motion: Option<GridField>,
 }
 
 impl G2pRule {
     /// Values per node of the packed grid velocities the pass reads: 4 (`[w, v]`) when the
-    /// transfer's target and the gradient field are `w`, 8 (`[w, v, v*, u]`) otherwise.
+    /// transfer's target and the gradient field are `w`, 8 (`[w, v, v*, u]`, with the motion
+    /// field in place of `v*` when the rule has one) otherwise.
     pub(crate) fn packed_width(&self) -> usize {
-        let plain_target = self.transfer.series_terms().is_none();
+        let plain_target = self.transfer.series_terms().is_none() && self.motion.is_none();
         let plain_gradient = matches!(self.gradient, None | Some(GridField::Updated));
         if plain_target && plain_gradient {
             4
@@ -119,7 +123,7 @@ pub(crate) struct G2pBlock {
 /// FLIP:       v_p ← v_p + Δv     blend α: α (v_p + Δv) + (1 − α) v_pic
 /// XPIC, FMPM: v_p ← Nᵀ v*
 /// Δx_p = Δt Nᵀ w   (trapezoidal: (Δt/2)(v_p,old + Nᵀ w); FMPM: (Δt/2)(v_p,old + v_p,new);
-///                   XPIC: Δt (Nᵀ v + ½ (v_p,new − v_p,old)))
+///                   XPIC: Δt (Nᵀ v + ½ (v_p,new − v_p,old)); a motion field u: Δt Nᵀ u)
 /// L = [Gxᵀ u, Gyᵀ u]   for u = rule.gradient
 /// ```
 ///
@@ -158,10 +162,10 @@ pub(crate) fn pack_velocities(ops: &Operators, grid: &GridState, rule: &G2pRule,
     let span = ops.node_span();
     let width = rule.packed_width();
     let (w, v) = (&grid.updated, &grid.projected);
-    let target = if rule.transfer.series_terms().is_some() {
-        &grid.series
-    } else {
-        w
+    let target = match rule.motion {
+        Some(motion) => grid.field(motion),
+        None if rule.transfer.series_terms().is_some() => &grid.series,
+        None => w,
     };
     let gradient = grid.field(rule.gradient.unwrap_or(GridField::Updated));
     reserve_packed(packed, width * grid.updated.len());
@@ -615,6 +619,8 @@ fn update_group<R: Gather, const S: usize, const W: usize>(
     }
     let trapezoidal = rule.position == PositionUpdate::Trapezoidal;
     let (ux, uy) = match transfer {
+        // The motion field, packed in the target's place.
+        _ if rule.motion.is_some() => (tx, ty),
         Transfer::Xpic { .. } => (rx + c(0.5) * (new_x - old_x), ry + c(0.5) * (new_y - old_y)),
         Transfer::Fmpm { .. } => (c(0.5) * (old_x + new_x), c(0.5) * (old_y + new_y)),
         Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic if trapezoidal => {

@@ -46,7 +46,6 @@ use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::operators::Operators;
 use crate::particles::Particles;
-use crate::shape::ShapeFunction;
 
 /// Which grid velocity a phase reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,6 +56,9 @@ pub enum GridField {
     Updated,
     /// `v*`: the series velocity of XPIC and FMPM.
     Series,
+    /// `u/Δt`: the implicit step's converged grid displacement over the step, which moves and
+    /// strains the particles.
+    Motion,
 }
 
 /// The grid fields of one step, one entry per node (the lumped mass, its inverse and the
@@ -75,6 +77,8 @@ pub struct GridState {
     pub updated: VectorField,
     /// XPIC's or FMPM's series velocity `v*`.
     pub series: VectorField,
+    /// The implicit step's grid displacement over the step, `u/Δt`.
+    pub motion: VectorField,
     /// The grid's origin and cell size: node coordinates are formed from them where needed,
     /// not stored ([`Grid::node_position`]).
     frame: ([f64; 2], [f64; 2]),
@@ -107,6 +111,7 @@ impl GridState {
             acceleration: VectorField::zeros(n),
             updated: VectorField::zeros(n),
             series: VectorField::zeros(n),
+            motion: VectorField::zeros(n),
             frame: (grid.origin(), grid.cell_size()),
             angular_momentum: 0.0,
             span: 0..n,
@@ -125,6 +130,7 @@ impl GridState {
             GridField::Projected => &self.projected,
             GridField::Updated => &self.updated,
             GridField::Series => &self.series,
+            GridField::Motion => &self.motion,
         }
     }
 
@@ -136,7 +142,9 @@ impl GridState {
         match source {
             GridField::Projected => (&self.projected, &mut self.series),
             GridField::Updated => (&self.updated, &mut self.series),
-            GridField::Series => panic!("the series is taken of a projected or updated velocity"),
+            GridField::Series | GridField::Motion => {
+                panic!("the series is taken of a projected or updated velocity")
+            }
         }
     }
 
@@ -146,6 +154,7 @@ impl GridState {
             GridField::Projected => &mut self.projected,
             GridField::Updated => &mut self.updated,
             GridField::Series => &mut self.series,
+            GridField::Motion => &mut self.motion,
         }
     }
 }
@@ -191,29 +200,7 @@ pub struct ParticleScratch {
     blocks: Vec<G2pBlock>,
 }
 
-/// How a kernel's APIC inertia `D_p` is obtained.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ApicInertia {
-    /// Linear kernels: the particle stores `C_p` itself (their `D_p` vanishes on grid lines).
-    StoredC,
-    /// B-splines: `D_p = diag(dxx, dyy)`, the same for every particle.
-    Constant([f64; 2]),
-    /// GIMP: summed over the particle's column.
-    Column,
-}
-
-impl ApicInertia {
-    /// The inertia of `shape` on `grid` (`h²/4` quadratic, `h²/3` cubic B-splines).
-    pub fn of(shape: ShapeFunction, grid: &Grid) -> ApicInertia {
-        let [hx, hy] = grid.cell_size();
-        match shape {
-            ShapeFunction::Linear => ApicInertia::StoredC,
-            ShapeFunction::QuadraticBSpline => ApicInertia::Constant([hx * hx / 4.0, hy * hy / 4.0]),
-            ShapeFunction::CubicBSpline => ApicInertia::Constant([hx * hx / 3.0, hy * hy / 3.0]),
-            ShapeFunction::Gimp { .. } => ApicInertia::Column,
-        }
-    }
-}
+pub use crate::shape::ApicInertia;
 
 /// What a particle-to-grid pass ([`p2g`]) adds beside `m_L = N m` and `q = N (m ∘ v)`: the
 /// APIC affine momentum, gravity, and whether the internal force.

@@ -180,12 +180,7 @@ mod tests {
 
     #[test]
     fn the_tangent_forces_in_lanes_equal_the_scalar_stiffness_product_and_every_width_the_same_bits() {
-        for shape in [
-            ShapeFunction::Linear,
-            ShapeFunction::Gimp { half_width: 0.25 },
-            ShapeFunction::QuadraticBSpline,
-            ShapeFunction::CubicBSpline,
-        ] {
+        for shape in crate::shape::FAMILIES {
             let (ops, p) = block(shape);
             let n = ops.num_nodes();
             let np = p.len();

@@ -81,9 +81,10 @@ pub fn full_support_inertia(shape: ShapeFunction, grid: &Grid) -> f64 {
 /// a bouncing or vibrating body's edge crossed grid lines and pumped energy into it (a block
 /// dropped on a floor, quadratic B-splines, FLIP, CFL 0.5: +17% of its energy in 1.5 s).
 pub fn effective_onset(shape: ShapeFunction, onset: f64) -> f64 {
-    match shape {
-        ShapeFunction::Linear => 0.0,
-        ShapeFunction::Gimp { .. } | ShapeFunction::QuadraticBSpline | ShapeFunction::CubicBSpline => onset,
+    if shape.continuous_gradient() {
+        onset
+    } else {
+        0.0
     }
 }
 

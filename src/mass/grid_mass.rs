@@ -303,7 +303,8 @@ impl GridMass {
     /// 10⁶× with the ghost penalty at one step): they are left to the exact estimate, as is the
     /// plain consistent mass, whose singularity the solves report.
     pub(crate) fn bounding_mass(&self, role: Role) -> Option<BoundingMass<'_>> {
-        let scheme_ok = matches!(self.scheme(role), MassScheme::Consistent | MassScheme::Iterative { .. });
+        // The whole stabilised consistent mass (consistent, cg).
+        let scheme_ok = self.scheme(role).consistent_weight() == Some(1.0);
         let stabilization_ok = matches!(self.options.stabilization, Stabilization::LinearExtension { .. });
         let solver = self.solver(role);
         let whole = solver.gamma.is_none_or(|g| g == 1.0);
@@ -331,20 +332,20 @@ impl GridMass {
         if matches!(solver.outcome, SolveOutcome::FellBackToLumped { .. }) {
             return diagonal(1.0);
         }
-        let matrix = match self.scheme(role) {
-            MassScheme::Lumped => None,
-            MassScheme::Consistent | MassScheme::Blended { .. } => solver.gamma.and_then(|g| {
+        let scheme = self.scheme(role);
+        let matrix = if scheme.iterative() || scheme.series_terms().is_some() {
+            // What the iterations multiply by, in compressed columns or in stencil form.
+            self.matrices.operator(scheme).map(|op| op.to_csc())
+        } else {
+            // A factorized blend of weight γ (none for the lumped mass).
+            solver.gamma.and_then(|g| {
                 let m = self.matrices.factorized_csc()?;
                 Some(if g == 1.0 {
                     m.clone()
                 } else {
                     &(m * g) + &diagonal(1.0 - g)
                 })
-            }),
-            // What the iterations multiply by, in compressed columns or in stencil form.
-            scheme @ (MassScheme::Iterative { .. } | MassScheme::TruncatedSeries { .. }) => {
-                self.matrices.operator(scheme).map(|op| op.to_csc())
-            }
+            })
         };
         matrix.unwrap_or_else(|| diagonal(1.0))
     }
@@ -459,10 +460,8 @@ impl GridMass {
             &[Role::Velocity, Role::Acceleration]
         };
         for &role in roles {
-            let gamma = match self.scheme(role) {
-                MassScheme::Consistent | MassScheme::Iterative { .. } => 1.0,
-                MassScheme::Blended { gamma } => gamma,
-                MassScheme::Lumped | MassScheme::TruncatedSeries { .. } => continue,
+            let Some(gamma) = self.scheme(role).consistent_weight() else {
+                continue;
             };
             match policy {
                 SingularityPolicy::Error => {
@@ -536,14 +535,8 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
 
     /// Factorizes what the scheme of `role` needs, applying the singularity policy.
     fn factorize(&mut self, role: Role, ops: &Operators) -> Result<()> {
-        let gamma = match self.scheme(role) {
-            MassScheme::Consistent => Some(1.0),
-            MassScheme::Blended { gamma } if gamma > 0.0 => Some(gamma),
-            MassScheme::Blended { .. }
-            | MassScheme::Lumped
-            | MassScheme::TruncatedSeries { .. }
-            | MassScheme::Iterative { .. } => None,
-        };
+        let scheme = self.scheme(role);
+        let gamma = scheme.consistent_weight().filter(|_| scheme.factorized());
         let (policy, pivot_tolerance) = (self.options.singularity, self.options.pivot_tolerance);
         let (lumped, dofs, matrices, solver) = self.factor_parts(role);
         solver.gamma = None;

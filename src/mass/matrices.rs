@@ -113,15 +113,6 @@ fn stencil_preconditioner(m: &StencilMass, lumped: &[f64]) -> Vec<f64> {
     lumped.iter().zip(m.diagonal()).map(|(l, d)| l.max(d)).collect()
 }
 
-/// Whether `scheme` solves by a Cholesky factorization.
-fn factorized(scheme: MassScheme) -> bool {
-    match scheme {
-        MassScheme::Consistent => true,
-        MassScheme::Blended { gamma } => gamma > 0.0,
-        MassScheme::Lumped | MassScheme::TruncatedSeries { .. } | MassScheme::Iterative { .. } => false,
-    }
-}
-
 impl Matrices {
     /// No matrix (both solves lumped).
     pub(super) fn clear(&mut self) {
@@ -150,8 +141,8 @@ impl Matrices {
             Stabilization::GhostPenalty { .. } => false,
         };
         let stencil_only = needs_matrix
-            && !factorized(options.velocity)
-            && !factorized(options.acceleration)
+            && !options.velocity.factorized()
+            && !options.acceleration.factorized()
             && options.singularity == SingularityPolicy::Error
             && in_stencil;
         if stencil_only {
@@ -227,14 +218,7 @@ impl Matrices {
         self.preconditioner = None;
         let mut stencil = self.stencil.take().unwrap_or_default();
         stencil.reassemble(ops, m);
-        let iterative = |s: MassScheme| match s {
-            MassScheme::Iterative { .. } => true,
-            MassScheme::Lumped
-            | MassScheme::Consistent
-            | MassScheme::Blended { .. }
-            | MassScheme::TruncatedSeries { .. } => false,
-        };
-        let solves = iterative(options.velocity) || iterative(options.acceleration);
+        let solves = options.velocity.iterative() || options.acceleration.iterative();
         let mut stabilized = self.stencil_stabilized.take().unwrap_or_default();
         self.stencil_stabilized = match options.stabilization {
             Stabilization::PartialLumping { threshold } if solves => {
@@ -285,12 +269,7 @@ impl Matrices {
     /// The matrix `scheme` solves with: the plain consistent mass for the truncated series
     /// (which is defined with it), the stabilised one otherwise.
     pub(super) fn operator(&self, scheme: MassScheme) -> Option<MassOperator<'_>> {
-        let series = match scheme {
-            MassScheme::TruncatedSeries { .. } => true,
-            MassScheme::Lumped | MassScheme::Consistent | MassScheme::Blended { .. } | MassScheme::Iterative { .. } => {
-                false
-            }
-        };
+        let series = scheme.series_terms().is_some();
         let csc = if series {
             self.csc.as_ref()
         } else {

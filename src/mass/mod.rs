@@ -45,8 +45,8 @@ pub(crate) use grid_mass::BoundingMass;
 pub use grid_mass::{GridMass, Role};
 pub(crate) use matrices::csc_times;
 pub use options::{
-    Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome, SolveReport, MAX_CG_ITERATIONS,
-    MAX_SERIES_TERMS,
+    Constraints, MassOptions, MassScheme, SingularityPolicy, SolveOutcome, SolveReport, DEFAULT_CG_MAX_ITERATIONS,
+    DEFAULT_CG_TOLERANCE, MAX_CG_ITERATIONS, MAX_SERIES_TERMS,
 };
 pub use series::{series_velocity_into, SeriesOperator, SeriesScratch};
 pub use stabilization::Stabilization;
@@ -245,18 +245,7 @@ pub(crate) fn local_index(n: usize, dofs: &[usize]) -> Vec<usize> {
 /// What the library says about a singular mass matrix with shape functions `shape`: why (in
 /// the words of the kernel), and the remedies by the scene keys that choose them.
 pub(crate) fn singular_cause(shape: ShapeFunction) -> String {
-    let example = match shape {
-        ShapeFunction::Linear => "one particle in a bilinear cell is not enough",
-        ShapeFunction::Gimp { .. } => {
-            "one particle per cell is not enough: GIMP's weights are bilinear wherever a particle's domain lies inside one cell"
-        }
-        ShapeFunction::QuadraticBSpline => {
-            "a quadratic B-spline node is read across 3 × 3 cells, and sparse particles at a body's edge leave some of its combinations unseen"
-        }
-        ShapeFunction::CubicBSpline => {
-            "a cubic B-spline node is read across 4 × 4 cells, and sparse particles at a body's edge leave some of its combinations unseen"
-        }
-    };
+    let example = shape.singular_mass_example();
     format!(
         "the particles touching this node do not determine its motion independently of its neighbours' (a consistent \
 mass matrix needs, in every group of nodes, at least as many particles in general position as nodes: {example}). \

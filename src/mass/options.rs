@@ -4,7 +4,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use serde::{Deserialize, Serialize};
 
 use super::stabilization::Stabilization;
 use super::{DEFAULT_ACTIVE_MASS_TOLERANCE, DEFAULT_PIVOT_TOLERANCE};
@@ -65,6 +65,71 @@ impl MassScheme {
             | MassScheme::Blended { .. }
             | MassScheme::TruncatedSeries { .. }
             | MassScheme::Iterative { .. } => true,
+        }
+    }
+
+    /// The scheme's name in its text and the key of its table form (`lumped`, `consistent`,
+    /// `blended`, `series`, `cg`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            MassScheme::Lumped => "lumped",
+            MassScheme::Consistent => "consistent",
+            MassScheme::Blended { .. } => "blended",
+            MassScheme::TruncatedSeries { .. } => "series",
+            MassScheme::Iterative { .. } => "cg",
+        }
+    }
+
+    /// The weight `γ` of the consistent mass in the matrix the scheme stands for,
+    /// `(1 − γ) M_L + γ M`: consistent and cg 1, blended `γ`; `None` for the lumped mass and the
+    /// truncated series (which solve with no matrix of their own).
+    pub fn consistent_weight(&self) -> Option<f64> {
+        match *self {
+            MassScheme::Consistent | MassScheme::Iterative { .. } => Some(1.0),
+            MassScheme::Blended { gamma } => Some(gamma),
+            MassScheme::Lumped | MassScheme::TruncatedSeries { .. } => None,
+        }
+    }
+
+    /// Whether the scheme solves by a sparse Cholesky factorization: the consistent mass and a
+    /// blend with `γ > 0`.
+    pub fn factorized(&self) -> bool {
+        !self.iterative() && self.consistent_weight().is_some_and(|g| g > 0.0)
+    }
+
+    /// Whether the scheme solves by iterations with the matrix (the conjugate gradient).
+    pub fn iterative(&self) -> bool {
+        matches!(self, MassScheme::Iterative { .. })
+    }
+
+    /// Terms `k` of the truncated series, for that scheme.
+    pub fn series_terms(&self) -> Option<usize> {
+        match *self {
+            MassScheme::TruncatedSeries { k } => Some(k),
+            _ => None,
+        }
+    }
+
+    /// The Fourier symbol of the scheme's inverse for the symbols `m_l` of the lumped and `m`
+    /// of the consistent mass:
+    ///
+    /// ```text
+    /// 1/m̂_L (lumped),  1/M̂ (consistent, cg),  1/((1 − γ) m̂_L + γ M̂) (blended),
+    /// (1/m̂_L) Σ_{ℓ<k} (1 − M̂/m̂_L)^ℓ (series)
+    /// ```
+    ///
+    /// infinite where the inverted symbol is below `10⁻¹² m̂_L` (a singular matrix).
+    pub fn inverse_symbol(&self, m_l: f64, m: f64) -> f64 {
+        if let Some(k) = self.series_terms() {
+            let r = 1.0 - m / m_l;
+            return (0..k).map(|l| r.powi(l as i32)).sum::<f64>() / m_l;
+        }
+        let d = self.consistent_weight().map_or(m_l, |g| (1.0 - g) * m_l + g * m);
+        // A symbol at round-off of the lumped mass is a singular matrix: no finite inverse.
+        if d > 1e-12 * m_l {
+            1.0 / d
+        } else {
+            f64::INFINITY
         }
     }
 
@@ -179,68 +244,18 @@ impl FromStr for MassScheme {
     }
 }
 
-/// The table form of a mass scheme in a scene file.
-#[derive(Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-enum MassSchemeTable {
-    Lumped,
-    Consistent,
-    Blended {
-        gamma: f64,
-    },
-    #[serde(alias = "truncated_series")]
-    Series {
-        k: usize,
-    },
-    #[serde(alias = "iterative")]
-    Cg {
-        #[serde(default = "default_cg_tolerance")]
-        tolerance: f64,
-        #[serde(default = "default_cg_max_iterations")]
-        max_iterations: usize,
-    },
+impl names::Choice for MassScheme {
+    const EXPECTING: &'static str = "a mass scheme (lumped, consistent, blended:γ, series:k, cg[:tolerance])";
+    const PARAMETERS: &'static [(&'static str, &'static [&'static str])] = &[
+        ("blended", &["gamma"]),
+        ("series", &["k"]),
+        ("truncated_series", &["k"]),
+        ("cg", &["tolerance", "max_iterations"]),
+        ("iterative", &["tolerance", "max_iterations"]),
+    ];
 }
 
-fn default_cg_tolerance() -> f64 {
-    DEFAULT_CG_TOLERANCE
-}
-
-fn default_cg_max_iterations() -> usize {
-    DEFAULT_CG_MAX_ITERATIONS
-}
-
-impl From<MassSchemeTable> for MassScheme {
-    fn from(t: MassSchemeTable) -> MassScheme {
-        match t {
-            MassSchemeTable::Lumped => MassScheme::Lumped,
-            MassSchemeTable::Consistent => MassScheme::Consistent,
-            MassSchemeTable::Blended { gamma } => MassScheme::Blended { gamma },
-            MassSchemeTable::Series { k } => MassScheme::TruncatedSeries { k },
-            MassSchemeTable::Cg {
-                tolerance,
-                max_iterations,
-            } => MassScheme::Iterative {
-                tolerance,
-                max_iterations,
-            },
-        }
-    }
-}
-
-impl Serialize for MassScheme {
-    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-        names::serialize(self, s)
-    }
-}
-
-impl<'de> Deserialize<'de> for MassScheme {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<MassScheme, D::Error> {
-        names::deserialize::<D, MassScheme, MassSchemeTable>(
-            d,
-            "a mass scheme (lumped, consistent, blended:γ, series:k, cg[:tolerance])",
-        )
-    }
-}
+names::choice_serde!(MassScheme);
 
 /// What to do when the mass matrix to be solved is singular (or so close that a solve would be
 /// garbage), or an iterative solve fails. Whatever happens is recorded in the [`SolveReport`].
@@ -295,39 +310,12 @@ impl FromStr for SingularityPolicy {
     }
 }
 
-/// The table form of a singularity policy in a scene file.
-#[derive(Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-enum SingularityTable {
-    Error,
-    FallbackToLumped,
-    Regularize { epsilon: f64 },
+impl names::Choice for SingularityPolicy {
+    const EXPECTING: &'static str = "a singularity policy (error, fallback_to_lumped, regularize:ε)";
+    const PARAMETERS: &'static [(&'static str, &'static [&'static str])] = &[("regularize", &["epsilon"])];
 }
 
-impl From<SingularityTable> for SingularityPolicy {
-    fn from(t: SingularityTable) -> SingularityPolicy {
-        match t {
-            SingularityTable::Error => SingularityPolicy::Error,
-            SingularityTable::FallbackToLumped => SingularityPolicy::FallbackToLumped,
-            SingularityTable::Regularize { epsilon } => SingularityPolicy::Regularize { epsilon },
-        }
-    }
-}
-
-impl Serialize for SingularityPolicy {
-    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-        names::serialize(self, s)
-    }
-}
-
-impl<'de> Deserialize<'de> for SingularityPolicy {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<SingularityPolicy, D::Error> {
-        names::deserialize::<D, SingularityPolicy, SingularityTable>(
-            d,
-            "a singularity policy (error, fallback_to_lumped, regularize:ε)",
-        )
-    }
-}
+names::choice_serde!(SingularityPolicy);
 
 /// Nodal degrees of freedom whose value is prescribed (fixed or roller nodes). They are
 /// eliminated from the mass solve.

@@ -34,8 +34,6 @@ use nalgebra_sparse::{CooMatrix, CscMatrix};
 use std::fmt;
 use std::str::FromStr;
 
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
 use super::extension::extension_penalty;
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
@@ -237,77 +235,17 @@ impl FromStr for Stabilization {
     }
 }
 
-/// The table form of a stabilisation in a scene file.
-#[derive(Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-enum StabilizationTable {
-    None,
-    GhostPenalty {
-        gamma: f64,
-    },
-    PartialLumping {
-        threshold: f64,
-    },
-    LinearExtension {
-        #[serde(default = "default_extension_weight")]
-        gamma: f64,
-        #[serde(default = "default_extension_threshold")]
-        threshold: f64,
-        onset: Option<f64>,
-    },
+impl names::Choice for Stabilization {
+    const EXPECTING: &'static str =
+        "a stabilization (none, linear_extension:γ:θ:ψ₀, ghost_penalty:γ, partial_lumping:θ)";
+    const PARAMETERS: &'static [(&'static str, &'static [&'static str])] = &[
+        ("ghost_penalty", &["gamma"]),
+        ("partial_lumping", &["threshold"]),
+        ("linear_extension", &["gamma", "threshold", "onset"]),
+    ];
 }
 
-fn default_extension_weight() -> f64 {
-    DEFAULT_EXTENSION_WEIGHT
-}
-
-fn default_extension_threshold() -> f64 {
-    DEFAULT_EXTENSION_THRESHOLD
-}
-
-impl From<StabilizationTable> for Stabilization {
-    fn from(t: StabilizationTable) -> Stabilization {
-        match t {
-            StabilizationTable::None => Stabilization::None,
-            StabilizationTable::GhostPenalty { gamma } => Stabilization::GhostPenalty { gamma },
-            StabilizationTable::PartialLumping { threshold } => Stabilization::PartialLumping { threshold },
-            StabilizationTable::LinearExtension {
-                gamma,
-                threshold,
-                onset,
-            } => Stabilization::LinearExtension {
-                gamma,
-                threshold,
-                onset: onset.unwrap_or(DEFAULT_EXTENSION_ONSET.min(threshold)),
-            },
-        }
-    }
-}
-
-impl Serialize for Stabilization {
-    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-        names::serialize(self, s)
-    }
-}
-
-impl<'de> Deserialize<'de> for Stabilization {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Stabilization, D::Error> {
-        names::deserialize::<D, Stabilization, StabilizationTable>(
-            d,
-            "a stabilization (none, linear_extension:γ:θ:ψ₀, ghost_penalty:γ, partial_lumping:θ)",
-        )
-    }
-}
-
-/// Polynomial degree of the grid functions of a kernel (GIMP weights integrate the bilinear
-/// grid functions over the particle's domain, so its grid space is bilinear).
-fn degree(shape: ShapeFunction) -> usize {
-    match shape {
-        ShapeFunction::Linear | ShapeFunction::Gimp { .. } => 1,
-        ShapeFunction::QuadraticBSpline => 2,
-        ShapeFunction::CubicBSpline => 3,
-    }
-}
+names::choice_serde!(Stabilization);
 
 /// The 1D grid function of degree `p` centred on node 0, at `ξ` cell units from it.
 fn kernel(p: usize, xi: f64) -> f64 {
@@ -424,7 +362,7 @@ pub fn ghost_penalty(ops: &Operators, lumped: &[f64], active: &[bool], gamma: f6
         lumped.len() == n && active.len() == n,
         "one lumped mass and one flag per node"
     );
-    let p = degree(ops.shape_function());
+    let p = ops.shape_function().degree();
     let (read, dims) = read_cells(ops, grid, p);
     let is_read = |k: isize, l: isize| {
         k >= 0 && l >= 0 && (k as usize) < dims[0] && (l as usize) < dims[1] && read[l as usize * dims[0] + k as usize]

@@ -56,7 +56,7 @@ use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::parallel::{Strided, Workers};
 use crate::particles::Particles;
-use crate::shape::{bspline, gimp, linear, AxisFrame, ShapeFunction};
+use crate::shape::{AxisFrame, ShapeFunction};
 use crate::with_support;
 use locate::fill_local_body;
 use locate::LocalBlock;
@@ -252,11 +252,11 @@ impl Operators {
             // `t` alone, so every column's factors are stored.
             self.factors.resize(num_particles * 4 * support, 0.0);
             // A fixed stencil size per call lets the compiler unroll the loops.
-            match shape {
-                ShapeFunction::Linear => self.fill_factors::<{ linear::SUPPORT }>(x, y, workers),
-                ShapeFunction::Gimp { .. } => self.fill_factors::<{ gimp::SUPPORT }>(x, y, workers),
-                ShapeFunction::QuadraticBSpline => self.fill_factors::<{ bspline::QUADRATIC_SUPPORT }>(x, y, workers),
-                ShapeFunction::CubicBSpline => self.fill_factors::<{ bspline::CUBIC_SUPPORT }>(x, y, workers),
+            match shape.support() {
+                2 => self.fill_factors::<2>(x, y, workers),
+                3 => self.fill_factors::<3>(x, y, workers),
+                4 => self.fill_factors::<4>(x, y, workers),
+                s => unreachable!("a support of {s} nodes per axis (at most MAX_SUPPORT = 4)"),
             }
         }
         Ok(())

@@ -95,19 +95,17 @@ impl<const S: usize> Stencil<S> {
 }
 
 /// Calls `$f::<S>(…)` with `S` bound to the support of the operators' shape function as a
-/// constant (2, 3 or 4), so that the loops over a stencil unroll: one match over the shape
-/// functions, so that a new one is named here by the compiler.
+/// constant (2, 3 or 4 nodes per axis, [`crate::ShapeFunction::support`]), so that the loops
+/// over a stencil unroll.
 #[macro_export]
 #[doc(hidden)]
 macro_rules! with_support {
     ($ops:expr, $f:ident :: <S $(, $g:tt)*> ( $($arg:expr),* $(,)? )) => {
-        match $ops.shape_function() {
-            $crate::ShapeFunction::Linear => $f::<{ $crate::shape::linear::SUPPORT } $(, $g)*>($($arg),*),
-            $crate::ShapeFunction::Gimp { .. } => $f::<{ $crate::shape::gimp::SUPPORT } $(, $g)*>($($arg),*),
-            $crate::ShapeFunction::QuadraticBSpline => {
-                $f::<{ $crate::shape::bspline::QUADRATIC_SUPPORT } $(, $g)*>($($arg),*)
-            }
-            $crate::ShapeFunction::CubicBSpline => $f::<{ $crate::shape::bspline::CUBIC_SUPPORT } $(, $g)*>($($arg),*),
+        match $ops.shape_function().support() {
+            2 => $f::<2 $(, $g)*>($($arg),*),
+            3 => $f::<3 $(, $g)*>($($arg),*),
+            4 => $f::<4 $(, $g)*>($($arg),*),
+            s => unreachable!("a support of {s} nodes per axis (at most MAX_SUPPORT = 4)"),
         }
     };
 }

@@ -5,7 +5,7 @@ use super::{
     MAX_SPEED,
 };
 use crate::error::{MpmError, Result};
-use crate::mass::{MassScheme, SingularityPolicy, Stabilization};
+use crate::mass::{SingularityPolicy, Stabilization};
 use crate::numbers::exact;
 
 /// `[x, y]` with [`exact`].
@@ -22,17 +22,6 @@ fn parameter_error(prefix: &str, e: MpmError) -> MpmError {
             format!("{} is invalid: {reason}", exact(value)),
         ),
         e => invalid(prefix, e.to_string()),
-    }
-}
-
-/// The name of a mass scheme with a parameter (`blended`, `series`, `cg`), as the key of its
-/// table form; empty for schemes without one.
-fn mass_scheme_key(scheme: &MassScheme) -> &'static str {
-    match scheme {
-        MassScheme::Blended { .. } => ".blended",
-        MassScheme::TruncatedSeries { .. } => ".series",
-        MassScheme::Iterative { .. } => ".cg",
-        MassScheme::Lumped | MassScheme::Consistent => "",
     }
 }
 
@@ -192,7 +181,7 @@ impl Scene {
         for (role, scheme) in [("velocity", s.mass.velocity), ("acceleration", s.mass.acceleration)] {
             scheme
                 .validate()
-                .map_err(|e| parameter_error(&format!("schemes.mass.{role}{}", mass_scheme_key(&scheme)), e))?;
+                .map_err(|e| parameter_error(&format!("schemes.mass.{role}.{}", scheme.name()), e))?;
         }
         for (name, value, meaning) in [
             (

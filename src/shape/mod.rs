@@ -59,8 +59,6 @@ pub mod linear;
 use std::fmt;
 use std::str::FromStr;
 
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::lanes::Real;
@@ -126,6 +124,34 @@ pub enum ShapeFunction {
     CubicBSpline,
 }
 
+/// One of each family (GIMP at its default half-width), for studies and tests that run them all.
+pub const FAMILIES: [ShapeFunction; 4] = [
+    ShapeFunction::Linear,
+    ShapeFunction::Gimp {
+        half_width: DEFAULT_GIMP_HALF_WIDTH,
+    },
+    ShapeFunction::QuadraticBSpline,
+    ShapeFunction::CubicBSpline,
+];
+
+/// How a kernel's APIC inertia `D_p` is obtained ([`ShapeFunction::apic_inertia`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ApicInertia {
+    /// Linear kernels: the particle stores `C_p` itself (their `D_p` vanishes on grid lines).
+    StoredC,
+    /// B-splines: `D_p = diag(dxx, dyy)`, the same for every particle.
+    Constant([f64; 2]),
+    /// GIMP: summed over the particle's column.
+    Column,
+}
+
+impl ApicInertia {
+    /// The inertia of `shape` on `grid` ([`ShapeFunction::apic_inertia`]).
+    pub fn of(shape: ShapeFunction, grid: &Grid) -> ApicInertia {
+        shape.apic_inertia(grid)
+    }
+}
+
 /// uGIMP's default particle half-width, a quarter cell (2 × 2 particles per cell).
 pub const DEFAULT_GIMP_HALF_WIDTH: f64 = 0.25;
 
@@ -163,45 +189,12 @@ impl FromStr for ShapeFunction {
     }
 }
 
-/// The table form of a shape function in a scene file.
-#[derive(Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-enum ShapeTable {
-    Linear,
-    Gimp {
-        half_width: f64,
-    },
-    #[serde(rename = "quadratic_bspline")]
-    QuadraticBSpline,
-    #[serde(rename = "cubic_bspline")]
-    CubicBSpline,
+impl names::Choice for ShapeFunction {
+    const EXPECTING: &'static str = "a shape function (linear, gimp:l, quadratic_bspline, cubic_bspline)";
+    const PARAMETERS: &'static [(&'static str, &'static [&'static str])] = &[("gimp", &["half_width"])];
 }
 
-impl From<ShapeTable> for ShapeFunction {
-    fn from(t: ShapeTable) -> ShapeFunction {
-        match t {
-            ShapeTable::Linear => ShapeFunction::Linear,
-            ShapeTable::Gimp { half_width } => ShapeFunction::Gimp { half_width },
-            ShapeTable::QuadraticBSpline => ShapeFunction::QuadraticBSpline,
-            ShapeTable::CubicBSpline => ShapeFunction::CubicBSpline,
-        }
-    }
-}
-
-impl Serialize for ShapeFunction {
-    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-        names::serialize(self, s)
-    }
-}
-
-impl<'de> Deserialize<'de> for ShapeFunction {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<ShapeFunction, D::Error> {
-        names::deserialize::<D, ShapeFunction, ShapeTable>(
-            d,
-            "a shape function (linear, gimp:l, quadratic_bspline, cubic_bspline)",
-        )
-    }
-}
+names::choice_serde!(ShapeFunction);
 
 /// One axis of a point's support: nodes `first .. first + len` along that axis carry
 /// `value[k]` and `derivative[k]` (already divided by the cell size).
@@ -303,6 +296,67 @@ impl ShapeFunction {
     /// Fewest cells along an axis that can hold a point's support: `support() − 1`.
     pub fn min_cells(&self) -> usize {
         self.support() - 1
+    }
+
+    /// Polynomial degree of the grid functions: linear and GIMP 1 (GIMP's weights integrate the
+    /// bilinear grid functions over the particle's domain, so its grid space is bilinear),
+    /// quadratic 2, cubic 3.
+    pub fn degree(&self) -> usize {
+        match self {
+            ShapeFunction::Linear | ShapeFunction::Gimp { .. } => 1,
+            ShapeFunction::QuadraticBSpline => 2,
+            ShapeFunction::CubicBSpline => 3,
+        }
+    }
+
+    /// Whether the weights' gradients are continuous as a particle crosses a grid line (all but
+    /// the bilinear functions, whose gradient jumps there).
+    pub fn continuous_gradient(&self) -> bool {
+        !matches!(self, ShapeFunction::Linear)
+    }
+
+    /// How APIC obtains the inertia `D_p = Σ_I N_I (x_I − x_p)(x_I − x_p)ᵀ` on `grid`: stored
+    /// `C_p` for the bilinear functions (their `D_p` vanishes on grid lines), `h²/4` (quadratic)
+    /// and `h²/3` (cubic B-splines) per axis, summed over the column for GIMP.
+    pub fn apic_inertia(&self, grid: &Grid) -> ApicInertia {
+        let [hx, hy] = grid.cell_size();
+        match self {
+            ShapeFunction::Linear => ApicInertia::StoredC,
+            ShapeFunction::QuadraticBSpline => ApicInertia::Constant([hx * hx / 4.0, hy * hy / 4.0]),
+            ShapeFunction::CubicBSpline => ApicInertia::Constant([hx * hx / 3.0, hy * hy / 3.0]),
+            ShapeFunction::Gimp { .. } => ApicInertia::Column,
+        }
+    }
+
+    /// Why a consistent mass with these functions can be singular, in the words of the kernel
+    /// (for the message of a singular mass matrix).
+    pub fn singular_mass_example(&self) -> &'static str {
+        match self {
+            ShapeFunction::Linear => "one particle in a bilinear cell is not enough",
+            ShapeFunction::Gimp { .. } => {
+                "one particle per cell is not enough: GIMP's weights are bilinear wherever a particle's domain lies \
+                 inside one cell"
+            }
+            ShapeFunction::QuadraticBSpline => {
+                "a quadratic B-spline node is read across 3 × 3 cells, and sparse particles at a body's edge leave \
+                 some of its combinations unseen"
+            }
+            ShapeFunction::CubicBSpline => {
+                "a cubic B-spline node is read across 4 × 4 cells, and sparse particles at a body's edge leave some \
+                 of its combinations unseen"
+            }
+        }
+    }
+
+    /// The interior period-error coefficients `[c_lumped, c_consistent]` of the explicit update
+    /// with quarter-point particles, in `c θ²/96` (`θ = k h`, docs/mass.md), where a closed form
+    /// is known: quadratic B-splines `[25, 1]`, cubic `[32, 0]`.
+    pub fn interior_period_error(&self) -> Option<[f64; 2]> {
+        match self {
+            ShapeFunction::QuadraticBSpline => Some([25.0, 1.0]),
+            ShapeFunction::CubicBSpline => Some([32.0, 0.0]),
+            ShapeFunction::Linear | ShapeFunction::Gimp { .. } => None,
+        }
     }
 
     /// `[x_min, x_max, y_min, y_max]` of the region where points are accepted: the grid shrunk

@@ -1,8 +1,6 @@
 //! The choices of a simulation: update scheme, transfer, time step, bodies, and [`Options`]
 //! holding them all.
 
-use serde::{Deserialize, Serialize};
-
 use crate::boundary::BoundaryCondition;
 use crate::error::{MpmError, Result};
 pub use crate::implicit::{Integrator, Newmark};
@@ -10,28 +8,12 @@ use crate::mass::{MassOptions, MassScheme};
 use crate::material::Material;
 use crate::particles::{MAX_ACCELERATION, MAX_SPEED};
 use crate::schemes::PositionUpdate;
+pub use crate::schemes::TimeStep;
 pub use crate::schemes::{Transfer, UpdateScheme};
 use crate::shape::ShapeFunction;
 
 /// Default [`Options::stability_interval`]: steps between estimates of the stable time step.
 pub const DEFAULT_STABILITY_INTERVAL: usize = 100;
-
-/// How the time step is chosen.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum TimeStep {
-    /// A fixed step; it must not exceed the stable estimate unless
-    /// [`Options::allow_unstable_time_step`] is set.
-    Fixed {
-        /// Step length (> 0).
-        dt: f64,
-    },
-    /// `Δt = number · Δt_stable`, recomputed every step (see [`Simulation::stable_time_step`](super::Simulation::stable_time_step)).
-    Cfl {
-        /// Courant number in (0, 1].
-        number: f64,
-    },
-}
 
 /// A body: a named group of particles sharing a material.
 #[derive(Debug, Clone, PartialEq)]

@@ -184,7 +184,7 @@ impl Simulation {
     /// (9)–(13): the grid-to-particle pass, the stress update of USL and MUSL, the positions.
     /// USL updates the stress in the pass itself, and USL and USF move the particles there (and
     /// sum them for the report), from the same per-particle code as the passes of their own.
-    fn particle_phases(&mut self, plan: &StepPlan, dt: f64) -> Result<()> {
+    pub(super) fn particle_phases(&mut self, plan: &StepPlan, dt: f64) -> Result<()> {
         let Simulation {
             setup,
             options,
@@ -198,8 +198,11 @@ impl Simulation {
             transfer: options.transfer,
             position: options.position_update,
             inertia: ApicInertia::of(options.shape, &setup.grid),
-            gradient: (stress_last == Some(StressFrom::Updated))
-                .then(|| SeriesTransfer::stress_field(series, GridField::Updated)),
+            gradient: plan.motion.or_else(|| {
+                (stress_last == Some(StressFrom::Updated))
+                    .then(|| SeriesTransfer::stress_field(series, GridField::Updated))
+            }),
+            motion: plan.motion,
         };
         let fused = Fused {
             stress: (stress_last == Some(StressFrom::Updated)).then_some(&setup.materials[..]),
@@ -347,6 +350,9 @@ pub(super) struct StepPlan {
     pub(super) series: Option<SeriesTransfer>,
     /// The APIC inertia of the shape functions, when the transfer is APIC.
     pub(super) apic: Option<ApicInertia>,
+    /// The implicit step's motion field `u/Δt` ([`GridField::Motion`]), which moves and strains
+    /// the particles in the grid-to-particle pass in place of the updated velocity.
+    pub(super) motion: Option<GridField>,
 }
 
 impl StepPlan {
@@ -363,9 +369,15 @@ impl StepPlan {
                 && setup.prescribed.mirror.is_empty()
                 && explicit,
             stress_first: schedule.stress_first && explicit,
-            stress_last: schedule.stress_last,
+            // The implicit step strains the particles in its grid-to-particle pass.
+            stress_last: if explicit {
+                schedule.stress_last
+            } else {
+                Some(StressFrom::Updated)
+            },
             series,
             apic: apic_inertia(options, &setup.grid),
+            motion: (!explicit).then_some(GridField::Motion),
         }
     }
 }

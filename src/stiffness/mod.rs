@@ -602,16 +602,8 @@ pub const FLIP_CROSSING_MARGIN: f64 = 0.5;
 /// 0.5. PIC (`α = 0`) and the other masses with continuous-gradient kernels stayed within 2% at
 /// 0.9, so they keep the limit whole. Between, `μ` is interpolated in `α`.
 pub fn crossing_margin(shape: ShapeFunction, masses: [MassScheme; 2], flip_weight: f64) -> f64 {
-    let abrupt = match shape {
-        ShapeFunction::Linear => true,
-        ShapeFunction::Gimp { .. } | ShapeFunction::QuadraticBSpline | ShapeFunction::CubicBSpline => false,
-    };
-    let series = masses.iter().any(|m| match m {
-        MassScheme::TruncatedSeries { k } => *k >= 2,
-        MassScheme::Lumped | MassScheme::Consistent | MassScheme::Blended { .. } | MassScheme::Iterative { .. } => {
-            false
-        }
-    });
+    let abrupt = !shape.continuous_gradient();
+    let series = masses.iter().any(|m| m.series_terms().is_some_and(|k| k >= 2));
     if abrupt || series {
         1.0 - flip_weight.clamp(0.0, 1.0) * (1.0 - FLIP_CROSSING_MARGIN)
     } else {

@@ -189,12 +189,7 @@ impl Default for StudySpec {
                 pair(c, l),
                 MassOptions::both(MassScheme::Blended { gamma: 13.0 / 18.0 }),
             ],
-            shapes: vec![
-                ShapeFunction::Linear,
-                ShapeFunction::Gimp { half_width: 0.25 },
-                ShapeFunction::QuadraticBSpline,
-                ShapeFunction::CubicBSpline,
-            ],
+            shapes: sparse_mpm::shape::FAMILIES.to_vec(),
             update: UpdateScheme::Musl,
             cfl: 0.2,
             bar_cells: vec![8, 16, 32, 64, 128],

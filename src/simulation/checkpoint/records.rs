@@ -9,7 +9,7 @@ use crate::boundary::{BoundaryCondition, Condition, Edge, WallRule};
 use crate::grid::{Grid, NodeOrder};
 use crate::mass::MassOptions;
 use crate::material::{LinearElastic, Material, NeoHookean};
-use crate::particles::Particles;
+use crate::particles::{Particles, REAL_FIELDS};
 use crate::schemes::PositionUpdate;
 use crate::shape::ShapeFunction;
 use crate::simulation::stability::{Basis, Stability};
@@ -70,29 +70,12 @@ pub(super) enum MaterialRecord {
     NeoHookean(NeoHookean),
 }
 
+/// The particles' fields in the order of their one list (`Particles::fields`): postcard
+/// writes a fixed-size array as the fields of a struct, one after the other.
 #[derive(Serialize, Deserialize)]
 pub(super) struct ParticlesRecord<'a> {
-    x: Cow<'a, [f64]>,
-    y: Cow<'a, [f64]>,
-    vx: Cow<'a, [f64]>,
-    vy: Cow<'a, [f64]>,
-    mass: Cow<'a, [f64]>,
-    volume: Cow<'a, [f64]>,
-    sxx: Cow<'a, [f64]>,
-    syy: Cow<'a, [f64]>,
-    sxy: Cow<'a, [f64]>,
-    bx: Cow<'a, [f64]>,
-    by: Cow<'a, [f64]>,
-    fxx: Cow<'a, [f64]>,
-    fxy: Cow<'a, [f64]>,
-    fyx: Cow<'a, [f64]>,
-    fyy: Cow<'a, [f64]>,
-    affine_xx: Cow<'a, [f64]>,
-    affine_xy: Cow<'a, [f64]>,
-    affine_yx: Cow<'a, [f64]>,
-    affine_yy: Cow<'a, [f64]>,
-    body: Cow<'a, [usize]>,
-    id: Cow<'a, [usize]>,
+    reals: [Cow<'a, [f64]>; REAL_FIELDS],
+    indices: [Cow<'a, [usize]>; 2],
 }
 
 #[derive(Serialize, Deserialize)]
@@ -250,102 +233,21 @@ impl BodyRecord {
 
 impl<'a> ParticlesRecord<'a> {
     pub(super) fn of(p: &'a Particles) -> ParticlesRecord<'a> {
-        let Particles {
-            x,
-            y,
-            vx,
-            vy,
-            mass,
-            volume,
-            sxx,
-            syy,
-            sxy,
-            bx,
-            by,
-            fxx,
-            fxy,
-            fyx,
-            fyy,
-            affine_xx,
-            affine_xy,
-            affine_yx,
-            affine_yy,
-            body,
-            id,
-        } = p;
-        let b = |v: &'a Vec<f64>| Cow::Borrowed(v.as_slice());
         ParticlesRecord {
-            x: b(x),
-            y: b(y),
-            vx: b(vx),
-            vy: b(vy),
-            mass: b(mass),
-            volume: b(volume),
-            sxx: b(sxx),
-            syy: b(syy),
-            sxy: b(sxy),
-            bx: b(bx),
-            by: b(by),
-            fxx: b(fxx),
-            fxy: b(fxy),
-            fyx: b(fyx),
-            fyy: b(fyy),
-            affine_xx: b(affine_xx),
-            affine_xy: b(affine_xy),
-            affine_yx: b(affine_yx),
-            affine_yy: b(affine_yy),
-            body: Cow::Borrowed(body),
-            id: Cow::Borrowed(id),
+            reals: p.fields().map(|(_, v)| Cow::Borrowed(v.as_slice())),
+            indices: p.index_fields().map(|v| Cow::Borrowed(v.as_slice())),
         }
     }
 
     pub(super) fn into_particles(self) -> Particles {
-        let ParticlesRecord {
-            x,
-            y,
-            vx,
-            vy,
-            mass,
-            volume,
-            sxx,
-            syy,
-            sxy,
-            bx,
-            by,
-            fxx,
-            fxy,
-            fyx,
-            fyy,
-            affine_xx,
-            affine_xy,
-            affine_yx,
-            affine_yy,
-            body,
-            id,
-        } = self;
-        Particles {
-            x: x.into_owned(),
-            y: y.into_owned(),
-            vx: vx.into_owned(),
-            vy: vy.into_owned(),
-            mass: mass.into_owned(),
-            volume: volume.into_owned(),
-            sxx: sxx.into_owned(),
-            syy: syy.into_owned(),
-            sxy: sxy.into_owned(),
-            bx: bx.into_owned(),
-            by: by.into_owned(),
-            fxx: fxx.into_owned(),
-            fxy: fxy.into_owned(),
-            fyx: fyx.into_owned(),
-            fyy: fyy.into_owned(),
-            affine_xx: affine_xx.into_owned(),
-            affine_xy: affine_xy.into_owned(),
-            affine_yx: affine_yx.into_owned(),
-            affine_yy: affine_yy.into_owned(),
-            body: body.into_owned(),
-            id: id.into_owned(),
+        let mut p = Particles::default();
+        for ((_, field), record) in p.fields_mut().into_iter().zip(self.reals) {
+            *field = record.into_owned();
         }
+        for (field, record) in p.index_fields_mut().into_iter().zip(self.indices) {
+            *field = record.into_owned();
+        }
+        p
     }
 }
 

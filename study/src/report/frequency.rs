@@ -38,11 +38,7 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
 fn coefficient(shape: ShapeFunction, velocity: MassScheme, acceleration: MassScheme) -> Option<f64> {
     let lumped = |m: MassScheme| m == MassScheme::Lumped;
     let consistent = |m: MassScheme| m == MassScheme::Consistent;
-    let (l, c) = match shape {
-        ShapeFunction::QuadraticBSpline => (25.0, 1.0),
-        ShapeFunction::CubicBSpline => (32.0, 0.0),
-        _ => return None,
-    };
+    let [l, c] = shape.interior_period_error()?;
     if lumped(velocity) && lumped(acceleration) {
         Some(l)
     } else if consistent(velocity) && consistent(acceleration) {

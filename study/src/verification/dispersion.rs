@@ -121,22 +121,9 @@ impl Symbols {
             .sum()
     }
 
-    /// The symbol of a scheme's inverse mass: `1/m̂_L` (lumped), `1/M̂` (consistent, cg),
-    /// `1/((1 − γ) m̂_L + γ M̂)` (blended), `(1/m̂_L) Σ_{ℓ<k} (1 − M̂/m̂_L)^ℓ` (series); infinite
-    /// where the inverted symbol is below `10⁻¹² m̂_L` (a singular matrix).
+    /// The symbol of a scheme's inverse mass at `θ` ([`MassScheme::inverse_symbol`]).
     pub fn inverse(&self, scheme: MassScheme, theta: f64) -> f64 {
-        let (m, ml) = (self.mass(theta), self.lumped());
-        // A symbol at round-off of the lumped mass is a singular matrix: no finite inverse.
-        let invert = |d: f64| if d > 1e-12 * ml { 1.0 / d } else { f64::INFINITY };
-        match scheme {
-            MassScheme::Lumped => 1.0 / ml,
-            MassScheme::Consistent | MassScheme::Iterative { .. } => invert(m),
-            MassScheme::Blended { gamma } => invert((1.0 - gamma) * ml + gamma * m),
-            MassScheme::TruncatedSeries { k } => {
-                let r = 1.0 - m / ml;
-                (0..k).map(|l| r.powi(l as i32)).sum::<f64>() / ml
-            }
-        }
+        scheme.inverse_symbol(self.lumped(), self.mass(theta))
     }
 
     /// `c_h/c` at `θ` for the velocity and acceleration schemes:

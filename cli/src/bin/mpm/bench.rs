@@ -73,12 +73,10 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
         shape: args.shape,
         mass: args.mass,
         stabilization: args.stabilization,
-        transfer: args.transfer.unwrap_or(match args.mass {
-            MassScheme::Lumped => Transfer::Apic,
-            MassScheme::Consistent
-            | MassScheme::Blended { .. }
-            | MassScheme::TruncatedSeries { .. }
-            | MassScheme::Iterative { .. } => Transfer::Flip,
+        transfer: args.transfer.unwrap_or(if args.mass == MassScheme::Lumped {
+            Transfer::Apic
+        } else {
+            Transfer::Flip
         }),
         update: args.update,
         particles: args.particles.clone().unwrap_or(defaults.particles.clone()),

@@ -1,0 +1,347 @@
+//! The Newton stage of the Newmark step: the grid displacement `u` of one step on the free
+//! degrees of freedom (docs/implicit.md),
+//!
+//! ```text
+//! a(u) = (u − c) / (β Δt²),   c = Δt v_n + Δt² (½ − β) a_n
+//! r(u) = f_ext + f_int(u) − M a(u)
+//! Tᵀ (K(u) + M / (β Δt²)) T δũ = Tᵀ r(u),   u ← u + T δũ      (faer sparse LU)
+//! ```
+//!
+//! each step halved until no particle inverts. `T` eliminates the free nodes without mass: their
+//! displacement follows the nodes with mass as the explicit step's extension has it
+//! ([`crate::transfer::extension_matrix`]), so that a rigid motion stays rigid at the particles
+//! whose support reaches past the body.
+
+use nalgebra_sparse::{CooMatrix, CscMatrix, CsrMatrix};
+
+use super::{displacement_gradients, gradient_operator, internal_force, internal_force_and_tangent, Newmark, SparseLu};
+use crate::error::{MpmError, Result};
+use crate::fields::VectorField;
+use crate::kernels::{extend_to_inactive_nodes, ExtensionScratch};
+use crate::mass::{csc_times, lumped_matrix, SingularityPolicy, SolveOutcome};
+use crate::material::Material;
+use crate::operators::Operators;
+use crate::particles::Particles;
+
+/// One step's Newmark equations on the grid: what the Newton iterations read. Vectors over
+/// the degrees of freedom hold the x components of every node, then the y components.
+pub(crate) struct NewmarkSystem<'a> {
+    /// The operators at the particles' positions at the start of the step.
+    pub ops: &'a Operators,
+    /// The particles at the start of the step.
+    pub particles: &'a Particles,
+    /// Each body's material.
+    pub materials: &'a [Material],
+    /// The lumped mass (the singularity policy's fall-back).
+    pub lumped: &'a [f64],
+    /// The grid force `f = f_ext + f_int(σ_n)`.
+    pub force: Vec<f64>,
+    /// `c = Δt v_n + Δt² (½ − β) a_n` on the free degrees of freedom, 0 elsewhere.
+    pub predicted: Vec<f64>,
+    /// The free degrees of freedom, ascending.
+    pub dofs: Vec<usize>,
+    /// `T` (free degrees of freedom × free components of nodes with mass), `None` for `T = I`.
+    pub reduction: Option<CscMatrix<f64>>,
+    /// β, the tolerance and the iterations allowed.
+    pub newmark: Newmark,
+    /// The step.
+    pub dt: f64,
+    /// The step's number, for the errors.
+    pub step: usize,
+    /// What a singular Newton matrix calls for.
+    pub singularity: SingularityPolicy,
+}
+
+/// The mass of the Newmark residual, and what the acceleration solve did to it.
+pub(crate) struct NewtonMass {
+    /// `M` (nodes × nodes, the same for both components).
+    pub matrix: CscMatrix<f64>,
+    /// Solved as it is, regularised or fallen back to the lumped mass.
+    pub outcome: SolveOutcome,
+}
+
+/// The converged displacement and how it was reached.
+pub(crate) struct Converged {
+    /// `u` on every degree of freedom.
+    pub u: Vec<f64>,
+    /// Newton iterations taken.
+    pub iterations: usize,
+    /// The last relative residual.
+    pub relative: f64,
+    /// The mass the residual used at the end (a singular Newton matrix may have replaced it).
+    pub mass: NewtonMass,
+}
+
+/// The free degrees of freedom and the reduction `T` for the free flags `free` (every
+/// component of the nodes with mass and of the nodes the extension `e` reaches, less the
+/// prescribed ones): `T` maps the free components of nodes with mass to every free degree of
+/// freedom, a follower's row holding its extension weights.
+pub(crate) fn reduction(e: &CscMatrix<f64>, free: &[bool], is_active: &[bool]) -> (Vec<usize>, Option<CscMatrix<f64>>) {
+    let n = is_active.len();
+    let dofs: Vec<usize> = (0..2 * n).filter(|&k| free[k]).collect();
+    if dofs.iter().all(|&k| is_active[k % n]) {
+        return (dofs, None);
+    }
+    let mut column = vec![usize::MAX; 2 * n];
+    let mut columns = 0;
+    for &k in &dofs {
+        if is_active[k % n] {
+            column[k] = columns;
+            columns += 1;
+        }
+    }
+    let rows = CsrMatrix::from(e);
+    let mut coo = CooMatrix::new(dofs.len(), columns);
+    for (row, &k) in dofs.iter().enumerate() {
+        let (c, i) = (k / n, k % n);
+        if is_active[i] {
+            coo.push(row, column[k], 1.0);
+            continue;
+        }
+        let weights = rows.row(i);
+        for (&j, &w) in weights.col_indices().iter().zip(weights.values()) {
+            if w != 0.0 && column[c * n + j] != usize::MAX {
+                coo.push(row, column[c * n + j], w);
+            }
+        }
+    }
+    (dofs, Some(CscMatrix::from(&coo)))
+}
+
+/// (8b) for the displacement `u` (stacked): the free components of the inactive nodes in a
+/// particle's support follow the particles' mean interpolated displacement.
+pub(crate) fn follow(ops: &Operators, is_active: &[bool], free: &[bool], u: &mut [f64], s: &mut ExtensionScratch) {
+    let n = is_active.len();
+    let mut field = VectorField {
+        x: u[..n].to_vec(),
+        y: u[n..].to_vec(),
+    };
+    extend_to_inactive_nodes(ops, is_active, &mut field, s);
+    for i in (0..n).filter(|&i| !is_active[i]) {
+        for (c, value) in [field.x[i], field.y[i]].into_iter().enumerate() {
+            if free[c * n + i] {
+                u[c * n + i] = value;
+            }
+        }
+    }
+}
+
+/// Whether the grid displacement `u` keeps every particle's `det(I + ∇u) > 0`.
+pub(crate) fn admissible(ops: &Operators, u: &[f64]) -> bool {
+    displacement_gradients(ops, u)
+        .iter()
+        .all(|h| (1.0 + h[0]) * (1.0 + h[3]) - h[1] * h[2] > 0.0)
+}
+
+/// `y = M x` for both components stacked.
+pub(crate) fn mass_times(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
+    let n = m.nrows();
+    [csc_times(m, &x[..n]), csc_times(m, &x[n..])].concat()
+}
+
+fn norm(v: impl Iterator<Item = f64>) -> f64 {
+    v.map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// `Tᵀ x`, or `x` for `T = I`.
+fn reduce(t: Option<&CscMatrix<f64>>, x: Vec<f64>) -> Vec<f64> {
+    match t {
+        None => x,
+        Some(t) => csc_times(&t.transpose(), &x),
+    }
+}
+
+impl NewmarkSystem<'_> {
+    /// The Newton iterations from `u` (the predictor, prescribed components set) with the mass
+    /// `mass`, warm in `solver`'s symbolic analysis; each iteration's relative residual into
+    /// `residuals`.
+    ///
+    /// # Errors
+    /// [`MpmError::NewtonFailed`] when the iterations do not converge or an iterate inverts a
+    /// particle; [`MpmError::StepRejected`] when the Newton matrix is singular and the singularity
+    /// policy has no substitute.
+    pub(crate) fn solve(
+        &self,
+        start: Vec<f64>,
+        mut mass: NewtonMass,
+        solver: &mut SparseLu,
+        residuals: &mut Vec<f64>,
+    ) -> Result<Converged> {
+        let (ops, dofs, t, step) = (self.ops, &self.dofs, self.reduction.as_ref(), self.step);
+        let n = ops.num_nodes();
+        let g = gradient_operator(ops);
+        // f_ext: the force less the internal force of the particles' stress.
+        let f_int0 = internal_force(ops, &g, self.particles, self.materials, &vec![0.0; 2 * n])?;
+        let f_ext: Vec<f64> = self.force.iter().zip(&f_int0).map(|(f, i)| f - i).collect();
+        let inertia = 1.0 / (self.newmark.beta * self.dt * self.dt);
+        let mut local = vec![usize::MAX; 2 * n];
+        for (l, &k) in dofs.iter().enumerate() {
+            local[k] = l;
+        }
+        let (mut u, mut iterations, mut relative) = (start.clone(), 0, f64::INFINITY);
+        let mut small_increment = false;
+        residuals.clear();
+        loop {
+            let tangent = internal_force_and_tangent(ops, &g, self.particles, self.materials, &u);
+            let (f_int, k) = tangent.map_err(|e| match e {
+                MpmError::InvalidParticleValue { particle, value, .. } => MpmError::NewtonFailed {
+                    step,
+                    iterations,
+                    residual: relative,
+                    reason: format!(
+                        "particle {particle} inverts in the Newton iterate (det F = {value:.3e}); take a smaller \
+                         time.dt"
+                    ),
+                },
+                other => other,
+            })?;
+            // M a(u) = (M u − M c) / (β Δt²): each term's size is the residual's scale, so that a
+            // converged step reads near round-off even where the forces and accelerations vanish.
+            let free_u: Vec<f64> = (0..2 * n)
+                .map(|k| if local[k] != usize::MAX { u[k] } else { 0.0 })
+                .collect();
+            let (mu, mc) = (
+                mass_times(&mass.matrix, &free_u),
+                mass_times(&mass.matrix, &self.predicted),
+            );
+            let r = dofs.iter().map(|&k| f_ext[k] + f_int[k] - inertia * (mu[k] - mc[k]));
+            let terms = dofs
+                .iter()
+                .map(|&k| f_ext[k].abs() + f_int[k].abs() + inertia * (mu[k].abs() + mc[k].abs()));
+            // Tᵀ r, and the scale carried the same way (T's weights are positive).
+            let (r, scale) = (reduce(t, r.collect()), norm(reduce(t, terms.collect()).into_iter()));
+            relative = if scale > 0.0 {
+                norm(r.iter().copied()) / scale
+            } else {
+                0.0
+            };
+            residuals.push(relative);
+            let failed = |reason: String| MpmError::NewtonFailed {
+                step,
+                iterations,
+                residual: relative,
+                reason,
+            };
+            if !relative.is_finite() || !u.iter().all(|x| x.is_finite()) {
+                return Err(failed("the iterate is not finite: take a smaller time.dt".into()));
+            }
+            // A small increment ends the iterations only with a residual within √tolerance: one
+            // held up by round-off, not an iterate that ran away.
+            let stalled = small_increment && relative <= self.newmark.tolerance.sqrt();
+            if relative <= self.newmark.tolerance || stalled || dofs.is_empty() {
+                return Ok(Converged {
+                    u,
+                    iterations,
+                    relative,
+                    mass,
+                });
+            }
+            if small_increment || iterations >= self.newmark.max_iterations {
+                return Err(failed(newton_advice(residuals, small_increment)));
+            }
+            // (K + M / (β Δt²)) on the free degrees of freedom.
+            let mut coo = CooMatrix::new(dofs.len(), dofs.len());
+            for (i, j, &v) in k.triplet_iter() {
+                if local[i] != usize::MAX && local[j] != usize::MAX {
+                    coo.push(local[i], local[j], v);
+                }
+            }
+            for (i, j, &v) in mass.matrix.triplet_iter() {
+                for c in [0, n] {
+                    if local[c + i] != usize::MAX && local[c + j] != usize::MAX {
+                        coo.push(local[c + i], local[c + j], inertia * v);
+                    }
+                }
+            }
+            let mut jacobian = CscMatrix::from(&coo);
+            if let Some(t) = t {
+                jacobian = &(&t.transpose() * &jacobian) * t;
+            }
+            let mut delta = r;
+            if let Err(reason) = solver.solve(&jacobian, &mut delta) {
+                // K and M share a null vector (a consistent mass without stabilisation and
+                // stiffness without its zero-energy modes held): the mass's singularity policy
+                // applies to the Newton matrix too, and the step starts again.
+                mass = self.substitute(mass, &reason)?;
+                (u, iterations, relative, small_increment) = (start.clone(), 0, f64::INFINITY, false);
+                residuals.clear();
+                continue;
+            }
+            if let Some(t) = t {
+                delta = csc_times(t, &delta);
+            }
+            // Backtracking: the Newton step halved until no particle inverts.
+            let mut step_length = 1.0;
+            let mut trial = u.clone();
+            for _ in 0..30 {
+                for (l, &k) in dofs.iter().enumerate() {
+                    trial[k] = u[k] + step_length * delta[l];
+                }
+                if admissible(ops, &trial) {
+                    break;
+                }
+                step_length *= 0.5;
+            }
+            u = trial;
+            iterations += 1;
+            // Converged by the increment: the residual of the new iterate is evaluated for the
+            // report, then the loop ends.
+            let increment = step_length * norm(delta.iter().copied());
+            small_increment = increment <= self.newmark.tolerance * norm(u.iter().copied());
+        }
+    }
+
+    /// The mass the singularity policy puts in place of `mass` when the Newton matrix is
+    /// singular (`reason`), or the error that the step cannot be taken.
+    fn substitute(&self, mass: NewtonMass, reason: &str) -> Result<NewtonMass> {
+        let substitute = match (self.singularity, &mass.outcome) {
+            (_, SolveOutcome::FellBackToLumped { .. }) => None,
+            (SingularityPolicy::FallbackToLumped, _) => Some(NewtonMass {
+                matrix: lumped_matrix(self.lumped, 1.0),
+                outcome: SolveOutcome::FellBackToLumped {
+                    node: None,
+                    relative_pivot: f64::NAN,
+                },
+            }),
+            (SingularityPolicy::Regularize { epsilon }, SolveOutcome::Solved) => Some(NewtonMass {
+                matrix: &(&mass.matrix * (1.0 - epsilon)) + &lumped_matrix(self.lumped, epsilon),
+                outcome: SolveOutcome::Regularized { node: None, epsilon },
+            }),
+            _ => None,
+        };
+        substitute.ok_or_else(|| {
+            let advice = if matches!(mass.outcome, SolveOutcome::Solved) && self.singularity == SingularityPolicy::Error
+            {
+                " (a consistent mass without schemes.mass.stabilization and few particles per cell?); give \
+                 schemes.mass.singularity = \"fallback_to_lumped\" or { regularize = { epsilon = 0.1 } }, or a \
+                 stabilisation"
+            } else {
+                "; take a smaller time.dt"
+            };
+            MpmError::StepRejected {
+                step: self.step,
+                reason: format!("{reason}: the Newton matrix K + M/(β Δt²) is singular{advice}"),
+            }
+        })
+    }
+}
+
+/// What to change when the Newton iterations of a step do not converge, from their relative
+/// residuals (`small_increment`: the last increment was below the tolerance).
+fn newton_advice(residuals: &[f64], small_increment: bool) -> String {
+    let last = residuals.last().copied().unwrap_or(f64::INFINITY);
+    let earlier = residuals.len().checked_sub(4).map(|i| residuals[i]);
+    let stagnant = earlier.is_some_and(|e| last > 0.1 * e);
+    if small_increment {
+        "the increments vanish while the residual does not (the iterate ran away, or the Newton matrix is \
+         nearly singular: a singular mass with `schemes.mass.singularity`?): take a smaller time.dt"
+            .into()
+    } else if stagnant && last < 1e-6 {
+        format!(
+            "the residual stalls near {last:.1e}, the round-off of this problem: raise \
+             schemes.integrator.newmark.tolerance above it"
+        )
+    } else {
+        "take a smaller time.dt, or raise schemes.integrator.newmark.max_iterations".into()
+    }
+}
