@@ -263,7 +263,9 @@ pub fn estimate_scene(scene: &Scene) -> Estimate {
             0.0
         }
         + match scene.schemes.integrator {
-            crate::simulation::Integrator::Newmark(_) => BYTES_PER_NODE_NEWTON * nodes,
+            crate::simulation::Integrator::Newmark(_) | crate::simulation::Integrator::QuasiStatic(_) => {
+                BYTES_PER_NODE_NEWTON * nodes
+            }
             crate::simulation::Integrator::Explicit => 0.0,
         };
     let end = scene.time.end;

@@ -29,6 +29,73 @@ pub enum Integrator {
     /// Newmark's rule on the grid with Newton iterations (docs/implicit.md); a fixed `Δt`, no
     /// stable-step limit for `2β ≥ γ ≥ ½`.
     Newmark(Newmark),
+    /// Static equilibrium reached in load increments, each by Newton iterations on
+    /// `f_int(u) + λ f_ext = 0` with the exact tangent and no mass (docs/implicit.md).
+    QuasiStatic(QuasiStatic),
+}
+
+/// The quasi-static integrator's load increments and Newton controls. Step `k` (from 1) applies
+/// the load factor `λ_k = min(k / load_steps, 1)` to gravity and the body forces, and moves
+/// prescribed nodes by `v̄ Δt` (`Δt` the fixed step: a scene's `time.end / load_steps`); the
+/// operators are assembled anew at the converged configuration of each increment.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct QuasiStatic {
+    /// Increments of the load (1 to 10⁶).
+    pub load_steps: usize,
+    /// Converged when `‖r‖ ≤ tolerance · ‖λ|f_ext| + |f_int|‖` on the free degrees of freedom
+    /// (or by a vanishing increment with the residual within `√tolerance`); in
+    /// [`MIN_TOLERANCE`], 1).
+    pub tolerance: f64,
+    /// Newton iterations allowed per increment (1 to 1000).
+    pub max_iterations: usize,
+}
+
+impl Default for QuasiStatic {
+    fn default() -> Self {
+        QuasiStatic {
+            load_steps: 20,
+            tolerance: 1e-10,
+            max_iterations: 25,
+        }
+    }
+}
+
+impl QuasiStatic {
+    /// The load factor of step `step` (from 1): `min(step / load_steps, 1)`.
+    pub fn load_factor(&self, step: usize) -> f64 {
+        (step as f64 / self.load_steps as f64).min(1.0)
+    }
+
+    /// Checks the parameters.
+    ///
+    /// # Errors
+    /// [`MpmError::InvalidOption`] naming the parameter.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |option: &'static str, reason: String| Err(MpmError::InvalidOption { option, reason });
+        if !(1..=1_000_000).contains(&self.load_steps) {
+            return bad(
+                "integrator.quasi_static.load_steps",
+                format!("{}: give 1 to 10⁶ load increments", self.load_steps),
+            );
+        }
+        if !(self.tolerance >= MIN_TOLERANCE && self.tolerance < 1.0) {
+            return bad(
+                "integrator.quasi_static.tolerance",
+                format!(
+                    "{}: the relative tolerance must lie in [{MIN_TOLERANCE:e}, 1)",
+                    shown(self.tolerance)
+                ),
+            );
+        }
+        if !(1..=1000).contains(&self.max_iterations) {
+            return bad(
+                "integrator.quasi_static.max_iterations",
+                format!("{}: give 1 to 1000 Newton iterations", self.max_iterations),
+            );
+        }
+        Ok(())
+    }
 }
 
 /// Newmark's parameters and the Newton iteration's controls.

@@ -1,9 +1,10 @@
-//! The Newton stage of the Newmark step: the grid displacement `u` of one step on the free
-//! degrees of freedom (docs/implicit.md),
+//! The Newton stage of the implicit integrators: the grid displacement `u` of one step on the
+//! free degrees of freedom (docs/implicit.md). Newmark's step and a quasi-static increment
+//! (no mass, the load factor `λ`):
 //!
 //! ```text
 //! a(u) = (u − c) / (β Δt²),   c = Δt v_n + Δt² (½ − β) a_n
-//! r(u) = f_ext + f_int(u) − M a(u)
+//! r(u) = λ f_ext + f_int(u) − M a(u)                           (quasi-static: no M a(u))
 //! Tᵀ (K(u) + M / (β Δt²)) T δũ = Tᵀ r(u),   u ← u + T δũ      (faer sparse LU)
 //! ```
 //!
@@ -14,7 +15,8 @@
 
 use nalgebra_sparse::{CooMatrix, CscMatrix, CsrMatrix};
 
-use super::{displacement_gradients, gradient_operator, internal_force, internal_force_and_tangent, Newmark, SparseLu};
+use super::{displacement_gradients, gradient_operator, internal_force, internal_force_and_tangent, SparseLu};
+use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::kernels::{extend_to_inactive_nodes, ExtensionScratch};
@@ -23,9 +25,9 @@ use crate::material::Material;
 use crate::operators::Operators;
 use crate::particles::Particles;
 
-/// One step's Newmark equations on the grid: what the Newton iterations read. Vectors over
-/// the degrees of freedom hold the x components of every node, then the y components.
-pub(crate) struct NewmarkSystem<'a> {
+/// One step's equations on the grid: what the Newton iterations read. Vectors over the
+/// degrees of freedom hold the x components of every node, then the y components.
+pub(crate) struct NewtonSystem<'a> {
     /// The operators at the particles' positions at the start of the step.
     pub ops: &'a Operators,
     /// The particles at the start of the step.
@@ -36,16 +38,22 @@ pub(crate) struct NewmarkSystem<'a> {
     pub lumped: &'a [f64],
     /// The grid force `f = f_ext + f_int(σ_n)`.
     pub force: Vec<f64>,
-    /// `c = Δt v_n + Δt² (½ − β) a_n` on the free degrees of freedom, 0 elsewhere.
+    /// `c = Δt v_n + Δt² (½ − β) a_n` on the free degrees of freedom, 0 elsewhere (Newmark).
     pub predicted: Vec<f64>,
+    /// `1/(β Δt²)` (Newmark), 0 without inertia (quasi-static).
+    pub inertia: f64,
+    /// `λ`, the factor of `f_ext` (1 for Newmark).
+    pub load: f64,
     /// The free degrees of freedom, ascending.
     pub dofs: Vec<usize>,
     /// `T` (free degrees of freedom × free components of nodes with mass), `None` for `T = I`.
     pub reduction: Option<CscMatrix<f64>>,
-    /// β, the tolerance and the iterations allowed.
-    pub newmark: Newmark,
-    /// The step.
-    pub dt: f64,
+    /// The relative tolerance and the iterations allowed.
+    pub tolerance: f64,
+    /// Newton iterations allowed.
+    pub max_iterations: usize,
+    /// The integrator's key in `schemes.integrator` (`newmark`, `quasi_static`), for advice.
+    pub key: &'static str,
     /// The step's number, for the errors.
     pub step: usize,
     /// What a singular Newton matrix calls for.
@@ -69,7 +77,30 @@ pub(crate) struct Converged {
     /// The last relative residual.
     pub relative: f64,
     /// The mass the residual used at the end (a singular Newton matrix may have replaced it).
-    pub mass: NewtonMass,
+    pub mass: Option<NewtonMass>,
+}
+
+/// The free components and a start for `u`: the components of the active nodes and of the
+/// inactive nodes the extension `e` reaches (a particle on the edge of a node's support, where
+/// `N = 0` but `∇N ≠ 0`), less the prescribed ones; `u = Δt v̄` on the prescribed components,
+/// `initial(k)` on the free ones, 0 elsewhere.
+pub(crate) fn start(
+    is_active: &[bool],
+    e: &CscMatrix<f64>,
+    prescribed: &Prescribed,
+    dt: f64,
+    initial: impl Fn(usize) -> f64,
+) -> (Vec<bool>, Vec<f64>) {
+    let n = is_active.len();
+    let mut follows = vec![false; n];
+    e.triplet_iter().for_each(|(i, _, _)| follows[i] = true);
+    let mut free: Vec<bool> = (0..2 * n).map(|k| is_active[k % n] || follows[k % n]).collect();
+    let mut u: Vec<f64> = (0..2 * n).map(|k| if free[k] { initial(k) } else { 0.0 }).collect();
+    for (c, i, v) in prescribed.each() {
+        free[c * n + i] = false;
+        u[c * n + i] = dt * v;
+    }
+    (free, u)
 }
 
 /// The free degrees of freedom and the reduction `T` for the free flags `free` (every
@@ -151,10 +182,10 @@ fn reduce(t: Option<&CscMatrix<f64>>, x: Vec<f64>) -> Vec<f64> {
     }
 }
 
-impl NewmarkSystem<'_> {
+impl NewtonSystem<'_> {
     /// The Newton iterations from `u` (the predictor, prescribed components set) with the mass
-    /// `mass`, warm in `solver`'s symbolic analysis; each iteration's relative residual into
-    /// `residuals`.
+    /// `mass` (none: quasi-static), warm in `solver`'s symbolic analysis; each iteration's
+    /// relative residual into `residuals`.
     ///
     /// # Errors
     /// [`MpmError::NewtonFailed`] when the iterations do not converge or an iterate inverts a
@@ -163,7 +194,7 @@ impl NewmarkSystem<'_> {
     pub(crate) fn solve(
         &self,
         start: Vec<f64>,
-        mut mass: NewtonMass,
+        mut mass: Option<NewtonMass>,
         solver: &mut SparseLu,
         residuals: &mut Vec<f64>,
     ) -> Result<Converged> {
@@ -173,7 +204,7 @@ impl NewmarkSystem<'_> {
         // f_ext: the force less the internal force of the particles' stress.
         let f_int0 = internal_force(ops, &g, self.particles, self.materials, &vec![0.0; 2 * n])?;
         let f_ext: Vec<f64> = self.force.iter().zip(&f_int0).map(|(f, i)| f - i).collect();
-        let inertia = 1.0 / (self.newmark.beta * self.dt * self.dt);
+        let (inertia, load) = (self.inertia, self.load);
         let mut local = vec![usize::MAX; 2 * n];
         for (l, &k) in dofs.iter().enumerate() {
             local[k] = l;
@@ -200,14 +231,14 @@ impl NewmarkSystem<'_> {
             let free_u: Vec<f64> = (0..2 * n)
                 .map(|k| if local[k] != usize::MAX { u[k] } else { 0.0 })
                 .collect();
-            let (mu, mc) = (
-                mass_times(&mass.matrix, &free_u),
-                mass_times(&mass.matrix, &self.predicted),
-            );
-            let r = dofs.iter().map(|&k| f_ext[k] + f_int[k] - inertia * (mu[k] - mc[k]));
+            let (mu, mc) = match &mass {
+                Some(m) => (mass_times(&m.matrix, &free_u), mass_times(&m.matrix, &self.predicted)),
+                None => (vec![0.0; 2 * n], vec![0.0; 2 * n]),
+            };
+            let r = dofs.iter().map(|&k| load * f_ext[k] + f_int[k] - inertia * (mu[k] - mc[k]));
             let terms = dofs
                 .iter()
-                .map(|&k| f_ext[k].abs() + f_int[k].abs() + inertia * (mu[k].abs() + mc[k].abs()));
+                .map(|&k| load * f_ext[k].abs() + f_int[k].abs() + inertia * (mu[k].abs() + mc[k].abs()));
             // Tᵀ r, and the scale carried the same way (T's weights are positive).
             let (r, scale) = (reduce(t, r.collect()), norm(reduce(t, terms.collect()).into_iter()));
             relative = if scale > 0.0 {
@@ -227,8 +258,8 @@ impl NewmarkSystem<'_> {
             }
             // A small increment ends the iterations only with a residual within √tolerance: one
             // held up by round-off, not an iterate that ran away.
-            let stalled = small_increment && relative <= self.newmark.tolerance.sqrt();
-            if relative <= self.newmark.tolerance || stalled || dofs.is_empty() {
+            let stalled = small_increment && relative <= self.tolerance.sqrt();
+            if relative <= self.tolerance || stalled || dofs.is_empty() {
                 return Ok(Converged {
                     u,
                     iterations,
@@ -236,8 +267,8 @@ impl NewmarkSystem<'_> {
                     mass,
                 });
             }
-            if small_increment || iterations >= self.newmark.max_iterations {
-                return Err(failed(newton_advice(residuals, small_increment)));
+            if small_increment || iterations >= self.max_iterations {
+                return Err(failed(newton_advice(residuals, small_increment, self.key)));
             }
             // (K + M / (β Δt²)) on the free degrees of freedom.
             let mut coo = CooMatrix::new(dofs.len(), dofs.len());
@@ -246,7 +277,7 @@ impl NewmarkSystem<'_> {
                     coo.push(local[i], local[j], v);
                 }
             }
-            for (i, j, &v) in mass.matrix.triplet_iter() {
+            for (i, j, &v) in mass.iter().flat_map(|m| m.matrix.triplet_iter()) {
                 for c in [0, n] {
                     if local[c + i] != usize::MAX && local[c + j] != usize::MAX {
                         coo.push(local[c + i], local[c + j], inertia * v);
@@ -262,7 +293,7 @@ impl NewmarkSystem<'_> {
                 // K and M share a null vector (a consistent mass without stabilisation and
                 // stiffness without its zero-energy modes held): the mass's singularity policy
                 // applies to the Newton matrix too, and the step starts again.
-                mass = self.substitute(mass, &reason)?;
+                mass = Some(self.substitute(mass, &reason)?);
                 (u, iterations, relative, small_increment) = (start.clone(), 0, f64::INFINITY, false);
                 residuals.clear();
                 continue;
@@ -287,13 +318,22 @@ impl NewmarkSystem<'_> {
             // Converged by the increment: the residual of the new iterate is evaluated for the
             // report, then the loop ends.
             let increment = step_length * norm(delta.iter().copied());
-            small_increment = increment <= self.newmark.tolerance * norm(u.iter().copied());
+            small_increment = increment <= self.tolerance * norm(u.iter().copied());
         }
     }
 
     /// The mass the singularity policy puts in place of `mass` when the Newton matrix is
     /// singular (`reason`), or the error that the step cannot be taken.
-    fn substitute(&self, mass: NewtonMass, reason: &str) -> Result<NewtonMass> {
+    fn substitute(&self, mass: Option<NewtonMass>, reason: &str) -> Result<NewtonMass> {
+        let Some(mass) = mass else {
+            return Err(MpmError::StepRejected {
+                step: self.step,
+                reason: format!(
+                    "{reason}: the tangent stiffness K is singular (a body free to move rigidly, or particles \
+                     too few to hold a node: give the body walls that hold it, or more particles per cell)"
+                ),
+            });
+        };
         let substitute = match (self.singularity, &mass.outcome) {
             (_, SolveOutcome::FellBackToLumped { .. }) => None,
             (SingularityPolicy::FallbackToLumped, _) => Some(NewtonMass {
@@ -328,7 +368,7 @@ impl NewmarkSystem<'_> {
 
 /// What to change when the Newton iterations of a step do not converge, from their relative
 /// residuals (`small_increment`: the last increment was below the tolerance).
-fn newton_advice(residuals: &[f64], small_increment: bool) -> String {
+fn newton_advice(residuals: &[f64], small_increment: bool, key: &str) -> String {
     let last = residuals.last().copied().unwrap_or(f64::INFINITY);
     let earlier = residuals.len().checked_sub(4).map(|i| residuals[i]);
     let stagnant = earlier.is_some_and(|e| last > 0.1 * e);
@@ -339,9 +379,9 @@ fn newton_advice(residuals: &[f64], small_increment: bool) -> String {
     } else if stagnant && last < 1e-6 {
         format!(
             "the residual stalls near {last:.1e}, the round-off of this problem: raise \
-             schemes.integrator.newmark.tolerance above it"
+             schemes.integrator.{key}.tolerance above it"
         )
     } else {
-        "take a smaller time.dt, or raise schemes.integrator.newmark.max_iterations".into()
+        format!("take a smaller time.dt (more load_steps), or raise schemes.integrator.{key}.max_iterations")
     }
 }

@@ -202,7 +202,8 @@ pub struct Schemes {
     pub mass: MassOptions,
     /// Re-sort particles by cell every this many steps (0: never).
     pub sort_interval: usize,
-    /// `"explicit"` (the default) or `{ newmark = { beta = 0.25, gamma = 0.5 } }`
+    /// `"explicit"` (the default), `{ newmark = { beta = 0.25, gamma = 0.5 } }` or
+    /// `{ quasi_static = { load_steps = 20 } }`
     /// ([`crate::implicit`]).
     pub integrator: Integrator,
 }
@@ -501,10 +502,14 @@ impl Scene {
             transfer: s.transfer,
             mass: s.mass,
             position_update: s.position_update,
-            time_step: match (self.time.dt, self.time.cfl) {
-                (Some(dt), _) => TimeStep::Fixed { dt },
-                (None, Some(number)) => TimeStep::Cfl { number },
-                (None, None) => TimeStep::Cfl { number: 0.5 },
+            time_step: match (self.time.dt, self.time.cfl, s.integrator) {
+                // Each load increment a step of the end time's share.
+                (_, _, Integrator::QuasiStatic(q)) => TimeStep::Fixed {
+                    dt: self.time.end / q.load_steps.max(1) as f64,
+                },
+                (Some(dt), _, _) => TimeStep::Fixed { dt },
+                (None, Some(number), _) => TimeStep::Cfl { number },
+                (None, None, _) => TimeStep::Cfl { number: 0.5 },
             },
             allow_unstable_time_step: self.time.allow_unstable,
             gravity: self.loads.gravity,

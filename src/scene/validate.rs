@@ -134,6 +134,21 @@ impl Scene {
         if t.dt.is_some() && t.cfl.is_some() {
             return Err(invalid("time", "give `dt` or `cfl`, not both"));
         }
+        if let crate::simulation::Integrator::QuasiStatic(q) = self.schemes.integrator {
+            if let Some(key) = [("time.dt", t.dt.is_some()), ("time.cfl", t.cfl.is_some())]
+                .into_iter()
+                .find_map(|(key, given)| given.then_some(key))
+            {
+                return Err(invalid(
+                    key,
+                    format!(
+                        "the quasi-static integrator takes its step from time.end / load_steps ({} increments): \
+                         leave out {key}",
+                        q.load_steps
+                    ),
+                ));
+            }
+        }
         if let Some(s) = self.output.snapshot_interval {
             if !(s.is_finite() && s > 0.0) {
                 return Err(invalid(

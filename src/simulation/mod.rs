@@ -57,6 +57,7 @@ mod newmark;
 mod options;
 mod phases;
 mod profile;
+mod quasi_static;
 mod report;
 mod series;
 mod speeds;
@@ -64,7 +65,7 @@ mod stability;
 
 pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, MAX_CHECKPOINT_BYTES};
 pub use near_singular::NEARLY_SINGULAR_RATIO;
-pub use options::{Body, Integrator, Newmark, Options, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
+pub use options::{Body, Integrator, Newmark, Options, QuasiStatic, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
 pub use profile::{Phase, Profile};
 pub use report::StepReport;
 pub use stability::{EstimateCounts, BOUND_INTERVAL, ESTIMATE_TRAVEL, GUARD_STEPS, GUARD_STEPS_UNDER_MARGIN};

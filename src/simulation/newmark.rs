@@ -28,7 +28,7 @@ use super::phases::{project_velocity, solve_acceleration, StepPlan};
 use super::{Cache, Options, Simulation, State, StepReport};
 use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
-use crate::implicit::newton::{admissible, follow, mass_times, reduction, Converged, NewmarkSystem, NewtonMass};
+use crate::implicit::newton::{admissible, follow, mass_times, reduction, start, Converged, NewtonMass, NewtonSystem};
 use crate::implicit::Newmark;
 use crate::mass::{Role, SolveReport};
 use crate::material::Material;
@@ -54,46 +54,38 @@ impl Simulation {
         let base_solve = solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)?; // (7)
         let n = ops.num_nodes();
         let (vn, an) = (stacked(&nodes.projected), stacked(&nodes.acceleration));
-        // The free degrees of freedom: active nodes and the inactive nodes the extension reaches
-        // (a particle on the edge of a node's support: N = 0, ∇N ≠ 0), less the prescribed ones.
         let is_active = mass.is_active();
         let extension = extension_matrix(ops, is_active);
-        let mut follows = vec![false; n];
-        extension.triplet_iter().for_each(|(i, _, _)| follows[i] = true);
-        let mut free: Vec<bool> = (0..2 * n).map(|k| is_active[k % n] || follows[k % n]).collect();
-        let on_free = |free: &[bool], f: &dyn Fn(usize) -> f64| -> Vec<f64> {
+        let (free, mut start) = start(is_active, &extension, prescribed, dt, |k| dt * vn[k] + 0.5 * dt * dt * an[k]);
+        let on_free = |f: &dyn Fn(usize) -> f64| -> Vec<f64> {
             (0..2 * n).map(|k| if free[k] { f(k) } else { 0.0 }).collect()
         };
-        let mut start = on_free(&free, &|k| dt * vn[k] + 0.5 * dt * dt * an[k]);
-        for (c, i, v) in prescribed.each() {
-            free[c * n + i] = false;
-            start[c * n + i] = dt * v;
-        }
         // A predictor that inverts a particle (a large step into contact) gives way to
         // `u = Δt v_n`, then to no motion of the free nodes.
         for fallback in [1.0, 0.0] {
             if admissible(ops, &start) {
                 break;
             }
-            (0..2 * n)
-                .filter(|&k| free[k])
-                .for_each(|k| start[k] = fallback * dt * vn[k]);
+            (0..2 * n).filter(|&k| free[k]).for_each(|k| start[k] = fallback * dt * vn[k]);
         }
         follow(ops, is_active, &free, &mut start, &mut scratch.extension);
         let (dofs, reduction) = reduction(&extension, &free, is_active);
         let beta = newmark.beta;
         let materials: Vec<Material> = setup.bodies.iter().map(|b| b.material).collect();
-        let system = NewmarkSystem {
+        let system = NewtonSystem {
             ops,
             particles: &state.particles,
             materials: &materials,
             lumped: mass.lumped(),
             force: stacked(&nodes.force),
-            predicted: on_free(&free, &|k| dt * vn[k] + dt * dt * (0.5 - beta) * an[k]),
+            predicted: on_free(&|k| dt * vn[k] + dt * dt * (0.5 - beta) * an[k]),
+            inertia: 1.0 / (beta * dt * dt),
+            load: 1.0,
             dofs,
             reduction,
-            newmark,
-            dt,
+            tolerance: newmark.tolerance,
+            max_iterations: newmark.max_iterations,
+            key: "newmark",
             step,
             singularity: options.mass.singularity,
         };
@@ -101,7 +93,7 @@ impl Simulation {
         let mut solver = std::mem::take(&mut scratch.newton);
         let solved = system.solve(
             start,
-            NewtonMass { matrix, outcome },
+            Some(NewtonMass { matrix, outcome }),
             &mut solver,
             &mut scratch.newton_residuals,
         );
@@ -110,8 +102,9 @@ impl Simulation {
             u,
             iterations,
             relative,
-            mass: NewtonMass { matrix, outcome },
+            mass,
         } = solved?;
+        let NewtonMass { matrix, outcome } = mass.expect("Newmark solves with a mass");
         // (9) Nodes without mass carry no acceleration; their velocity is their displacement rate.
         let gamma = newmark.gamma;
         let mut v1: Vec<f64> = (0..2 * n)
@@ -163,7 +156,7 @@ fn stacked(f: &VectorField) -> Vec<f64> {
 
 /// Whether the particles moved by `Δt Nᵀ w` (`moved`, the interpolated motion field) stay
 /// where the shape functions accept them; the step's error naming the first that does not.
-fn inside(
+pub(super) fn inside(
     options: &Options,
     setup: &super::Setup,
     state: &State,

@@ -3,7 +3,7 @@
 
 use crate::boundary::BoundaryCondition;
 use crate::error::{MpmError, Result};
-pub use crate::implicit::{Integrator, Newmark};
+pub use crate::implicit::{Integrator, Newmark, QuasiStatic};
 use crate::mass::{MassOptions, MassScheme};
 use crate::material::Material;
 use crate::particles::{MAX_ACCELERATION, MAX_SPEED};
@@ -167,6 +167,17 @@ impl Options {
                     crate::parallel::MAX_THREADS
                 ),
             });
+        }
+        if let Integrator::QuasiStatic(q) = self.integrator {
+            q.validate()?;
+            if !matches!(self.time_step, TimeStep::Fixed { dt } if dt > 0.0 && dt.is_finite()) {
+                return Err(MpmError::InvalidOption {
+                    option: "integrator",
+                    reason: "the quasi-static integrator takes a fixed step (a scene's time.end / load_steps: \
+                             prescribed velocities move their nodes by v̄ Δt per increment)"
+                        .into(),
+                });
+            }
         }
         if let Integrator::Newmark(newmark) = self.integrator {
             newmark.validate()?;

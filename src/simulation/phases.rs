@@ -69,7 +69,7 @@ impl Simulation {
             mass.prepare_with(
                 ops,
                 &p.mass,
-                &options.mass,
+                &plan.mass,
                 constraints,
                 mass_nodes(ops, mirror),
                 workers,
@@ -99,8 +99,10 @@ impl Simulation {
 
     /// One step no longer than `max_dt`: the lines of the [module docs](super) in order.
     pub(super) fn phases(&mut self, max_dt: f64) -> Result<StepReport> {
-        if let super::Integrator::Newmark(newmark) = self.options.integrator {
-            return self.newmark_phases(newmark, max_dt);
+        match self.options.integrator {
+            super::Integrator::Newmark(newmark) => return self.newmark_phases(newmark, max_dt),
+            super::Integrator::QuasiStatic(q) => return self.quasi_static_phases(q, max_dt),
+            super::Integrator::Explicit => {}
         }
         let plan = StepPlan::of(&self.setup, &self.options);
         self.prepare_grid(&plan)?; // (1)–(5), mass
@@ -195,7 +197,7 @@ impl Simulation {
         } = self;
         let (series, stress_last) = (plan.series, plan.stress_last);
         let rule = G2pRule {
-            transfer: options.transfer,
+            transfer: plan.transfer,
             position: options.position_update,
             inertia: ApicInertia::of(options.shape, &setup.grid),
             gradient: plan.motion.or_else(|| {
@@ -353,6 +355,12 @@ pub(super) struct StepPlan {
     /// The implicit step's motion field `u/Δt` ([`GridField::Motion`]), which moves and strains
     /// the particles in the grid-to-particle pass in place of the updated velocity.
     pub(super) motion: Option<GridField>,
+    /// The particle velocity update: the options' transfer, PIC for the quasi-static step
+    /// (whose grid velocities are zero: the particles are at rest).
+    pub(super) transfer: Transfer,
+    /// The mass options the grid mass is prepared with: the lumped mass alone for the
+    /// quasi-static step (only its active set enters).
+    pub(super) mass: crate::mass::MassOptions,
 }
 
 impl StepPlan {
@@ -360,7 +368,8 @@ impl StepPlan {
     pub(super) fn of(setup: &Setup, options: &Options) -> StepPlan {
         let schedule = options.update.schedule();
         let explicit = options.integrator == super::Integrator::Explicit;
-        let series = SeriesTransfer::of(options.transfer);
+        let quasi_static = matches!(options.integrator, super::Integrator::QuasiStatic(_));
+        let series = SeriesTransfer::of(options.transfer).filter(|_| !quasi_static);
         StepPlan {
             lumped_grid_pass: options.mass.velocity == crate::mass::MassScheme::Lumped
                 && options.mass.acceleration == crate::mass::MassScheme::Lumped
@@ -376,8 +385,18 @@ impl StepPlan {
                 Some(StressFrom::Updated)
             },
             series,
-            apic: apic_inertia(options, &setup.grid),
+            apic: apic_inertia(options, &setup.grid).filter(|_| !quasi_static),
             motion: (!explicit).then_some(GridField::Motion),
+            transfer: if quasi_static { Transfer::Pic } else { options.transfer },
+            mass: if quasi_static {
+                crate::mass::MassOptions {
+                    velocity: crate::mass::MassScheme::Lumped,
+                    acceleration: crate::mass::MassScheme::Lumped,
+                    ..options.mass
+                }
+            } else {
+                options.mass
+            },
         }
     }
 }

@@ -462,6 +462,7 @@ fn check(args: &CheckArgs) -> Result<(), String> {
     let update = match schemes.integrator {
         sparse_mpm::simulation::Integrator::Explicit => schemes.update.to_string(),
         sparse_mpm::simulation::Integrator::Newmark(_) => "— (Newmark)".to_string(),
+        sparse_mpm::simulation::Integrator::QuasiStatic(_) => "— (quasi-static)".to_string(),
     };
     println!(
         "shape {:#}, update {update}, transfer {:#}, mass velocity {:#} / acceleration {:#}",
@@ -476,6 +477,12 @@ fn check(args: &CheckArgs) -> Result<(), String> {
              stable-step limit; schemes.update and schemes.position_update are not used (the particles move by \
              the converged grid displacement)",
             n.beta, n.gamma, n.tolerance, n.max_iterations
+        ),
+        sparse_mpm::simulation::Integrator::QuasiStatic(q) => println!(
+            "integrator quasi-static: the loads in {} increments, each brought to equilibrium by Newton to a \
+             relative residual of {:e} in at most {} iterations; no mass enters; the particles are at rest after \
+             every increment",
+            q.load_steps, q.tolerance, q.max_iterations
         ),
     }
     println!("{estimate}");
