@@ -1,0 +1,176 @@
+//! The quasi-static integrator: the elastic column under its own weight against its exact
+//! stress, Newton in every increment at large strain, checkpoints, and the keys refused.
+
+use sparse_mpm::simulation::{Integrator, QuasiStatic, Simulation};
+use sparse_mpm::ShapeFunction;
+use sparse_mpm_study::verification::column::Column;
+use sparse_mpm_study::verification::Choices;
+
+fn choices(shape: ShapeFunction) -> Choices {
+    Choices {
+        shape,
+        ..Choices::default()
+    }
+}
+
+/// The stress error at 16, 32 and 64 cells high and the observed order from 16 to 64.
+fn errors(column: &Column, shape: ShapeFunction) -> ([f64; 3], f64) {
+    let e = [16, 32, 64].map(|cells| {
+        let o = column.run(cells, &choices(shape)).unwrap();
+        assert!(
+            o.metric("kinetic_energy").unwrap() == 0.0,
+            "{}: the particles are at rest",
+            shape.name()
+        );
+        o.metric("stress_error").unwrap()
+    });
+    let order = (e[0] / e[2]).ln() / 4f64.ln();
+    eprintln!("{}: errors {e:?}, order 16 → 64 {order:.2}", shape.name());
+    (e, order)
+}
+
+/// E = 1 MPa, ν = 0, ρ₀ = 80, g = 10, l0 = 50, 2 × 2 particles per cell, 20 load steps: GIMP
+/// converges (order ≥ 1.3 from 16 to 64 cells high, error below 2e-3 at 64); the B-splines are
+/// below 2e-3 at 64 and fall from 16 to 64; bilinear functions do not converge (the
+/// cell-crossing error: about 3% at every resolution).
+#[test]
+fn the_column_under_its_own_weight_converges_with_gimp_and_b_splines_and_not_with_linear() {
+    let column = Column::SMALL_STRAIN;
+    let (gimp, order) = errors(&column, ShapeFunction::Gimp { half_width: 0.25 });
+    assert!(order >= 1.3 && gimp[2] < 2e-3, "GIMP: {gimp:?}, order {order}");
+    for shape in [ShapeFunction::QuadraticBSpline, ShapeFunction::CubicBSpline] {
+        let (e, order) = errors(&column, shape);
+        assert!(e[2] < 2e-3 && order > 0.8, "{}: {e:?}, order {order}", shape.name());
+    }
+    let (linear, _) = errors(&column, ShapeFunction::Linear);
+    assert!(
+        linear.iter().all(|&e| e > 2e-2),
+        "bilinear functions do not converge on the column: {linear:?}"
+    );
+}
+
+/// With one load increment the column is solved on the reference lattice, where the particles
+/// are the quadrature of the B-splines: second order (the increments' quadrature at moved
+/// particles is what limits the converged increments above).
+#[test]
+fn one_increment_converges_at_second_order_with_b_splines() {
+    let column = Column {
+        load_steps: 1,
+        ..Column::SMALL_STRAIN
+    };
+    for shape in [ShapeFunction::QuadraticBSpline, ShapeFunction::CubicBSpline] {
+        let (e, order) = errors(&column, shape);
+        assert!(order > 1.9 && e[2] < 1e-4, "{}: {e:?}, order {order}", shape.name());
+    }
+}
+
+/// E = 10 kPa: the column ends under half its height; Newton converges in every increment
+/// (a step that does not is an error) and the error falls with h for GIMP and cubic B-splines.
+#[test]
+fn the_column_at_large_strain_converges_in_every_increment() {
+    let column = Column::LARGE_STRAIN;
+    for shape in [
+        ShapeFunction::Gimp { half_width: 0.25 },
+        ShapeFunction::QuadraticBSpline,
+        ShapeFunction::CubicBSpline,
+    ] {
+        let outcomes: Vec<_> = [8, 16, 32].iter().map(|&c| column.run(c, &choices(shape)).unwrap()).collect();
+        let e: Vec<f64> = outcomes.iter().map(|o| o.metric("stress_error").unwrap()).collect();
+        let height = outcomes[2].metric("final_height").unwrap();
+        assert!(height < 0.5, "{}: final height {height}", shape.name());
+        assert!(
+            outcomes.iter().all(|o| o.metric("newton_iterations").unwrap() <= 10.0),
+            "{}",
+            shape.name()
+        );
+        assert!(e[2] < e[0] && e[2] < 1e-2, "{}: {e:?}", shape.name());
+    }
+}
+
+#[test]
+fn a_quasi_static_run_resumes_from_a_checkpoint_bit_for_bit() {
+    let column = Column::SMALL_STRAIN;
+    let c = choices(ShapeFunction::QuadraticBSpline);
+    let mut whole = column.simulation(16, &c).unwrap();
+    let mut cut = column.simulation(16, &c).unwrap();
+    for _ in 0..10 {
+        whole.step().unwrap();
+    }
+    for _ in 0..4 {
+        cut.step().unwrap();
+    }
+    let dir = std::env::temp_dir().join(format!("sparse_mpm_quasi_static_ckpt_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("sim.ckpt");
+    cut.write_checkpoint(&path).unwrap();
+    let mut resumed = Simulation::read_checkpoint(&path).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(resumed.options().integrator, whole.options().integrator);
+    for _ in 0..6 {
+        resumed.step().unwrap();
+    }
+    let (a, b) = (whole.particles(), resumed.particles());
+    for (name, x, y) in [("y", &a.y, &b.y), ("syy", &a.syy, &b.syy), ("fyy", &a.fyy, &b.fyy)] {
+        assert!(
+            x.iter().zip(y.iter()).all(|(u, v)| u.to_bits() == v.to_bits()),
+            "{name} differs after resuming"
+        );
+    }
+}
+
+#[test]
+fn quasi_static_keys_are_checked_by_name() {
+    let scene = |integrator: &str, time: &str| {
+        format!(
+            "[grid]\ncell_size = [0.25, 0.25]\ncells = [8, 8]\n[schemes]\nshape = \"linear\"\nintegrator = \
+             {integrator}\n[time]\n{time}\n[loads]\ngravity = [0.0, -10.0]\n[[bodies]]\nname = \"b\"\nmaterial = {{ \
+             model = \"neo_hookean\", youngs_modulus = 1e6, poisson_ratio = 0.0 }}\ndensity = 80.0\ngeometry = {{ \
+             rectangle = {{ min = [0.5, 0.0], max = [1.5, 1.0] }} }}\n[[boundaries]]\nedge = \"bottom\"\ncondition = \
+             \"fixed\"\n"
+        )
+    };
+    let read = |integrator: &str, time: &str| {
+        sparse_mpm::scene::Scene::from_toml_str(&scene(integrator, time)).and_then(|s| s.build().map(|_| s))
+    };
+    let ok = read("{ quasi_static = { load_steps = 4 } }", "end = 1.0").unwrap();
+    assert_eq!(
+        ok.schemes.integrator,
+        Integrator::QuasiStatic(QuasiStatic {
+            load_steps: 4,
+            ..QuasiStatic::default()
+        })
+    );
+    for (integrator, time, key) in [
+        ("{ quasi_static = { load_steps = 4 } }", "end = 1.0\ndt = 0.1", "time.dt"),
+        ("{ quasi_static = { load_steps = 4 } }", "end = 1.0\ncfl = 0.5", "time.cfl"),
+        ("{ quasi_static = { load_steps = 0 } }", "end = 1.0", "load_steps"),
+        ("{ quasi_static = { tolerance = 2.0 } }", "end = 1.0", "tolerance"),
+        ("{ quasi_static = { max_iterations = 0 } }", "end = 1.0", "max_iterations"),
+        ("{ quasi_static = { load_step = 4 } }", "end = 1.0", "load_step"),
+    ] {
+        let e = read(integrator, time).unwrap_err().to_string();
+        assert!(e.contains(key), "{integrator} {time}: {e}");
+    }
+}
+
+/// The quasi-static step from a scene: 20 increments of `time.end / 20`, the particles at rest
+/// and the report's Newton columns filled.
+#[test]
+fn a_scene_runs_the_load_in_its_increments() {
+    let column = Column::SMALL_STRAIN;
+    let mut sim = column.simulation(8, &choices(ShapeFunction::CubicBSpline)).unwrap();
+    let mut reports = Vec::new();
+    sim.run_until(1.0, |_, r| {
+        reports.push(r.clone());
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(reports.len(), column.load_steps);
+    for r in &reports {
+        assert!(r.acceleration_solve.iterations >= 1 && r.acceleration_solve.relative_residual <= 1e-10);
+        assert_eq!(r.kinetic_energy, 0.0);
+    }
+    // Half the load at half the increments: the strain energy grows as λ².
+    let (half, full) = (reports[9].strain_energy, reports[19].strain_energy);
+    assert!((full / half - 4.0).abs() < 0.1, "{half} {full}");
+}
