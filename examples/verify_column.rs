@@ -13,7 +13,11 @@ use sparse_mpm_study::verification::Choices;
 
 fn main() -> sparse_mpm::error::Result<()> {
     let large = std::env::args().nth(1).as_deref() == Some("large");
-    let column = if large { Column::LARGE_STRAIN } else { Column::SMALL_STRAIN };
+    let column = if large {
+        Column::LARGE_STRAIN
+    } else {
+        Column::SMALL_STRAIN
+    };
     println!(
         "column E = {} Pa, rho0 = {}, g = {}, l0 = {}, {} load steps, 2 x 2 particles per cell",
         column.youngs_modulus, column.density, column.gravity, column.height, column.load_steps

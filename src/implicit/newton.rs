@@ -235,7 +235,9 @@ impl NewtonSystem<'_> {
                 Some(m) => (mass_times(&m.matrix, &free_u), mass_times(&m.matrix, &self.predicted)),
                 None => (vec![0.0; 2 * n], vec![0.0; 2 * n]),
             };
-            let r = dofs.iter().map(|&k| load * f_ext[k] + f_int[k] - inertia * (mu[k] - mc[k]));
+            let r = dofs
+                .iter()
+                .map(|&k| load * f_ext[k] + f_int[k] - inertia * (mu[k] - mc[k]));
             let terms = dofs
                 .iter()
                 .map(|&k| load * f_ext[k].abs() + f_int[k].abs() + inertia * (mu[k].abs() + mc[k].abs()));

@@ -271,6 +271,11 @@ pub struct Loads {
     /// Gravitational acceleration.
     #[serde(deserialize_with = "crate::pairs::exactly_two")]
     pub gravity: [f64; 2],
+    /// Damping of the explicit step's grid force, for dynamic relaxation:
+    /// `{ model = "local", alpha = 0.8 }` or `{ model = "mass_proportional", alpha = α }`,
+    /// optionally `settled = 1e-6` ([`crate::damping`]).
+    #[serde(default)]
+    pub damping: Option<crate::damping::Damping>,
 }
 
 /// Where a body's particles are.
@@ -513,6 +518,7 @@ impl Scene {
             },
             allow_unstable_time_step: self.time.allow_unstable,
             gravity: self.loads.gravity,
+            damping: self.loads.damping,
             boundaries: self.boundaries.clone(),
             sort_interval: s.sort_interval,
             stability_interval: self
@@ -560,6 +566,7 @@ impl Scene {
             "transfer.k" => format!("schemes.transfer.{}.k", self.schemes.transfer.name()),
             "transfer" => "schemes.transfer".to_string(),
             "gravity" => "loads.gravity".to_string(),
+            "damping" | "damping.alpha" | "damping.settled" => format!("loads.{option}"),
             "threads" => "execution.threads".to_string(),
             other => format!("schemes.{other}"),
         };

@@ -133,6 +133,8 @@ impl State {
             steps: 0,
             failed: None,
             transfer_loss: 0.0,
+            damping_work: 0.0,
+            peak_kinetic: 0.0,
             strain_energy: 0.0,
             speeds: Speeds::default(),
             stability: None,

@@ -65,7 +65,9 @@ mod stability;
 
 pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, MAX_CHECKPOINT_BYTES};
 pub use near_singular::NEARLY_SINGULAR_RATIO;
-pub use options::{Body, Integrator, Newmark, Options, QuasiStatic, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL};
+pub use options::{
+    Body, Integrator, Newmark, Options, QuasiStatic, TimeStep, Transfer, UpdateScheme, DEFAULT_STABILITY_INTERVAL,
+};
 pub use profile::{Phase, Profile};
 pub use report::StepReport;
 pub use stability::{EstimateCounts, BOUND_INTERVAL, ESTIMATE_TRAVEL, GUARD_STEPS, GUARD_STEPS_UNDER_MARGIN};
@@ -109,6 +111,11 @@ struct State {
     failed: Option<String>,
     /// Kinetic energy lost in the transfers back to the particles so far.
     transfer_loss: f64,
+    /// Energy the damping removed so far, `Σ −f_d · v Δt` ([`crate::damping`]).
+    damping_work: f64,
+    /// The largest kinetic energy `½ Σ m_p |Nᵀw|²` of the run so far (the damped run's
+    /// settling is measured against it).
+    peak_kinetic: f64,
     /// Strain energy after the last stress update.
     strain_energy: f64,
     /// Largest particle speed and tangent wave speed of the current state, kept by the stress

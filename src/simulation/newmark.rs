@@ -56,17 +56,20 @@ impl Simulation {
         let (vn, an) = (stacked(&nodes.projected), stacked(&nodes.acceleration));
         let is_active = mass.is_active();
         let extension = extension_matrix(ops, is_active);
-        let (free, mut start) = start(is_active, &extension, prescribed, dt, |k| dt * vn[k] + 0.5 * dt * dt * an[k]);
-        let on_free = |f: &dyn Fn(usize) -> f64| -> Vec<f64> {
-            (0..2 * n).map(|k| if free[k] { f(k) } else { 0.0 }).collect()
-        };
+        let (free, mut start) = start(is_active, &extension, prescribed, dt, |k| {
+            dt * vn[k] + 0.5 * dt * dt * an[k]
+        });
+        let on_free =
+            |f: &dyn Fn(usize) -> f64| -> Vec<f64> { (0..2 * n).map(|k| if free[k] { f(k) } else { 0.0 }).collect() };
         // A predictor that inverts a particle (a large step into contact) gives way to
         // `u = Δt v_n`, then to no motion of the free nodes.
         for fallback in [1.0, 0.0] {
             if admissible(ops, &start) {
                 break;
             }
-            (0..2 * n).filter(|&k| free[k]).for_each(|k| start[k] = fallback * dt * vn[k]);
+            (0..2 * n)
+                .filter(|&k| free[k])
+                .for_each(|k| start[k] = fallback * dt * vn[k]);
         }
         follow(ops, is_active, &free, &mut start, &mut scratch.extension);
         let (dofs, reduction) = reduction(&extension, &free, is_active);

@@ -55,6 +55,9 @@ pub struct Options {
     pub threads: usize,
     /// Explicit (the default) or implicit Newmark integration ([`crate::implicit`]).
     pub integrator: Integrator,
+    /// Damping of the explicit step's grid force, for dynamic relaxation ([`crate::damping`];
+    /// `None`, the default: undamped).
+    pub damping: Option<crate::damping::Damping>,
 }
 
 impl Default for Options {
@@ -73,6 +76,7 @@ impl Default for Options {
             stability_interval: DEFAULT_STABILITY_INTERVAL,
             threads: 1,
             integrator: Integrator::Explicit,
+            damping: None,
         }
     }
 }
@@ -167,6 +171,17 @@ impl Options {
                     crate::parallel::MAX_THREADS
                 ),
             });
+        }
+        if let Some(damping) = self.damping {
+            damping.validate()?;
+            if self.integrator != Integrator::Explicit {
+                return Err(MpmError::InvalidOption {
+                    option: "damping",
+                    reason: "damping (dynamic relaxation) is for the explicit integrator; the quasi-static one \
+                             reaches equilibrium itself and Newmark's rule has its own dissipation"
+                        .into(),
+                });
+            }
         }
         if let Integrator::QuasiStatic(q) = self.integrator {
             q.validate()?;

@@ -66,14 +66,7 @@ impl Simulation {
         }); // (2)–(5)
         let constraints = &setup.prescribed.constraints;
         timed(profile, Phase::Mass, || {
-            mass.prepare_with(
-                ops,
-                &p.mass,
-                &plan.mass,
-                constraints,
-                mass_nodes(ops, mirror),
-                workers,
-            )
+            mass.prepare_with(ops, &p.mass, &plan.mass, constraints, mass_nodes(ops, mirror), workers)
         })?;
         // (The implicit integrator has no stable step to estimate.)
         let explicit = options.integrator == super::Integrator::Explicit;
@@ -160,6 +153,11 @@ impl Simulation {
                 kernels::add_internal_force(ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut nodes.force);
                 Ok::<_, MpmError>(())
             })?; // USF: (11)–(13), (5)
+        }
+        if let Some(damping) = options.damping {
+            // Dynamic relaxation: the force damped against the projected velocity.
+            let power = damping.apply(&mut nodes.force, &nodes.projected, mass.lumped(), mass.is_active());
+            state.damping_work -= dt * power;
         }
         let acceleration_solve = timed(profile, Phase::Accelerate, || {
             solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)
@@ -283,6 +281,14 @@ impl Simulation {
             super::report::report(setup, options, state, cache, scratch, taken)
         })?;
         state.keep(&report, &scratch.particle.kinetic);
+        if let Some(damping) = options.damping {
+            // The kinetic energy of the motion that moves the particles, ½ Σ m_p |Nᵀw|²: FLIP
+            // keeps particle velocities the grid does not see, which no grid force reaches, and a
+            // consistent mass may hold a velocity at fringe nodes that no particle follows.
+            let kinetic = report.grid_kinetic_energy_consistent;
+            state.peak_kinetic = state.peak_kinetic.max(kinetic);
+            report.settled = state.peak_kinetic > 0.0 && kinetic <= damping.settled * state.peak_kinetic;
+        }
         stability::travel(state, dt, setup.grid.cell_size());
         report.transfer_loss = state.transfer_loss;
         if let Some(p) = profile {
@@ -342,7 +348,8 @@ fn mass_nodes(ops: &Operators, mirror: &crate::boundary::MirrorWalls) -> std::op
 pub(super) struct StepPlan {
     /// (6)–(8) in one pass over the grid ([`kernels::update_lumped_grid`]): the lumped mass in
     /// both solves, no stress update between them (not USF), no series velocity (not XPIC,
-    /// FMPM), no mirrored walls (whose lumped mass is folded), the explicit integrator.
+    /// FMPM), no mirrored walls (whose lumped mass is folded), no damping, the explicit
+    /// integrator.
     pub(super) lumped_grid_pass: bool,
     /// USF: the stress update between (6) and (7), so p2g leaves out `f_int`.
     pub(super) stress_first: bool,
@@ -376,6 +383,7 @@ impl StepPlan {
                 && !schedule.stress_first
                 && series.is_none()
                 && setup.prescribed.mirror.is_empty()
+                && options.damping.is_none()
                 && explicit,
             stress_first: schedule.stress_first && explicit,
             // The implicit step strains the particles in its grid-to-particle pass.

@@ -54,11 +54,21 @@ pub struct StepReport {
     pub velocity_solve: SolveReport,
     /// What the acceleration solve did.
     pub acceleration_solve: SolveReport,
+    /// Energy the damping has removed so far ([`crate::damping`]; 0 undamped): the energy
+    /// balance of a damped run is `total_energy + damping_work`, constant up to the transfers'
+    /// and the integrator's share.
+    pub damping_work: f64,
+    /// Whether a damped run has settled: the kinetic energy of the motion that moves the
+    /// particles, `½ Σ_p m_p |(Nᵀ w)_p|²`, at most
+    /// [`Damping::settled`](crate::damping::Damping::settled) times its largest so far (always
+    /// false undamped). Not the particles' own: FLIP keeps particle velocities the grid does not
+    /// see, which no damping of the grid force reaches, and which move no particle.
+    pub settled: bool,
 }
 
 impl StepReport {
     /// Column names of [`StepReport::values`], for a CSV header.
-    pub const COLUMNS: [&'static str; 25] = [
+    pub const COLUMNS: [&'static str; 27] = [
         "step",
         "time",
         "dt",
@@ -84,11 +94,13 @@ impl StepReport {
         "acceleration_iterations",
         "acceleration_residual",
         "velocity_fallback_node",
+        "damping_work",
+        "settled",
     ];
 
     /// The report as numbers, in the order of [`StepReport::COLUMNS`]. Outcomes are coded
     /// 0 = solved, 1 = fell back to lumped, 2 = regularized; the fallback node is −1 when none.
-    pub fn values(&self) -> [f64; 25] {
+    pub fn values(&self) -> [f64; 27] {
         let code = |r: &SolveReport| match r.outcome {
             SolveOutcome::Solved => 0.0,
             SolveOutcome::FellBackToLumped { .. } => 1.0,
@@ -126,6 +138,8 @@ impl StepReport {
             self.acceleration_solve.iterations as f64,
             self.acceleration_solve.relative_residual,
             node,
+            self.damping_work,
+            f64::from(u8::from(self.settled)),
         ]
     }
 }
@@ -207,6 +221,8 @@ pub(super) fn report(
         max_speed,
         velocity_solve,
         acceleration_solve,
+        damping_work: state.damping_work,
+        settled: false,
     })
 }
 

@@ -54,7 +54,7 @@ use crate::particles::Particles;
 
 /// The version of the checkpoint file format this build writes and reads. Files of another
 /// version are refused.
-pub const CHECKPOINT_FORMAT_VERSION: u32 = 6;
+pub const CHECKPOINT_FORMAT_VERSION: u32 = 7;
 
 /// The first bytes of every checkpoint file: the format name.
 const MAGIC: &[u8] = b"sparse-mpm checkpoint\n";
@@ -260,6 +260,8 @@ struct Payload<'a> {
     steps: usize,
     failed: Option<String>,
     transfer_loss: f64,
+    damping_work: f64,
+    peak_kinetic: f64,
     strain_energy: f64,
     /// `[max_p |v_p|, max_p √(C11 V / m)]` as the time loop kept them.
     speeds: [f64; 2],
@@ -295,6 +297,8 @@ impl<'a> Payload<'a> {
             steps,
             failed,
             transfer_loss,
+            damping_work,
+            peak_kinetic,
             strain_energy,
             speeds,
             stability,
@@ -311,6 +315,8 @@ impl<'a> Payload<'a> {
             steps: *steps,
             failed: failed.clone(),
             transfer_loss: *transfer_loss,
+            damping_work: *damping_work,
+            peak_kinetic: *peak_kinetic,
             strain_energy: *strain_energy,
             speeds: [speeds.particle, speeds.wave],
             stability: stability.map(|s| StabilityRecord::of(&s)),
@@ -337,6 +343,8 @@ impl<'a> Payload<'a> {
             steps,
             failed,
             transfer_loss,
+            damping_work,
+            peak_kinetic,
             strain_energy,
             speeds,
             stability,
@@ -370,6 +378,8 @@ impl<'a> Payload<'a> {
                 steps,
                 failed,
                 transfer_loss,
+                damping_work,
+                peak_kinetic,
                 strain_energy,
                 // The load and the wall speed are not saved: they follow from the options and
                 // the particles, and the build measures them.

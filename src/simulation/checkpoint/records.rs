@@ -40,6 +40,7 @@ pub(super) struct OptionsRecord {
     stability_interval: usize,
     threads: usize,
     integrator: Integrator,
+    damping: Option<crate::damping::Damping>,
 }
 
 /// A [`BoundaryCondition`] with every field written (its own serde form omits absent ones,
@@ -108,6 +109,7 @@ impl OptionsRecord {
             stability_interval,
             threads,
             integrator,
+            damping,
         } = options;
         OptionsRecord {
             shape: *shape,
@@ -123,6 +125,7 @@ impl OptionsRecord {
             stability_interval: *stability_interval,
             threads: *threads,
             integrator: *integrator,
+            damping: *damping,
         }
     }
 
@@ -141,6 +144,7 @@ impl OptionsRecord {
             stability_interval,
             threads,
             integrator,
+            damping,
         } = self;
         Options {
             shape,
@@ -156,6 +160,7 @@ impl OptionsRecord {
             stability_interval,
             threads,
             integrator,
+            damping,
         }
     }
 }

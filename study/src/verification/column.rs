@@ -30,6 +30,7 @@ use std::time::Instant;
 
 use super::{Choices, Outcome};
 use sparse_mpm::boundary::{BoundaryCondition, Condition, Edge};
+use sparse_mpm::damping::Damping;
 use sparse_mpm::error::Result;
 use sparse_mpm::grid::Grid;
 use sparse_mpm::material::{Material, NeoHookean};
@@ -141,6 +142,58 @@ impl Column {
             scale += self.density * self.gravity * self.height * v0;
         }
         error / scale
+    }
+
+    /// The column run explicitly under its full weight with `damping` (dynamic relaxation) at the
+    /// Courant number and masses of `choices`, until the run reports itself settled or
+    /// `max_time` has passed: the simulation at its end and the metrics of [`Column::run`] (and
+    /// `time`, when it settled or stopped).
+    ///
+    /// # Errors
+    /// Those of [`Column::simulation`], [`Simulation::set_integrator`] and [`Simulation::step`].
+    pub fn relax(
+        &self,
+        cells_high: usize,
+        choices: &Choices,
+        damping: Damping,
+        max_time: f64,
+    ) -> Result<(Simulation, Outcome)> {
+        let mut options = self.simulation(cells_high, choices)?.options().clone();
+        options.integrator = Integrator::Explicit;
+        options.time_step = TimeStep::Cfl { number: choices.cfl };
+        options.update = choices.update;
+        options.damping = Some(damping);
+        let quasi_static = self.simulation(cells_high, choices)?;
+        let mut sim = Simulation::new(
+            quasi_static.grid().clone(),
+            quasi_static.particles().clone(),
+            quasi_static.bodies().to_vec(),
+            options,
+        )?;
+        let initial = initial_heights(sim.particles());
+        let started = Instant::now();
+        while sim.time() < max_time {
+            if sim.step()?.settled {
+                break;
+            }
+        }
+        let seconds = started.elapsed().as_secs_f64();
+        let p = sim.particles();
+        let weight = self.density * self.gravity * self.height * p.total_mass();
+        let outcome = Outcome {
+            problem: "column_relaxed".into(),
+            cells: cells_high,
+            cell_size: self.height / cells_high as f64,
+            metrics: vec![
+                ("stress_error".into(), self.stress_error(&sim, &initial)),
+                ("time".into(), sim.time()),
+                ("kinetic_energy".into(), p.kinetic_energy() / weight),
+            ],
+            histories: Vec::new(),
+            steps: sim.steps(),
+            seconds,
+        };
+        Ok((sim, outcome))
     }
 
     /// Runs the quasi-static column to the full load ([module docs](self) for the metrics).
