@@ -180,3 +180,47 @@ def test_a_scene_dict_selects_the_newmark_integrator():
     scene["schemes"]["mass"] = {"velocity": "consistent", "acceleration": "series:2"}
     with pytest.raises(mpm.MpmError, match="schemes.mass.acceleration"):
         mpm.Simulation.from_dict(scene)
+
+
+def _column_dict(integrator=None, damping=None):
+    scene = {
+        "grid": {"origin": [0.0, 0.0], "cell_size": [0.25, 0.25], "cells": [8, 12]},
+        "schemes": {"shape": "linear"},
+        "time": {"end": 1.0},
+        "loads": {"gravity": [0.0, -10.0]},
+        "bodies": [
+            {
+                "name": "column",
+                "material": {"model": "neo_hookean", "youngs_modulus": 1.0e6, "poisson_ratio": 0.0},
+                "density": 80.0,
+                "geometry": {"rectangle": {"min": [0.5, 0.0], "max": [1.5, 2.0]}},
+            }
+        ],
+        "boundaries": [
+            {"edge": "bottom", "condition": "fixed"},
+            {"edge": "left", "condition": "slip"},
+            {"edge": "right", "condition": "slip"},
+        ],
+    }
+    if integrator is not None:
+        scene["schemes"]["integrator"] = integrator
+    if damping is not None:
+        scene["loads"]["damping"] = damping
+    return scene
+
+
+def test_a_scene_dict_selects_the_quasi_static_integrator_and_damping():
+    sim = mpm.Simulation.from_dict(_column_dict(integrator={"quasi_static": {"load_steps": 4}}))
+    reports = [sim.step() for _ in range(4)]
+    assert [r["dt"] for r in reports] == [0.25] * 4, "time.end / load_steps"
+    assert all(r["acceleration_residual"] <= 1e-10 and r["kinetic_energy"] == 0.0 for r in reports)
+    assert reports[-1]["strain_energy"] > 3.9 * reports[1]["strain_energy"]
+    bad = _column_dict(integrator={"quasi_static": {"load_steps": 4}})
+    bad["time"]["dt"] = 0.1
+    with pytest.raises(mpm.MpmError, match="time.dt"):
+        mpm.Simulation.from_dict(bad)
+    damped = mpm.Simulation.from_dict(_column_dict(damping={"model": "local", "alpha": 0.8}))
+    report = damped.step()
+    assert "damping_work" in report and "settled" in report
+    with pytest.raises(mpm.MpmError, match="loads.damping"):
+        mpm.Simulation.from_dict(_column_dict(damping={"model": "local", "alpha": 1.5}))
