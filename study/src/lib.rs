@@ -26,13 +26,15 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::verification::bar::{Bar, Ends};
+use crate::verification::column::Column;
 use crate::verification::impulse::ImpulseBar;
 use crate::verification::manufactured::{self, GeneralisedVortex};
 use crate::verification::wave::Wave;
 use crate::verification::{cantilever, disks, rotation, single_point, Choices, Outcome};
+use sparse_mpm::damping::{Damping, DampingModel};
 use sparse_mpm::error::{MpmError, Result};
 use sparse_mpm::grid::Grid;
-use sparse_mpm::mass::{MassDiagnostics, MassOptions, MassScheme, Stabilization};
+use sparse_mpm::mass::{MassDiagnostics, MassOptions, MassScheme, SingularityPolicy, Stabilization};
 use sparse_mpm::material::{LinearElastic, Material, PlaneCondition};
 use sparse_mpm::operators::Operators;
 use sparse_mpm::particles::{lattice, Particles};
@@ -89,11 +91,15 @@ pub enum Part {
     /// Explicit against implicit (Newmark) integration with each mass: bar period against Δt and
     /// h, cantilever, two disks.
     Implicit,
+    /// The elastic column under its own weight: the stress error against `1/h` per kernel,
+    /// quasi-static at small and large strain, and relaxed dynamically (explicit with damping)
+    /// with the lumped and the consistent mass.
+    Column,
 }
 
 impl Part {
     /// Every part, in report order.
-    pub const ALL: [Part; 12] = [
+    pub const ALL: [Part; 13] = [
         Part::Dispersion,
         Part::Frequency,
         Part::BarEnergy,
@@ -101,6 +107,7 @@ impl Part {
         Part::Energy,
         Part::TimeStep,
         Part::Cantilever,
+        Part::Column,
         Part::SinglePoint,
         Part::TimeOrder,
         Part::Waves,
@@ -123,6 +130,7 @@ impl Part {
             Part::Waves => "waves",
             Part::TimeOrder => "time_order",
             Part::Implicit => "implicit",
+            Part::Column => "column",
         }
     }
 }
@@ -170,6 +178,8 @@ pub struct StudySpec {
     pub impulse_cells: Vec<usize>,
     /// Time steps of the time-order part (`Δt = 4e-3 / 2^k`, `k` below this).
     pub time_steps: usize,
+    /// Cells along the height of the column.
+    pub column_cells: Vec<usize>,
 }
 
 impl Default for StudySpec {
@@ -202,6 +212,7 @@ impl Default for StudySpec {
             wave_cells: vec![100, 200, 400],
             impulse_cells: vec![25, 50, 100],
             time_steps: 4,
+            column_cells: vec![8, 16, 32, 64],
         }
     }
 }
@@ -223,6 +234,7 @@ impl StudySpec {
             wave_cells: vec![50, 100],
             impulse_cells: vec![25, 50],
             time_steps: 3,
+            column_cells: vec![8, 16],
             ..StudySpec::default()
         }
     }
@@ -264,6 +276,7 @@ impl StudySpec {
             Part::Energy => self.plan_energy(),
             Part::TimeStep => self.plan_time_step(),
             Part::Cantilever => self.plan_cantilever(),
+            Part::Column => self.plan_column(),
             Part::SinglePoint => Self::plan_single_point(),
             Part::Stabilization => self.plan_stabilization(),
             Part::Dispersion => self.plan_dispersion(),
@@ -440,6 +453,35 @@ impl StudySpec {
         runs
     }
 
+    /// The column part: every shape quasi-static at small and large strain (the mass does not
+    /// enter), and relaxed dynamically at small strain with the lumped and the consistent mass
+    /// (FLIP, the spec's update and Courant number), on each of the column's grids.
+    fn plan_column(&self) -> Vec<(Problem, Choices, usize)> {
+        let mut runs = Vec::new();
+        for &shape in &self.shapes {
+            for &c in &self.column_cells {
+                let lumped = Choices {
+                    shape,
+                    ..self.choices(MassOptions::both(MassScheme::Lumped))
+                };
+                runs.push((Problem::ColumnSmallStrain, lumped, c));
+                runs.push((Problem::ColumnLargeStrain, lumped, c));
+                for scheme in [MassScheme::Lumped, MassScheme::Consistent] {
+                    let choices = Choices {
+                        shape,
+                        mass: MassOptions {
+                            singularity: SingularityPolicy::FallbackToLumped,
+                            ..MassOptions::both(scheme)
+                        },
+                        ..lumped
+                    };
+                    runs.push((Problem::ColumnRelaxed, choices, c));
+                }
+            }
+        }
+        runs
+    }
+
     /// The single-point part: the default choices under USF, USL and MUSL (the spec's update
     /// and Courant number do not apply).
     fn plan_single_point() -> Vec<(Problem, Choices, usize)> {
@@ -480,6 +522,9 @@ enum Problem {
     WavePulse,
     ImpulseBar,
     SinglePointStep,
+    ColumnSmallStrain,
+    ColumnLargeStrain,
+    ColumnRelaxed,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -563,6 +608,20 @@ impl Planned {
             Problem::WavePulse => Wave::pulse(0.1).run(self.cells, &self.choices),
             Problem::ImpulseBar => ImpulseBar::default().run(self.cells, &self.choices),
             Problem::SinglePointStep => spectrum::time_order_run(self.cells, &self.choices),
+            Problem::ColumnSmallStrain => Column::SMALL_STRAIN.run(self.cells, &self.choices),
+            Problem::ColumnLargeStrain => {
+                let mut outcome = Column::LARGE_STRAIN.run(self.cells, &self.choices)?;
+                outcome.problem = "column_large_strain".into();
+                Ok(outcome)
+            }
+            Problem::ColumnRelaxed => {
+                let damping = Damping {
+                    model: DampingModel::Local,
+                    alpha: 0.8,
+                    settled: sparse_mpm::damping::DEFAULT_SETTLED,
+                };
+                Ok(Column::SMALL_STRAIN.relax(self.cells, &self.choices, damping, 200.0)?.1)
+            }
         }
     }
 

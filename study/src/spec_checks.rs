@@ -36,6 +36,7 @@ impl StudySpec {
             ("stabilizations", self.stabilizations.len()),
             ("wave_cells", self.wave_cells.len()),
             ("impulse_cells", self.impulse_cells.len()),
+            ("column_cells", self.column_cells.len()),
         ] {
             if len > MAX_LIST_VALUES {
                 return bad(
@@ -48,6 +49,7 @@ impl StudySpec {
             ("bar_cells", &self.bar_cells),
             ("vortex_cells", &self.vortex_cells),
             ("cantilever_cells", &self.cantilever_cells),
+            ("column_cells", &self.column_cells),
         ] {
             if cells.iter().any(|&c| c == 0 || c > 4096) {
                 return bad(key, "cell counts must lie between 1 and 4096");

@@ -9,6 +9,7 @@ use crate::verification::{fitted_order, Outcome};
 use sparse_mpm::error::{MpmError, Result};
 
 mod cantilever;
+mod column;
 mod convergence;
 mod energy;
 mod frequency;
@@ -59,6 +60,7 @@ pub(super) fn section(
         Part::Energy => energy::write_two_disks(&ok, &mut page),
         Part::TimeStep => time_step::write(&ok, &mut page),
         Part::Cantilever => cantilever::write(&ok, &mut page),
+        Part::Column => column::write(&ok, &mut page),
         Part::Implicit => implicit::write(&ok, &mut page),
         Part::SinglePoint => {
             single_point::write(&ok, page.md);
