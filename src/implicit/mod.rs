@@ -79,22 +79,7 @@ impl QuasiStatic {
                 format!("{}: give 1 to 10⁶ load increments", self.load_steps),
             );
         }
-        if !(self.tolerance >= MIN_TOLERANCE && self.tolerance < 1.0) {
-            return bad(
-                "integrator.quasi_static.tolerance",
-                format!(
-                    "{}: the relative tolerance must lie in [{MIN_TOLERANCE:e}, 1)",
-                    shown(self.tolerance)
-                ),
-            );
-        }
-        if !(1..=1000).contains(&self.max_iterations) {
-            return bad(
-                "integrator.quasi_static.max_iterations",
-                format!("{}: give 1 to 1000 Newton iterations", self.max_iterations),
-            );
-        }
-        Ok(())
+        newton_controls(self.tolerance, self.max_iterations, "quasi_static")
     }
 }
 
@@ -170,24 +155,37 @@ impl Newmark {
                 ),
             );
         }
-        if !(self.tolerance >= MIN_TOLERANCE && self.tolerance < 1.0) {
-            return bad(
-                "integrator.newmark.tolerance",
-                format!(
-                    "{}: the relative tolerance must lie in [{MIN_TOLERANCE:e}, 1) (a residual relative to the \
-                     size of its terms does not fall much below round-off)",
-                    shown(self.tolerance)
-                ),
-            );
-        }
-        if !(1..=1000).contains(&self.max_iterations) {
-            return bad(
-                "integrator.newmark.max_iterations",
-                format!("{}: give 1 to 1000 Newton iterations", self.max_iterations),
-            );
-        }
-        Ok(())
+        newton_controls(self.tolerance, self.max_iterations, "newmark")
     }
+}
+
+/// The Newton controls of the integrator `key`: a relative tolerance in [[`MIN_TOLERANCE`], 1)
+/// and 1 to 1000 iterations.
+fn newton_controls(tolerance: f64, max_iterations: usize, key: &str) -> Result<()> {
+    let (option, reason) = if !(MIN_TOLERANCE..1.0).contains(&tolerance) {
+        (
+            "tolerance",
+            format!(
+                "{}: the relative tolerance must lie in [{MIN_TOLERANCE:e}, 1) (a residual relative to the size of \
+                 its terms does not fall much below round-off)",
+                shown(tolerance)
+            ),
+        )
+    } else if !(1..=1000).contains(&max_iterations) {
+        (
+            "max_iterations",
+            format!("{max_iterations}: give 1 to 1000 Newton iterations"),
+        )
+    } else {
+        return Ok(());
+    };
+    let option = match (key, option) {
+        ("newmark", "tolerance") => "integrator.newmark.tolerance",
+        ("newmark", _) => "integrator.newmark.max_iterations",
+        (_, "tolerance") => "integrator.quasi_static.tolerance",
+        _ => "integrator.quasi_static.max_iterations",
+    };
+    Err(MpmError::InvalidOption { option, reason })
 }
 
 impl Newmark {

@@ -33,7 +33,7 @@ pub(crate) struct NewtonSystem<'a> {
     /// The particles at the start of the step.
     pub particles: &'a Particles,
     /// Each body's material.
-    pub materials: &'a [Material],
+    pub materials: Vec<Material>,
     /// The lumped mass (the singularity policy's fall-back).
     pub lumped: &'a [f64],
     /// The grid force `f = f_ext + f_int(σ_n)`.
@@ -60,6 +60,41 @@ pub(crate) struct NewtonSystem<'a> {
     pub singularity: SingularityPolicy,
 }
 
+impl<'a> NewtonSystem<'a> {
+    /// The equations of step `step` at the operators `ops`, the particles `particles` of
+    /// bodies of `materials`, the lumped mass and the grid force: the free degrees of freedom of
+    /// `freedom`; no inertia, the full load, the default controls of the quasi-static
+    /// integrator (the caller sets what differs).
+    pub(crate) fn new(
+        ops: &'a Operators,
+        particles: &'a Particles,
+        materials: Vec<Material>,
+        lumped: &'a [f64],
+        force: Vec<f64>,
+        freedom: Freedom,
+        step: usize,
+    ) -> NewtonSystem<'a> {
+        let defaults = super::QuasiStatic::default();
+        NewtonSystem {
+            predicted: vec![0.0; force.len()],
+            ops,
+            particles,
+            materials,
+            lumped,
+            force,
+            inertia: 0.0,
+            load: 1.0,
+            dofs: freedom.dofs,
+            reduction: freedom.reduction,
+            tolerance: defaults.tolerance,
+            max_iterations: defaults.max_iterations,
+            key: "quasi_static",
+            step,
+            singularity: SingularityPolicy::Error,
+        }
+    }
+}
+
 /// The mass of the Newmark residual, and what the acceleration solve did to it.
 pub(crate) struct NewtonMass {
     /// `M` (nodes × nodes, the same for both components).
@@ -80,27 +115,62 @@ pub(crate) struct Converged {
     pub mass: Option<NewtonMass>,
 }
 
-/// The free components and a start for `u`: the components of the active nodes and of the
-/// inactive nodes the extension `e` reaches (a particle on the edge of a node's support, where
-/// `N = 0` but `∇N ≠ 0`), less the prescribed ones; `u = Δt v̄` on the prescribed components,
-/// `initial(k)` on the free ones, 0 elsewhere.
-pub(crate) fn start(
-    is_active: &[bool],
-    e: &CscMatrix<f64>,
-    prescribed: &Prescribed,
-    dt: f64,
-    initial: impl Fn(usize) -> f64,
-) -> (Vec<bool>, Vec<f64>) {
-    let n = is_active.len();
-    let mut follows = vec![false; n];
-    e.triplet_iter().for_each(|(i, _, _)| follows[i] = true);
-    let mut free: Vec<bool> = (0..2 * n).map(|k| is_active[k % n] || follows[k % n]).collect();
-    let mut u: Vec<f64> = (0..2 * n).map(|k| if free[k] { initial(k) } else { 0.0 }).collect();
-    for (c, i, v) in prescribed.each() {
-        free[c * n + i] = false;
-        u[c * n + i] = dt * v;
+/// The degrees of freedom of one step and the start of its Newton iterations.
+#[derive(Clone)]
+pub(crate) struct Freedom {
+    /// Which components are free (x components of every node, then y).
+    pub free: Vec<bool>,
+    /// The start of `u`.
+    pub start: Vec<f64>,
+    /// The free degrees of freedom, ascending.
+    pub dofs: Vec<usize>,
+    /// `T` ([`reduction`]).
+    pub reduction: Option<CscMatrix<f64>>,
+}
+
+impl Freedom {
+    /// The free components: those of the active nodes and of the inactive nodes the extension
+    /// reaches (a particle on the edge of a node's support, where `N = 0` but `∇N ≠ 0`), less
+    /// the prescribed ones. The start: `u = Δt v̄` on the prescribed components, `initial(k)` on
+    /// the free ones, or the first of `fallbacks` that inverts no particle when `initial` does
+    /// (a large step into contact); then the free inactive nodes follow the active ones by the
+    /// explicit step's extension.
+    pub(crate) fn of(
+        ops: &Operators,
+        is_active: &[bool],
+        prescribed: &Prescribed,
+        dt: f64,
+        initial: &dyn Fn(usize) -> f64,
+        fallbacks: &[&dyn Fn(usize) -> f64],
+        scratch: &mut ExtensionScratch,
+    ) -> Freedom {
+        let n = is_active.len();
+        let e = crate::transfer::extension_matrix(ops, is_active);
+        let mut follows = vec![false; n];
+        e.triplet_iter().for_each(|(i, _, _)| follows[i] = true);
+        let mut free: Vec<bool> = (0..2 * n).map(|k| is_active[k % n] || follows[k % n]).collect();
+        for (c, i, _) in prescribed.each() {
+            free[c * n + i] = false;
+        }
+        let mut start: Vec<f64> = (0..2 * n).map(|k| if free[k] { initial(k) } else { 0.0 }).collect();
+        for (c, i, v) in prescribed.each() {
+            start[c * n + i] = dt * v;
+        }
+        for fallback in fallbacks {
+            if admissible(ops, &start) {
+                break;
+            }
+            (0..2 * n).filter(|&k| free[k]).for_each(|k| start[k] = fallback(k));
+        }
+        follow(ops, is_active, &free, &mut start, scratch);
+        let (dofs, reduction) = reduction(&e, &free, is_active);
+        Freedom {
+            free,
+            start,
+            dofs,
+            reduction,
+        }
     }
-    (free, u)
 }
 
 /// The free degrees of freedom and the reduction `T` for the free flags `free` (every
@@ -141,7 +211,7 @@ pub(crate) fn reduction(e: &CscMatrix<f64>, free: &[bool], is_active: &[bool]) -
 
 /// (8b) for the displacement `u` (stacked): the free components of the inactive nodes in a
 /// particle's support follow the particles' mean interpolated displacement.
-pub(crate) fn follow(ops: &Operators, is_active: &[bool], free: &[bool], u: &mut [f64], s: &mut ExtensionScratch) {
+fn follow(ops: &Operators, is_active: &[bool], free: &[bool], u: &mut [f64], s: &mut ExtensionScratch) {
     let n = is_active.len();
     let mut field = VectorField {
         x: u[..n].to_vec(),
@@ -202,7 +272,7 @@ impl NewtonSystem<'_> {
         let n = ops.num_nodes();
         let g = gradient_operator(ops);
         // f_ext: the force less the internal force of the particles' stress.
-        let f_int0 = internal_force(ops, &g, self.particles, self.materials, &vec![0.0; 2 * n])?;
+        let f_int0 = internal_force(ops, &g, self.particles, &self.materials, &vec![0.0; 2 * n])?;
         let f_ext: Vec<f64> = self.force.iter().zip(&f_int0).map(|(f, i)| f - i).collect();
         let (inertia, load) = (self.inertia, self.load);
         let mut local = vec![usize::MAX; 2 * n];
@@ -213,7 +283,7 @@ impl NewtonSystem<'_> {
         let mut small_increment = false;
         residuals.clear();
         loop {
-            let tangent = internal_force_and_tangent(ops, &g, self.particles, self.materials, &u);
+            let tangent = internal_force_and_tangent(ops, &g, self.particles, &self.materials, &u);
             let (f_int, k) = tangent.map_err(|e| match e {
                 MpmError::InvalidParticleValue { particle, value, .. } => MpmError::NewtonFailed {
                     step,

@@ -52,6 +52,7 @@
 
 mod build;
 mod checkpoint;
+mod motion;
 mod near_singular;
 mod newmark;
 mod options;
@@ -111,11 +112,8 @@ struct State {
     failed: Option<String>,
     /// Kinetic energy lost in the transfers back to the particles so far.
     transfer_loss: f64,
-    /// Energy the damping removed so far, `Σ −f_d · v Δt` ([`crate::damping`]).
-    damping_work: f64,
-    /// The largest kinetic energy `½ Σ m_p |Nᵀw|²` of the run so far (the damped run's
-    /// settling is measured against it).
-    peak_kinetic: f64,
+    /// What the damping has done so far ([`crate::damping`]).
+    relaxation: Relaxation,
     /// Strain energy after the last stress update.
     strain_energy: f64,
     /// Largest particle speed and tangent wave speed of the current state, kept by the stress
@@ -123,6 +121,16 @@ struct State {
     speeds: Speeds,
     /// The last stable-step estimate.
     stability: Option<Stability>,
+}
+
+/// What a damped run keeps between steps.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
+struct Relaxation {
+    /// Energy the damping removed, `Σ −f_d · v Δt`.
+    damping_work: f64,
+    /// The largest kinetic energy `½ Σ m_p |Nᵀw|²` of the run (the settling is measured
+    /// against it).
+    peak_kinetic: f64,
 }
 
 /// What the current particle configuration makes: rebuilt every step, kept for its buffers

@@ -24,15 +24,13 @@
 //! `u = Δt v̄` (`a = 0`). The Newton iterations and the relative residual are reported in the
 //! acceleration solve's columns of the step report.
 
+use super::motion::stacked;
 use super::phases::{project_velocity, solve_acceleration, StepPlan};
-use super::{Cache, Options, Simulation, State, StepReport};
-use crate::error::{MpmError, Result};
-use crate::fields::VectorField;
-use crate::implicit::newton::{admissible, follow, mass_times, reduction, start, Converged, NewtonMass, NewtonSystem};
+use super::{Cache, Simulation, StepReport};
+use crate::error::Result;
+use crate::implicit::newton::{mass_times, Converged, Freedom, NewtonMass, NewtonSystem};
 use crate::implicit::Newmark;
 use crate::mass::{Role, SolveReport};
-use crate::material::Material;
-use crate::transfer::{extension_matrix, interpolate};
 
 impl Simulation {
     /// One Newmark step of at most `max_dt` (the steps of the [module docs](self)).
@@ -41,56 +39,46 @@ impl Simulation {
         self.prepare_grid(&plan)?; // (1)–(5)
         let dt = newmark.time_step(self.options.time_step, self.state.time, self.state.steps, max_dt)?;
         let step = self.state.steps + 1;
-        let Simulation {
-            setup,
-            options,
-            state,
-            cache: Cache { ops, mass, nodes },
-            scratch,
-            ..
-        } = self;
+        let (setup, options, state) = (&self.setup, &self.options, &self.state);
+        let (Cache { ops, mass, nodes }, scratch) = (&mut self.cache, &mut self.scratch);
         let velocity_solve = project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?; // (6)
         let prescribed = &setup.prescribed;
         let base_solve = solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)?; // (7)
         let n = ops.num_nodes();
         let (vn, an) = (stacked(&nodes.projected), stacked(&nodes.acceleration));
         let is_active = mass.is_active();
-        let extension = extension_matrix(ops, is_active);
-        let (free, mut start) = start(is_active, &extension, prescribed, dt, |k| {
-            dt * vn[k] + 0.5 * dt * dt * an[k]
-        });
+        let fallbacks: [&dyn Fn(usize) -> f64; 2] = [&|k| dt * vn[k], &|_| 0.0];
+        let predictor = |k: usize| dt * vn[k] + 0.5 * dt * dt * an[k];
+        let freedom = Freedom::of(
+            ops,
+            is_active,
+            prescribed,
+            dt,
+            &predictor,
+            &fallbacks,
+            &mut scratch.extension,
+        );
+        let (free, start) = (&freedom.free, freedom.start.clone());
         let on_free =
             |f: &dyn Fn(usize) -> f64| -> Vec<f64> { (0..2 * n).map(|k| if free[k] { f(k) } else { 0.0 }).collect() };
-        // A predictor that inverts a particle (a large step into contact) gives way to
-        // `u = Δt v_n`, then to no motion of the free nodes.
-        for fallback in [1.0, 0.0] {
-            if admissible(ops, &start) {
-                break;
-            }
-            (0..2 * n)
-                .filter(|&k| free[k])
-                .for_each(|k| start[k] = fallback * dt * vn[k]);
-        }
-        follow(ops, is_active, &free, &mut start, &mut scratch.extension);
-        let (dofs, reduction) = reduction(&extension, &free, is_active);
         let beta = newmark.beta;
-        let materials: Vec<Material> = setup.bodies.iter().map(|b| b.material).collect();
+        let (materials, force) = (setup.bodies.iter().map(|b| b.material).collect(), stacked(&nodes.force));
         let system = NewtonSystem {
-            ops,
-            particles: &state.particles,
-            materials: &materials,
-            lumped: mass.lumped(),
-            force: stacked(&nodes.force),
             predicted: on_free(&|k| dt * vn[k] + dt * dt * (0.5 - beta) * an[k]),
             inertia: 1.0 / (beta * dt * dt),
-            load: 1.0,
-            dofs,
-            reduction,
             tolerance: newmark.tolerance,
             max_iterations: newmark.max_iterations,
             key: "newmark",
-            step,
             singularity: options.mass.singularity,
+            ..NewtonSystem::new(
+                ops,
+                &state.particles,
+                materials,
+                mass.lumped(),
+                force,
+                freedom.clone(),
+                step,
+            )
         };
         let (matrix, outcome) = (mass.solved_matrix(Role::Acceleration), base_solve.outcome);
         let mut solver = std::mem::take(&mut scratch.newton);
@@ -123,18 +111,9 @@ impl Simulation {
         for (c, i, v) in prescribed.each() {
             v1[c * n + i] = v;
         }
-        // (10), after checking that every particle stays where the shape functions accept it.
-        let motion = VectorField {
-            x: u[..n].iter().map(|u| u / dt).collect(),
-            y: u[n..].iter().map(|u| u / dt).collect(),
-        };
-        inside(options, setup, state, &interpolate(ops, &motion), dt, step)?;
-        nodes.motion = motion;
-        nodes.updated.x.copy_from_slice(&v1[..n]);
-        nodes.updated.y.copy_from_slice(&v1[n..]);
-        self.particle_phases(&plan, dt)?;
-        // The kinetic energies of the grid, ½ vᵀ M v, in the report's balance: the integrator's
-        // share apart from the transfers' (the trapezoidal rule keeps the grid's energy).
+        self.move_by(&plan, &u, Some(&v1), dt, step)?; // (10)
+                                                       // The kinetic energies of the grid, ½ vᵀ M v, in the report's balance: the integrator's
+                                                       // share apart from the transfers' (the trapezoidal rule keeps the grid's energy).
         let kinetic = &mut self.scratch.particle.kinetic;
         (kinetic.projected, kinetic.updated) = (grid_kinetic(&matrix, &vn), grid_kinetic(&matrix, &v1));
         let newton = SolveReport {
@@ -150,41 +129,4 @@ impl Simulation {
 /// `½ vᵀ M v` for both components of `v` (stacked).
 fn grid_kinetic(m: &nalgebra_sparse::CscMatrix<f64>, v: &[f64]) -> f64 {
     0.5 * v.iter().zip(mass_times(m, v)).map(|(a, b)| a * b).sum::<f64>()
-}
-
-/// A field's x components, then its y components.
-fn stacked(f: &VectorField) -> Vec<f64> {
-    [&f.x[..], &f.y[..]].concat()
-}
-
-/// Whether the particles moved by `Δt Nᵀ w` (`moved`, the interpolated motion field) stay
-/// where the shape functions accept them; the step's error naming the first that does not.
-pub(super) fn inside(
-    options: &Options,
-    setup: &super::Setup,
-    state: &State,
-    moved: &VectorField,
-    dt: f64,
-    step: usize,
-) -> Result<()> {
-    let [x0, x1, y0, y1] = options.shape.allowed_region(&setup.grid);
-    let p = &state.particles;
-    let to = |q: usize| [p.x[q] + dt * moved.x[q], p.y[q] + dt * moved.y[q]];
-    let Some(q) = (0..p.len()).find(|&q| {
-        let [x, y] = to(q);
-        !(x >= x0 && x <= x1 && y >= y0 && y <= y1)
-    }) else {
-        return Ok(());
-    };
-    let [x, y] = to(q);
-    Err(MpmError::StepRejected {
-        step,
-        reason: format!(
-            "the converged step moves particle {q} from ({:.6}, {:.6}) to ({x:.6}, {y:.6}), outside the region \
-             [{x0}, {x1}] x [{y0}, {y1}] where the {} shape functions accept particles: take a smaller time.dt",
-            p.x[q],
-            p.y[q],
-            options.shape.name()
-        ),
-    })
 }

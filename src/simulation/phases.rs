@@ -157,7 +157,7 @@ impl Simulation {
         if let Some(damping) = options.damping {
             // Dynamic relaxation: the force damped against the projected velocity.
             let power = damping.apply(&mut nodes.force, &nodes.projected, mass.lumped(), mass.is_active());
-            state.damping_work -= dt * power;
+            state.relaxation.damping_work -= dt * power;
         }
         let acceleration_solve = timed(profile, Phase::Accelerate, || {
             solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)
@@ -286,8 +286,9 @@ impl Simulation {
             // keeps particle velocities the grid does not see, which no grid force reaches, and a
             // consistent mass may hold a velocity at fringe nodes that no particle follows.
             let kinetic = report.grid_kinetic_energy_consistent;
-            state.peak_kinetic = state.peak_kinetic.max(kinetic);
-            report.settled = state.peak_kinetic > 0.0 && kinetic <= damping.settled * state.peak_kinetic;
+            let peak = &mut state.relaxation.peak_kinetic;
+            *peak = peak.max(kinetic);
+            report.settled = *peak > 0.0 && kinetic <= damping.settled * *peak;
         }
         stability::travel(state, dt, setup.grid.cell_size());
         report.transfer_loss = state.transfer_loss;

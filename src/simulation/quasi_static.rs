@@ -14,15 +14,13 @@
 //! increment's, and the internal force is `f_int(u)` of the Newmark step. No mass matrix
 //! enters, whatever `schemes.mass` says; the particles are at rest after every increment.
 
+use super::motion::stacked;
 use super::phases::StepPlan;
 use super::{Cache, Simulation, StepReport};
 use crate::error::{MpmError, Result};
-use crate::fields::VectorField;
-use crate::implicit::newton::{follow, reduction, start, Converged, NewtonSystem};
+use crate::implicit::newton::{Converged, Freedom, NewtonSystem};
 use crate::implicit::QuasiStatic;
 use crate::mass::{Role, SolveReport};
-use crate::material::Material;
-use crate::transfer::{extension_matrix, interpolate};
 
 impl Simulation {
     /// One load increment of at most `max_dt` (the steps of the [module docs](self)).
@@ -37,40 +35,28 @@ impl Simulation {
         };
         let dt = dt.min(max_dt);
         let step = self.state.steps + 1;
-        let Simulation {
-            setup,
-            options,
-            state,
-            cache: Cache { ops, mass, nodes },
-            scratch,
-            ..
-        } = self;
-        let n = ops.num_nodes();
-        let is_active = mass.is_active();
-        let extension = extension_matrix(ops, is_active);
-        let (free, mut u) = start(is_active, &extension, &setup.prescribed, dt, |_| 0.0);
-        follow(ops, is_active, &free, &mut u, &mut scratch.extension);
-        let (dofs, reduction) = reduction(&extension, &free, is_active);
-        let materials: Vec<Material> = setup.bodies.iter().map(|b| b.material).collect();
-        let system = NewtonSystem {
+        let (setup, state) = (&self.setup, &self.state);
+        let (Cache { ops, mass, nodes }, scratch) = (&mut self.cache, &mut self.scratch);
+        let zero = |_: usize| 0.0;
+        let freedom = Freedom::of(
             ops,
-            particles: &state.particles,
-            materials: &materials,
-            lumped: mass.lumped(),
-            force: [&nodes.force.x[..], &nodes.force.y[..]].concat(),
-            predicted: vec![0.0; 2 * n],
-            inertia: 0.0,
+            mass.is_active(),
+            &setup.prescribed,
+            dt,
+            &zero,
+            &[],
+            &mut scratch.extension,
+        );
+        let (materials, force) = (setup.bodies.iter().map(|b| b.material).collect(), stacked(&nodes.force));
+        let start = freedom.start.clone();
+        let system = NewtonSystem {
             load: quasi_static.load_factor(step),
-            dofs,
-            reduction,
             tolerance: quasi_static.tolerance,
             max_iterations: quasi_static.max_iterations,
-            key: "quasi_static",
-            step,
-            singularity: options.mass.singularity,
+            ..NewtonSystem::new(ops, &state.particles, materials, mass.lumped(), force, freedom, step)
         };
         let mut solver = std::mem::take(&mut scratch.newton);
-        let solved = system.solve(u, None, &mut solver, &mut scratch.newton_residuals);
+        let solved = system.solve(start, None, &mut solver, &mut scratch.newton_residuals);
         scratch.newton = solver;
         let Converged {
             u,
@@ -78,23 +64,13 @@ impl Simulation {
             relative,
             ..
         } = solved?;
-        // (10), after checking that every particle stays where the shape functions accept it.
-        let motion = VectorField {
-            x: u[..n].iter().map(|u| u / dt).collect(),
-            y: u[n..].iter().map(|u| u / dt).collect(),
-        };
-        super::newmark::inside(options, setup, state, &interpolate(ops, &motion), dt, step)?;
-        nodes.motion = motion;
-        for field in [&mut nodes.projected, &mut nodes.updated] {
-            field.x.iter_mut().chain(field.y.iter_mut()).for_each(|v| *v = 0.0);
-        }
         let velocity = mass.lumped_report(Role::Velocity);
         let newton = SolveReport {
             iterations,
             relative_residual: relative,
             ..mass.lumped_report(Role::Acceleration)
         };
-        self.particle_phases(&plan, dt)?;
+        self.move_by(&plan, &u, None, dt, step)?; // (10)
         self.finish_step(dt, f64::INFINITY, [velocity, newton])
     }
 }

@@ -221,7 +221,7 @@ pub(super) fn report(
         max_speed,
         velocity_solve,
         acceleration_solve,
-        damping_work: state.damping_work,
+        damping_work: state.relaxation.damping_work,
         settled: false,
     })
 }

@@ -47,7 +47,7 @@ use records::{BodyRecord, GridRecord, OptionsRecord, ParticlesRecord, StabilityR
 
 use super::build::Resume;
 use super::stability::Speeds;
-use super::{Simulation, State};
+use super::{Relaxation, Simulation, State};
 use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::particles::Particles;
@@ -260,8 +260,7 @@ struct Payload<'a> {
     steps: usize,
     failed: Option<String>,
     transfer_loss: f64,
-    damping_work: f64,
-    peak_kinetic: f64,
+    relaxation: Relaxation,
     strain_energy: f64,
     /// `[max_p |v_p|, max_p √(C11 V / m)]` as the time loop kept them.
     speeds: [f64; 2],
@@ -297,8 +296,7 @@ impl<'a> Payload<'a> {
             steps,
             failed,
             transfer_loss,
-            damping_work,
-            peak_kinetic,
+            relaxation,
             strain_energy,
             speeds,
             stability,
@@ -315,8 +313,7 @@ impl<'a> Payload<'a> {
             steps: *steps,
             failed: failed.clone(),
             transfer_loss: *transfer_loss,
-            damping_work: *damping_work,
-            peak_kinetic: *peak_kinetic,
+            relaxation: *relaxation,
             strain_energy: *strain_energy,
             speeds: [speeds.particle, speeds.wave],
             stability: stability.map(|s| StabilityRecord::of(&s)),
@@ -343,8 +340,7 @@ impl<'a> Payload<'a> {
             steps,
             failed,
             transfer_loss,
-            damping_work,
-            peak_kinetic,
+            relaxation,
             strain_energy,
             speeds,
             stability,
@@ -378,8 +374,7 @@ impl<'a> Payload<'a> {
                 steps,
                 failed,
                 transfer_loss,
-                damping_work,
-                peak_kinetic,
+                relaxation,
                 strain_energy,
                 // The load and the wall speed are not saved: they follow from the options and
                 // the particles, and the build measures them.
