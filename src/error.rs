@@ -233,7 +233,7 @@ pub enum MpmError {
     },
     /// The Newton iteration of an implicit step did not converge.
     #[error(
-        "step {step}: the Newton iteration of the Newmark integrator did not converge after {iterations} \
+        "step {step}: the Newton iteration of the implicit step did not converge after {iterations} \
          iteration(s) (relative residual {residual:.3e}): {reason}"
     )]
     NewtonFailed {

@@ -43,8 +43,9 @@ pub enum Integrator {
 pub struct QuasiStatic {
     /// Increments of the load (1 to 10⁶).
     pub load_steps: usize,
-    /// Converged when `‖r‖ ≤ tolerance · ‖λ|f_ext| + |f_int|‖` on the free degrees of freedom
-    /// (or by a vanishing increment with the residual within `√tolerance`); in
+    /// Converged when `‖r‖ ≤ tolerance · ‖λ|f_ext| + |f_int|‖` on the free degrees of freedom and
+    /// the reactions at the others (or by a vanishing increment with the residual within
+    /// `√tolerance`); in
     /// [`MIN_TOLERANCE`], 1).
     pub tolerance: f64,
     /// Newton iterations allowed per increment (1 to 1000).
@@ -99,7 +100,8 @@ pub struct Newmark {
     /// `γ` in [½, 1].
     pub gamma: f64,
     /// Converged when `‖r‖ ≤ tolerance · ‖|f_ext| + |f_int| + (|M u| + |M c|)/(β Δt²)‖` on the free
-    /// degrees of freedom (`c = Δt v_n + Δt² (½ − β) a_n`: the size of each term of
+    /// degrees of freedom with the reactions `|f_ext| + |f_int|` at the others
+    /// (`c = Δt v_n + Δt² (½ − β) a_n`: the size of each term of
     /// `r = f_ext + f_int − M (u − c)/(β Δt²)`), or when the increment `‖δu‖ ≤ tolerance · ‖u‖`
     /// with that relative residual within `√tolerance` (a residual held up by round-off); in
     /// [`MIN_TOLERANCE`], 1).

@@ -311,8 +311,14 @@ impl NewtonSystem<'_> {
             let terms = dofs
                 .iter()
                 .map(|&k| load * f_ext[k].abs() + f_int[k].abs() + inertia * (mu[k].abs() + mc[k].abs()));
-            // Tᵀ r, and the scale carried the same way (T's weights are positive).
-            let (r, scale) = (reduce(t, r.collect()), norm(reduce(t, terms.collect()).into_iter()));
+            // Tᵀ r, and the scale carried the same way (T's weights are positive), with the
+            // reactions at the components that are not free: a step driven by prescribed
+            // displacements alone has no other force to measure its residual by.
+            let reactions = (0..2 * n)
+                .filter(|&k| local[k] == usize::MAX)
+                .map(|k| load * f_ext[k].abs() + f_int[k].abs());
+            let free_scale = reduce(t, terms.collect());
+            let (r, scale) = (reduce(t, r.collect()), norm(free_scale.into_iter().chain(reactions)));
             relative = if scale > 0.0 {
                 norm(r.iter().copied()) / scale
             } else {
