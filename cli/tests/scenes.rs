@@ -17,12 +17,13 @@ mod vtk_read;
 
 use vtk_read::{read_pvd, read_vtp};
 
-const SHIPPED: [&str; 5] = [
+const SHIPPED: [&str; 6] = [
     "seed_problem",
     "two_disks",
     "vibrating_bar",
     "cantilever",
     "block_in_box",
+    "column",
 ];
 
 fn scene_path(name: &str) -> PathBuf {

@@ -281,6 +281,9 @@ impl NewtonSystem<'_> {
         }
         let (mut u, mut iterations, mut relative) = (start.clone(), 0, f64::INFINITY);
         let mut small_increment = false;
+        // An increment no larger than this moves no node by anything the positions resolve.
+        let resolution = 1e-13 * ops.grid().map_or(1.0, |g| g.cell_size()[0].min(g.cell_size()[1]));
+        let mut unresolved = false;
         residuals.clear();
         loop {
             let tangent = internal_force_and_tangent(ops, &g, self.particles, &self.materials, &u);
@@ -335,8 +338,12 @@ impl NewtonSystem<'_> {
                 return Err(failed("the iterate is not finite: take a smaller time.dt".into()));
             }
             // A small increment ends the iterations only with a residual within √tolerance: one
-            // held up by round-off, not an iterate that ran away.
-            let stalled = small_increment && relative <= self.tolerance.sqrt();
+            // held up by round-off, not an iterate that ran away. So does a residual within
+            // √tolerance that no longer halves in two iterations (Newton converges quadratically
+            // until round-off holds it), and an increment below what the positions resolve.
+            let within = relative <= self.tolerance.sqrt();
+            let stagnant = within && residuals.len() >= 3 && relative > 0.5 * residuals[residuals.len() - 3];
+            let stalled = (small_increment && within) || stagnant || unresolved;
             if relative <= self.tolerance || stalled || dofs.is_empty() {
                 return Ok(Converged {
                     u,
@@ -373,6 +380,7 @@ impl NewtonSystem<'_> {
                 // applies to the Newton matrix too, and the step starts again.
                 mass = Some(self.substitute(mass, &reason)?);
                 (u, iterations, relative, small_increment) = (start.clone(), 0, f64::INFINITY, false);
+                unresolved = false;
                 residuals.clear();
                 continue;
             }
@@ -382,14 +390,28 @@ impl NewtonSystem<'_> {
             // Backtracking: the Newton step halved until no particle inverts.
             let mut step_length = 1.0;
             let mut trial = u.clone();
-            for _ in 0..30 {
+            let mut found = false;
+            for _ in 0..31 {
                 for (l, &k) in dofs.iter().enumerate() {
                     trial[k] = u[k] + step_length * delta[l];
                 }
-                if admissible(ops, &trial) {
+                found = admissible(ops, &trial);
+                if found {
                     break;
                 }
                 step_length *= 0.5;
+            }
+            if !found {
+                let advice = match self.key {
+                    "quasi_static" => {
+                        "the increment's load is more than the bodies can carry from here (a body that cannot \
+                         carry its load has no equilibrium): give more schemes.integrator.quasi_static.load_steps"
+                    }
+                    _ => "take a smaller time.dt",
+                };
+                return Err(failed(format!(
+                    "every length of the Newton step down to 2⁻³⁰ of it inverts a particle: {advice}"
+                )));
             }
             u = trial;
             iterations += 1;
@@ -397,6 +419,7 @@ impl NewtonSystem<'_> {
             // report, then the loop ends.
             let increment = step_length * norm(delta.iter().copied());
             small_increment = increment <= self.tolerance * norm(u.iter().copied());
+            unresolved = step_length * delta.iter().fold(0.0, |m: f64, d| m.max(d.abs())) <= resolution;
         }
     }
 

@@ -51,7 +51,8 @@ impl Simulation {
         };
         // The stable step before the first step, so that a fixed step above it is refused now.
         let plan = StepPlan::of(&sim.setup, &sim.options);
-        sim.prepare_grid(&plan)?;
+        let (input, out) = sim.split(&plan);
+        super::phases::prepare_grid(input, out)?;
         super::stability::next_time_step(&sim.options, sim.state.steps, sim.stable_time_step())?;
         Ok(sim)
     }

@@ -2,46 +2,45 @@
 //! strained and given their velocities by the explicit step's grid-to-particle pass, with the
 //! converged grid displacement over the step as its motion field.
 
-use super::phases::StepPlan;
-use super::{Options, Setup, Simulation, State};
+use super::phases::{particle_phases, StepInput, StepOutput};
+use super::{Options, Setup, State};
 use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
 use crate::transfer::interpolate;
 
-impl Simulation {
-    /// (10) of an implicit step: the grid-to-particle pass with the motion field `u/Δt` and the
-    /// grid velocities `w` (`None`: the particles come to rest), after checking that every
-    /// particle stays where the shape functions accept it.
-    pub(super) fn move_by(
-        &mut self,
-        plan: &StepPlan,
-        u: &[f64],
-        w: Option<&[f64]>,
-        dt: f64,
-        step: usize,
-    ) -> Result<()> {
-        let n = self.cache.ops.num_nodes();
-        let motion = VectorField {
-            x: u[..n].iter().map(|u| u / dt).collect(),
-            y: u[n..].iter().map(|u| u / dt).collect(),
-        };
-        let moved = interpolate(&self.cache.ops, &motion);
-        inside(&self.options, &self.setup, &self.state, &moved, dt, step)?;
-        let nodes = &mut self.cache.nodes;
-        nodes.motion = motion;
-        match w {
-            Some(w) => {
-                nodes.updated.x.copy_from_slice(&w[..n]);
-                nodes.updated.y.copy_from_slice(&w[n..]);
-            }
-            None => {
-                for field in [&mut nodes.projected, &mut nodes.updated] {
-                    field.x.iter_mut().chain(field.y.iter_mut()).for_each(|v| *v = 0.0);
-                }
+/// (10) of an implicit step: the grid-to-particle pass with the motion field `u/Δt` and the
+/// grid velocities `w` (`None`: the particles come to rest), after checking that every particle
+/// stays where the shape functions accept it.
+pub(super) fn move_by(
+    input: StepInput,
+    out: StepOutput,
+    u: &[f64],
+    w: Option<&[f64]>,
+    dt: f64,
+    step: usize,
+) -> Result<()> {
+    let mut out = out;
+    let n = out.cache.ops.num_nodes();
+    let motion = VectorField {
+        x: u[..n].iter().map(|u| u / dt).collect(),
+        y: u[n..].iter().map(|u| u / dt).collect(),
+    };
+    let moved = interpolate(&out.cache.ops, &motion);
+    inside(input.options, input.setup, out.state, &moved, dt, step)?;
+    let nodes = &mut out.cache.nodes;
+    nodes.motion = motion;
+    match w {
+        Some(w) => {
+            nodes.updated.x.copy_from_slice(&w[..n]);
+            nodes.updated.y.copy_from_slice(&w[n..]);
+        }
+        None => {
+            for field in [&mut nodes.projected, &mut nodes.updated] {
+                field.x.iter_mut().chain(field.y.iter_mut()).for_each(|v| *v = 0.0);
             }
         }
-        self.particle_phases(plan, dt)
     }
+    particle_phases(input, out.reborrow(), dt)
 }
 
 /// A field's x components, then its y components.

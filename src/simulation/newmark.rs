@@ -24,8 +24,8 @@
 //! `u = Δt v̄` (`a = 0`). The Newton iterations and the relative residual are reported in the
 //! acceleration solve's columns of the step report.
 
-use super::motion::stacked;
-use super::phases::{project_velocity, solve_acceleration, StepPlan};
+use super::motion::{move_by, stacked};
+use super::phases::{finish_step, prepare_grid, project_velocity, solve_acceleration, StepPlan};
 use super::{Cache, Simulation, StepReport};
 use crate::error::Result;
 use crate::implicit::newton::{mass_times, Converged, Freedom, NewtonMass, NewtonSystem};
@@ -36,11 +36,13 @@ impl Simulation {
     /// One Newmark step of at most `max_dt` (the steps of the [module docs](self)).
     pub(super) fn newmark_phases(&mut self, newmark: Newmark, max_dt: f64) -> Result<StepReport> {
         let plan = StepPlan::of(&self.setup, &self.options);
-        self.prepare_grid(&plan)?; // (1)–(5)
-        let dt = newmark.time_step(self.options.time_step, self.state.time, self.state.steps, max_dt)?;
-        let step = self.state.steps + 1;
-        let (setup, options, state) = (&self.setup, &self.options, &self.state);
-        let (Cache { ops, mass, nodes }, scratch) = (&mut self.cache, &mut self.scratch);
+        let (input, mut out) = self.split(&plan);
+        prepare_grid(input, out.reborrow())?; // (1)–(5)
+        let (setup, options) = (input.setup, input.options);
+        let dt = newmark.time_step(options.time_step, out.state.time, out.state.steps, max_dt)?;
+        let step = out.state.steps + 1;
+        let state = &*out.state;
+        let (Cache { ops, mass, nodes }, scratch) = (&mut *out.cache, &mut *out.scratch);
         let velocity_solve = project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?; // (6)
         let prescribed = &setup.prescribed;
         let base_solve = solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)?; // (7)
@@ -111,10 +113,10 @@ impl Simulation {
         for (c, i, v) in prescribed.each() {
             v1[c * n + i] = v;
         }
-        self.move_by(&plan, &u, Some(&v1), dt, step)?; // (10)
-                                                       // The kinetic energies of the grid, ½ vᵀ M v, in the report's balance: the integrator's
-                                                       // share apart from the transfers' (the trapezoidal rule keeps the grid's energy).
-        let kinetic = &mut self.scratch.particle.kinetic;
+        move_by(input, out.reborrow(), &u, Some(&v1), dt, step)?; // (10)
+                                                                  // The kinetic energies of the grid, ½ vᵀ M v, in the report's balance: the integrator's
+                                                                  // share apart from the transfers' (the trapezoidal rule keeps the grid's energy).
+        let kinetic = &mut out.scratch.particle.kinetic;
         (kinetic.projected, kinetic.updated) = (grid_kinetic(&matrix, &vn), grid_kinetic(&matrix, &v1));
         let newton = SolveReport {
             scheme: base_solve.scheme,
@@ -122,7 +124,7 @@ impl Simulation {
             iterations,
             relative_residual: relative,
         };
-        self.finish_step(dt, f64::INFINITY, [velocity_solve, newton])
+        finish_step(input, out, dt, f64::INFINITY, [velocity_solve, newton])
     }
 }
 

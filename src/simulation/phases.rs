@@ -20,76 +20,6 @@ use crate::schemes::StressFrom;
 use crate::shape::ShapeFunction;
 
 impl Simulation {
-    /// (1)–(5) and the grid mass for the current particle configuration (re-sorting the
-    /// particles first when due), and the stable-step estimate when due.
-    pub(super) fn prepare_grid(&mut self, plan: &StepPlan) -> Result<()> {
-        let Simulation {
-            setup,
-            options,
-            state,
-            cache,
-            scratch,
-            profile,
-        } = self;
-        let (grid, workers) = (&setup.grid, &setup.workers);
-        let interval = options.sort_interval;
-        if interval > 0 && state.steps.is_multiple_of(interval) {
-            timed(profile, Phase::Sort, || {
-                // The operators' coordinate array, which the assembly below rewrites, lends its
-                // memory as the sort's work array.
-                let work = cache.ops.reassembly_scratch();
-                sort_particles(grid, options.shape, &mut state.particles, &mut scratch.sorting, work)
-            });
-        }
-        let p = &state.particles;
-        let mirror = &setup.prescribed.mirror;
-        timed(profile, Phase::Assemble, || {
-            cache.ops.reassemble_with(grid, options.shape, &p.x, &p.y, workers)?;
-            mirror.fold(grid, options.shape, &p.x, &p.y, &mut cache.ops); // mirrored walls
-            Ok::<_, MpmError>(())
-        })?; // (1)
-        let stress = if plan.stress_first {
-            Stress::Omit
-        } else {
-            Stress::Include
-        };
-        let (ops, mass, nodes) = (&cache.ops, &mut cache.mass, &mut cache.nodes);
-        let fields = !plan.lumped_grid_pass;
-        timed(profile, Phase::P2g, || {
-            let terms = P2gTerms {
-                apic: plan.apic,
-                gravity: options.gravity,
-                stress,
-            };
-            kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, fields);
-            mirror.fold_lumped(grid, p, ops, mass.lumped_mut());
-        }); // (2)–(5)
-        let constraints = &setup.prescribed.constraints;
-        timed(profile, Phase::Mass, || {
-            mass.prepare_with(ops, &p.mass, &plan.mass, constraints, mass_nodes(ops, mirror), workers)
-        })?;
-        // (The implicit integrator has no stable step to estimate.)
-        let explicit = options.integrator == super::Integrator::Explicit;
-        let due = stability::estimate_due(options, state, &cache.mass);
-        if explicit && due != stability::Due::Nothing {
-            let tracking = &mut scratch.tracking;
-            let mut estimate = timed(profile, Phase::StableStep, || {
-                stability::estimate(setup, options, state, cache, due, tracking)
-            })?;
-            // A nearly singular mass: the singularity policy for this step, and the stable
-            // step of what it put in place.
-            if let Some(s) = tracking.nearly_singular.take() {
-                cache.mass.substitute_nearly_singular(s.node, s.ratio, &cache.ops)?;
-                estimate = timed(profile, Phase::StableStep, || {
-                    stability::estimate(setup, options, state, cache, stability::Due::Estimate, tracking)
-                })?;
-                tracking.nearly_singular = None;
-            }
-            state.stability = Some(estimate);
-        }
-        Ok(())
-    }
-
     /// One step no longer than `max_dt`: the lines of the [module docs](super) in order.
     pub(super) fn phases(&mut self, max_dt: f64) -> Result<StepReport> {
         match self.options.integrator {
@@ -98,170 +28,21 @@ impl Simulation {
             super::Integrator::Explicit => {}
         }
         let plan = StepPlan::of(&self.setup, &self.options);
-        self.prepare_grid(&plan)?; // (1)–(5), mass
-        let (setup, state) = (&self.setup, &self.state);
-        let stable = timed(&mut self.profile, Phase::StableStep, || {
+        let (input, mut out) = self.split(&plan);
+        prepare_grid(input, out.reborrow())?; // (1)–(5), mass
+        let (setup, state) = (input.setup, &*out.state);
+        let stable = timed(out.profile, Phase::StableStep, || {
             stability::stable_time_step(&setup.grid, state)
         });
-        let dt = stability::next_time_step(&self.options, self.state.steps, stable)?.min(max_dt);
-        let solves = self.grid_phases(&plan, dt)?; // (6)–(8b), XPIC/FMPM
-        self.particle_phases(&plan, dt)?; // (9)–(13)
-        self.finish_step(dt, stable, solves)
+        let dt = stability::next_time_step(input.options, out.state.steps, stable)?.min(max_dt);
+        let solves = grid_phases(input, out.reborrow(), dt)?; // (6)–(8b), XPIC/FMPM
+        particle_phases(input, out.reborrow(), dt)?; // (9)–(13)
+        finish_step(input, out, dt, stable, solves)
     }
 
-    /// (6)–(8b) and XPIC/FMPM's series velocity (USF: the stress update after (6)); the
-    /// reports of the velocity and acceleration solves.
-    fn grid_phases(&mut self, plan: &StepPlan, dt: f64) -> Result<[SolveReport; 2]> {
-        let Simulation {
-            setup,
-            options,
-            state,
-            cache: Cache { ops, mass, nodes },
-            scratch,
-            profile,
-        } = self;
-        let series = plan.series;
-        let prescribed = &setup.prescribed;
-        if plan.lumped_grid_pass {
-            let (inverse, gravity, active) = (mass.inverse_lumped(), options.gravity, mass.is_active());
-            timed(profile, Phase::LumpedGrid, || {
-                let workers = &setup.workers;
-                kernels::update_lumped_grid(nodes, inverse, active, gravity, dt, prescribed, workers)
-            }); // (6)–(8)
-            timed(profile, Phase::Extend, || {
-                if !mass.supports_all_active(ops)
-                    && extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension)
-                {
-                    // The w the grid-to-particle pass reads follows.
-                    nodes.refresh_lumped_w();
-                }
-            }); // (8b)
-            return Ok([
-                mass.lumped_report(Role::Velocity),
-                mass.lumped_report(Role::Acceleration),
-            ]);
-        }
-        let velocity_solve = timed(profile, Phase::Project, || {
-            project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)
-        })?; // (6)
-        if plan.stress_first {
-            timed(profile, Phase::StressFirst, || {
-                let m = &state.particles.mass;
-                stress_gradient(setup, ops, mass, m, series, nodes, scratch);
-                update_stress(setup, state, scratch, dt)?;
-                let p = &state.particles;
-                kernels::add_internal_force(ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut nodes.force);
-                Ok::<_, MpmError>(())
-            })?; // USF: (11)–(13), (5)
-        }
-        if let Some(damping) = options.damping {
-            // Dynamic relaxation: the force damped against the projected velocity.
-            let power = damping.apply(&mut nodes.force, &nodes.projected, mass.lumped(), mass.is_active());
-            state.relaxation.damping_work -= dt * power;
-        }
-        let acceleration_solve = timed(profile, Phase::Accelerate, || {
-            solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)
-        })?; // (7)
-        let (v, a) = (&nodes.projected, &nodes.acceleration);
-        timed(profile, Phase::GridVelocity, || {
-            update_grid_velocity(prescribed, mass.is_active(), v, a, dt, &mut nodes.updated)
-        }); // (8)
-            // The next projection is w but for the particles' motion (FLIP: N m (v_p + Nᵀ(w − v)) =
-            // M w at fixed operators; PIC and APIC alike): its conjugate gradient starts there.
-        mass.set_velocity_warm_start(&nodes.updated);
-        let active = mass.is_active();
-        timed(profile, Phase::Extend, || {
-            extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension)
-        }); // (8b)
-        if let Some(series) = series {
-            timed(profile, Phase::Series, || {
-                series_velocity(series, setup, ops, mass, &state.particles, nodes, scratch)
-            }); // XPIC, FMPM
-        }
-        Ok([velocity_solve, acceleration_solve])
-    }
-
-    /// (9)–(13): the grid-to-particle pass, the stress update of USL and MUSL, the positions.
-    /// USL updates the stress in the pass itself, and USL and USF move the particles there (and
-    /// sum them for the report), from the same per-particle code as the passes of their own.
-    pub(super) fn particle_phases(&mut self, plan: &StepPlan, dt: f64) -> Result<()> {
-        let Simulation {
-            setup,
-            options,
-            state,
-            cache: Cache { ops, mass, nodes },
-            scratch,
-            profile,
-        } = self;
-        let (series, stress_last) = (plan.series, plan.stress_last);
-        let rule = G2pRule {
-            transfer: plan.transfer,
-            position: options.position_update,
-            inertia: ApicInertia::of(options.shape, &setup.grid),
-            gradient: plan.motion.or_else(|| {
-                (stress_last == Some(StressFrom::Updated))
-                    .then(|| SeriesTransfer::stress_field(series, GridField::Updated))
-            }),
-            motion: plan.motion,
-        };
-        let fused = Fused {
-            stress: (stress_last == Some(StressFrom::Updated)).then_some(&setup.materials[..]),
-            moves: (stress_last != Some(StressFrom::Reprojected)).then_some(options.gravity),
-        };
-        let (p, workers) = (&mut state.particles, &setup.workers);
-        let mut blocks = std::mem::take(&mut scratch.g2p_blocks);
-        let mut packed = std::mem::take(&mut scratch.packed);
-        let by_grid_pass = plan.lumped_grid_pass;
-        timed(profile, Phase::G2p, || {
-            // The lumped grid pass left [w, v] in p2g's accumulator; otherwise pack them.
-            let velocities = if by_grid_pass {
-                nodes.lumped_velocities()
-            } else {
-                kernels::pack_velocities(ops, nodes, &rule, &mut packed);
-                kernels::Packed {
-                    values: &packed,
-                    stride: rule.packed_width(),
-                }
-            };
-            kernels::g2p_packed(
-                ops,
-                velocities,
-                &rule,
-                dt,
-                &fused,
-                p,
-                &mut scratch.particle,
-                workers,
-                &mut blocks,
-            )
-        }); // (9)–(11), USL: (12)–(13), USL and USF: (9)
-        scratch.packed = packed;
-        scratch.particle.kinetic = kernels::KineticEnergies::total(&blocks);
-        scratch.sums = fused.moves.map(|_| ParticleSums::total(blocks.iter().map(|b| b.sums)));
-        if fused.stress.is_some() {
-            let stress = StressSums::total(blocks.iter().map(|b| b.stress));
-            scratch.g2p_blocks = blocks;
-            keep_stress(&setup.bodies, state, stress)?;
-        } else {
-            scratch.g2p_blocks = blocks;
-        }
-        if stress_last == Some(StressFrom::Reprojected) {
-            timed(profile, Phase::Stress, || {
-                kernels::reproject_momentum(ops, &state.particles, plan.apic, nodes, workers); // (11)
-                project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?;
-                let m = &state.particles.mass;
-                stress_gradient(setup, ops, mass, m, series, nodes, scratch);
-                update_stress(setup, state, scratch, dt)
-            })?; // (11)–(13)
-            timed(profile, Phase::Move, || {
-                move_particles(&scratch.particle.displacement, &mut state.particles)
-            }); // (9)
-        }
-        Ok(())
-    }
-
-    /// The end of a step: time and step count advanced, the report, what the state keeps of it.
-    pub(super) fn finish_step(&mut self, dt: f64, stable: f64, solves: [SolveReport; 2]) -> Result<StepReport> {
+    /// The simulation split into what the stages of a step read (with the step's `plan`) and
+    /// what they write.
+    pub(super) fn split<'a>(&'a mut self, plan: &'a StepPlan) -> (StepInput<'a>, StepOutput<'a>) {
         let Simulation {
             setup,
             options,
@@ -270,33 +51,304 @@ impl Simulation {
             scratch,
             profile,
         } = self;
-        state.time += dt;
-        state.steps += 1;
-        let mut report = timed(profile, Phase::Report, || {
-            let taken = StepTaken {
-                dt,
-                stable_time_step: stable,
-                solves,
-            };
-            super::report::report(setup, options, state, cache, scratch, taken)
-        })?;
-        state.keep(&report, &scratch.particle.kinetic);
-        if let Some(damping) = options.damping {
-            // The kinetic energy of the motion that moves the particles, ½ Σ m_p |Nᵀw|²: FLIP
-            // keeps particle velocities the grid does not see, which no grid force reaches, and a
-            // consistent mass may hold a velocity at fringe nodes that no particle follows.
-            let kinetic = report.grid_kinetic_energy_consistent;
-            let peak = &mut state.relaxation.peak_kinetic;
-            *peak = peak.max(kinetic);
-            report.settled = *peak > 0.0 && kinetic <= damping.settled * *peak;
-        }
-        stability::travel(state, dt, setup.grid.cell_size());
-        report.transfer_loss = state.transfer_loss;
-        if let Some(p) = profile {
-            p.count_step();
-        }
-        Ok(report)
+        (
+            StepInput { setup, options, plan },
+            StepOutput {
+                state,
+                cache,
+                scratch,
+                profile,
+            },
+        )
     }
+}
+
+/// What the stages of a step read: the setup, the options and the step's plan.
+#[derive(Clone, Copy)]
+pub(super) struct StepInput<'a> {
+    pub(super) setup: &'a Setup,
+    pub(super) options: &'a Options,
+    pub(super) plan: &'a StepPlan,
+}
+
+/// What the stages of a step write: the state, the cache, the work arrays and the profile.
+pub(super) struct StepOutput<'a> {
+    pub(super) state: &'a mut State,
+    pub(super) cache: &'a mut Cache,
+    pub(super) scratch: &'a mut Scratch,
+    pub(super) profile: &'a mut Option<super::profile::Profile>,
+}
+
+impl StepOutput<'_> {
+    /// The same parts, borrowed again for one stage.
+    pub(super) fn reborrow(&mut self) -> StepOutput<'_> {
+        StepOutput {
+            state: self.state,
+            cache: self.cache,
+            scratch: self.scratch,
+            profile: self.profile,
+        }
+    }
+}
+
+/// (1)–(5) and the grid mass for the current particle configuration (re-sorting the
+/// particles first when due), and the stable-step estimate when due.
+pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
+    let StepInput { setup, options, plan } = input;
+    let StepOutput {
+        state,
+        cache,
+        scratch,
+        profile,
+    } = out;
+    let (grid, workers) = (&setup.grid, &setup.workers);
+    let interval = options.sort_interval;
+    if interval > 0 && state.steps.is_multiple_of(interval) {
+        timed(profile, Phase::Sort, || {
+            // The operators' coordinate array, which the assembly below rewrites, lends its
+            // memory as the sort's work array.
+            let work = cache.ops.reassembly_scratch();
+            sort_particles(grid, options.shape, &mut state.particles, &mut scratch.sorting, work)
+        });
+    }
+    let p = &state.particles;
+    let mirror = &setup.prescribed.mirror;
+    timed(profile, Phase::Assemble, || {
+        cache.ops.reassemble_with(grid, options.shape, &p.x, &p.y, workers)?;
+        mirror.fold(grid, options.shape, &p.x, &p.y, &mut cache.ops); // mirrored walls
+        Ok::<_, MpmError>(())
+    })?; // (1)
+    let stress = if plan.stress_first {
+        Stress::Omit
+    } else {
+        Stress::Include
+    };
+    let (ops, mass, nodes) = (&cache.ops, &mut cache.mass, &mut cache.nodes);
+    let fields = !plan.lumped_grid_pass;
+    timed(profile, Phase::P2g, || {
+        let terms = P2gTerms {
+            apic: plan.apic,
+            gravity: options.gravity,
+            stress,
+        };
+        kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, fields);
+        mirror.fold_lumped(grid, p, ops, mass.lumped_mut());
+    }); // (2)–(5)
+    let constraints = &setup.prescribed.constraints;
+    timed(profile, Phase::Mass, || {
+        mass.prepare_with(ops, &p.mass, &plan.mass, constraints, mass_nodes(ops, mirror), workers)
+    })?;
+    // (The implicit integrator has no stable step to estimate.)
+    let explicit = options.integrator == super::Integrator::Explicit;
+    let due = stability::estimate_due(options, state, &cache.mass);
+    if explicit && due != stability::Due::Nothing {
+        let tracking = &mut scratch.tracking;
+        let mut estimate = timed(profile, Phase::StableStep, || {
+            stability::estimate(setup, options, state, cache, due, tracking)
+        })?;
+        // A nearly singular mass: the singularity policy for this step, and the stable
+        // step of what it put in place.
+        if let Some(s) = tracking.nearly_singular.take() {
+            cache.mass.substitute_nearly_singular(s.node, s.ratio, &cache.ops)?;
+            estimate = timed(profile, Phase::StableStep, || {
+                stability::estimate(setup, options, state, cache, stability::Due::Estimate, tracking)
+            })?;
+            tracking.nearly_singular = None;
+        }
+        state.stability = Some(estimate);
+    }
+    Ok(())
+}
+
+/// (6)–(8b) and XPIC/FMPM's series velocity (USF: the stress update after (6)); the
+/// reports of the velocity and acceleration solves.
+fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveReport; 2]> {
+    let StepInput { setup, options, plan } = input;
+    let StepOutput {
+        state,
+        cache: Cache { ops, mass, nodes },
+        scratch,
+        profile,
+    } = out;
+    let series = plan.series;
+    let prescribed = &setup.prescribed;
+    if plan.lumped_grid_pass {
+        let (inverse, gravity, active) = (mass.inverse_lumped(), options.gravity, mass.is_active());
+        timed(profile, Phase::LumpedGrid, || {
+            let workers = &setup.workers;
+            kernels::update_lumped_grid(nodes, inverse, active, gravity, dt, prescribed, workers)
+        }); // (6)–(8)
+        timed(profile, Phase::Extend, || {
+            if !mass.supports_all_active(ops)
+                && extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension)
+            {
+                // The w the grid-to-particle pass reads follows.
+                nodes.refresh_lumped_w();
+            }
+        }); // (8b)
+        return Ok([
+            mass.lumped_report(Role::Velocity),
+            mass.lumped_report(Role::Acceleration),
+        ]);
+    }
+    let velocity_solve = timed(profile, Phase::Project, || {
+        project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)
+    })?; // (6)
+    if plan.stress_first {
+        timed(profile, Phase::StressFirst, || {
+            let m = &state.particles.mass;
+            stress_gradient(setup, ops, mass, m, series, nodes, scratch);
+            update_stress(setup, state, scratch, dt)?;
+            let p = &state.particles;
+            kernels::add_internal_force(ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut nodes.force);
+            Ok::<_, MpmError>(())
+        })?; // USF: (11)–(13), (5)
+    }
+    if let Some(damping) = options.damping {
+        // Dynamic relaxation: the force damped against the projected velocity.
+        let power = damping.apply(&mut nodes.force, &nodes.projected, mass.lumped(), mass.is_active());
+        state.relaxation.damping_work -= dt * power;
+    }
+    let acceleration_solve = timed(profile, Phase::Accelerate, || {
+        solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)
+    })?; // (7)
+    let (v, a) = (&nodes.projected, &nodes.acceleration);
+    timed(profile, Phase::GridVelocity, || {
+        update_grid_velocity(prescribed, mass.is_active(), v, a, dt, &mut nodes.updated)
+    }); // (8)
+        // The next projection is w but for the particles' motion (FLIP: N m (v_p + Nᵀ(w − v)) =
+        // M w at fixed operators; PIC and APIC alike): its conjugate gradient starts there.
+    mass.set_velocity_warm_start(&nodes.updated);
+    let active = mass.is_active();
+    timed(profile, Phase::Extend, || {
+        extend(ops, prescribed, active, &mut nodes.updated, &mut scratch.extension)
+    }); // (8b)
+    if let Some(series) = series {
+        timed(profile, Phase::Series, || {
+            series_velocity(series, setup, ops, mass, &state.particles, nodes, scratch)
+        }); // XPIC, FMPM
+    }
+    Ok([velocity_solve, acceleration_solve])
+}
+
+/// (9)–(13): the grid-to-particle pass, the stress update of USL and MUSL, the positions.
+/// USL updates the stress in the pass itself, and USL and USF move the particles there (and
+/// sum them for the report), from the same per-particle code as the passes of their own.
+pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<()> {
+    let StepInput { setup, options, plan } = input;
+    let StepOutput {
+        state,
+        cache: Cache { ops, mass, nodes },
+        scratch,
+        profile,
+    } = out;
+    let (series, stress_last) = (plan.series, plan.stress_last);
+    let rule = G2pRule {
+        transfer: plan.transfer,
+        position: options.position_update,
+        inertia: ApicInertia::of(options.shape, &setup.grid),
+        gradient: plan.motion.or_else(|| {
+            (stress_last == Some(StressFrom::Updated)).then(|| SeriesTransfer::stress_field(series, GridField::Updated))
+        }),
+        motion: plan.motion,
+    };
+    let fused = Fused {
+        stress: (stress_last == Some(StressFrom::Updated)).then_some(&setup.materials[..]),
+        moves: (stress_last != Some(StressFrom::Reprojected)).then_some(options.gravity),
+    };
+    let (p, workers) = (&mut state.particles, &setup.workers);
+    let mut blocks = std::mem::take(&mut scratch.g2p_blocks);
+    let mut packed = std::mem::take(&mut scratch.packed);
+    let by_grid_pass = plan.lumped_grid_pass;
+    timed(profile, Phase::G2p, || {
+        // The lumped grid pass left [w, v] in p2g's accumulator; otherwise pack them.
+        let velocities = if by_grid_pass {
+            nodes.lumped_velocities()
+        } else {
+            kernels::pack_velocities(ops, nodes, &rule, &mut packed);
+            kernels::Packed {
+                values: &packed,
+                stride: rule.packed_width(),
+            }
+        };
+        kernels::g2p_packed(
+            ops,
+            velocities,
+            &rule,
+            dt,
+            &fused,
+            p,
+            &mut scratch.particle,
+            workers,
+            &mut blocks,
+        )
+    }); // (9)–(11), USL: (12)–(13), USL and USF: (9)
+    scratch.packed = packed;
+    scratch.particle.kinetic = kernels::KineticEnergies::total(&blocks);
+    scratch.sums = fused.moves.map(|_| ParticleSums::total(blocks.iter().map(|b| b.sums)));
+    if fused.stress.is_some() {
+        let stress = StressSums::total(blocks.iter().map(|b| b.stress));
+        scratch.g2p_blocks = blocks;
+        keep_stress(&setup.bodies, state, stress)?;
+    } else {
+        scratch.g2p_blocks = blocks;
+    }
+    if stress_last == Some(StressFrom::Reprojected) {
+        timed(profile, Phase::Stress, || {
+            kernels::reproject_momentum(ops, &state.particles, plan.apic, nodes, workers); // (11)
+            project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?;
+            let m = &state.particles.mass;
+            stress_gradient(setup, ops, mass, m, series, nodes, scratch);
+            update_stress(setup, state, scratch, dt)
+        })?; // (11)–(13)
+        timed(profile, Phase::Move, || {
+            move_particles(&scratch.particle.displacement, &mut state.particles)
+        }); // (9)
+    }
+    Ok(())
+}
+
+/// The end of a step: time and step count advanced, the report, what the state keeps of it.
+pub(super) fn finish_step(
+    input: StepInput,
+    out: StepOutput,
+    dt: f64,
+    stable: f64,
+    solves: [SolveReport; 2],
+) -> Result<StepReport> {
+    let StepInput { setup, options, .. } = input;
+    let StepOutput {
+        state,
+        cache,
+        scratch,
+        profile,
+    } = out;
+    state.time += dt;
+    state.steps += 1;
+    let mut report = timed(profile, Phase::Report, || {
+        let taken = StepTaken {
+            dt,
+            stable_time_step: stable,
+            solves,
+        };
+        super::report::report(setup, options, state, cache, scratch, taken)
+    })?;
+    state.keep(&report, &scratch.particle.kinetic);
+    if let Some(damping) = options.damping {
+        // The kinetic energy of the motion that moves the particles, ½ Σ m_p |Nᵀw|²: FLIP
+        // keeps particle velocities the grid does not see, which no grid force reaches, and a
+        // consistent mass may hold a velocity at fringe nodes that no particle follows.
+        let kinetic = report.grid_kinetic_energy_consistent;
+        let peak = &mut state.relaxation.peak_kinetic;
+        *peak = peak.max(kinetic);
+        report.settled = *peak > 0.0 && kinetic <= damping.settled * *peak;
+    }
+    stability::travel(state, dt, setup.grid.cell_size());
+    report.transfer_loss = state.transfer_loss;
+    if let Some(p) = profile {
+        p.count_step();
+    }
+    Ok(report)
 }
 
 impl State {

@@ -14,8 +14,8 @@
 //! increment's, and the internal force is `f_int(u)` of the Newmark step. No mass matrix
 //! enters, whatever `schemes.mass` says; the particles are at rest after every increment.
 
-use super::motion::stacked;
-use super::phases::StepPlan;
+use super::motion::{move_by, stacked};
+use super::phases::{finish_step, prepare_grid, StepPlan};
 use super::{Cache, Simulation, StepReport};
 use crate::error::{MpmError, Result};
 use crate::implicit::newton::{Converged, Freedom, NewtonSystem};
@@ -26,17 +26,18 @@ impl Simulation {
     /// One load increment of at most `max_dt` (the steps of the [module docs](self)).
     pub(super) fn quasi_static_phases(&mut self, quasi_static: QuasiStatic, max_dt: f64) -> Result<StepReport> {
         let plan = StepPlan::of(&self.setup, &self.options);
-        self.prepare_grid(&plan)?; // (1)–(5)
-        let super::TimeStep::Fixed { dt } = self.options.time_step else {
+        let (input, mut out) = self.split(&plan);
+        prepare_grid(input, out.reborrow())?; // (1)–(5)
+        let super::TimeStep::Fixed { dt } = input.options.time_step else {
             return Err(MpmError::InvalidOption {
                 option: "integrator",
                 reason: "the quasi-static integrator takes a fixed step (a scene's time.end / load_steps)".into(),
             });
         };
         let dt = dt.min(max_dt);
-        let step = self.state.steps + 1;
-        let (setup, state) = (&self.setup, &self.state);
-        let (Cache { ops, mass, nodes }, scratch) = (&mut self.cache, &mut self.scratch);
+        let step = out.state.steps + 1;
+        let (setup, state) = (input.setup, &*out.state);
+        let (Cache { ops, mass, nodes }, scratch) = (&mut *out.cache, &mut *out.scratch);
         let zero = |_: usize| 0.0;
         let freedom = Freedom::of(
             ops,
@@ -70,7 +71,7 @@ impl Simulation {
             relative_residual: relative,
             ..mass.lumped_report(Role::Acceleration)
         };
-        self.move_by(&plan, &u, None, dt, step)?; // (10)
-        self.finish_step(dt, f64::INFINITY, [velocity, newton])
+        move_by(input, out.reborrow(), &u, None, dt, step)?; // (10)
+        finish_step(input, out, dt, f64::INFINITY, [velocity, newton])
     }
 }
