@@ -116,7 +116,6 @@ pub(crate) struct Converged {
 }
 
 /// The degrees of freedom of one step and the start of its Newton iterations.
-#[derive(Clone)]
 pub(crate) struct Freedom {
     /// Which components are free (x components of every node, then y).
     pub free: Vec<bool>,

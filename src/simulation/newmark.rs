@@ -51,7 +51,7 @@ impl Simulation {
         let is_active = mass.is_active();
         let fallbacks: [&dyn Fn(usize) -> f64; 2] = [&|k| dt * vn[k], &|_| 0.0];
         let predictor = |k: usize| dt * vn[k] + 0.5 * dt * dt * an[k];
-        let freedom = Freedom::of(
+        let mut freedom = Freedom::of(
             ops,
             is_active,
             prescribed,
@@ -60,7 +60,7 @@ impl Simulation {
             &fallbacks,
             &mut scratch.extension,
         );
-        let (free, start) = (&freedom.free, freedom.start.clone());
+        let (free, start) = (std::mem::take(&mut freedom.free), std::mem::take(&mut freedom.start));
         let on_free =
             |f: &dyn Fn(usize) -> f64| -> Vec<f64> { (0..2 * n).map(|k| if free[k] { f(k) } else { 0.0 }).collect() };
         let beta = newmark.beta;
@@ -72,15 +72,7 @@ impl Simulation {
             max_iterations: newmark.max_iterations,
             key: "newmark",
             singularity: options.mass.singularity,
-            ..NewtonSystem::new(
-                ops,
-                &state.particles,
-                materials,
-                mass.lumped(),
-                force,
-                freedom.clone(),
-                step,
-            )
+            ..NewtonSystem::new(ops, &state.particles, materials, mass.lumped(), force, freedom, step)
         };
         let (matrix, outcome) = (mass.solved_matrix(Role::Acceleration), base_solve.outcome);
         let mut solver = std::mem::take(&mut scratch.newton);

@@ -39,7 +39,7 @@ impl Simulation {
         let (setup, state) = (input.setup, &*out.state);
         let (Cache { ops, mass, nodes }, scratch) = (&mut *out.cache, &mut *out.scratch);
         let zero = |_: usize| 0.0;
-        let freedom = Freedom::of(
+        let mut freedom = Freedom::of(
             ops,
             mass.is_active(),
             &setup.prescribed,
@@ -49,7 +49,7 @@ impl Simulation {
             &mut scratch.extension,
         );
         let (materials, force) = (setup.bodies.iter().map(|b| b.material).collect(), stacked(&nodes.force));
-        let start = freedom.start.clone();
+        let start = std::mem::take(&mut freedom.start);
         let system = NewtonSystem {
             load: quasi_static.load_factor(step),
             tolerance: quasi_static.tolerance,
