@@ -216,7 +216,7 @@ fn dynamic_relaxation_reaches_the_quasi_static_column_with_either_mass() {
         for _ in 0..column.load_steps {
             statics.step().unwrap();
         }
-        let (relaxed, outcome) = column.relax(16, &c, damping, 200.0).unwrap();
+        let (relaxed, outcome) = column.relax(16, &c, damping, None, 200.0).unwrap();
         let stress_by_id = |sim: &Simulation| {
             let p = sim.particles();
             let mut s = vec![0.0; p.len()];
@@ -272,5 +272,43 @@ fn a_block_pressed_by_prescribed_displacements_reaches_uniaxial_stress() {
             p.syy[k],
             p.sxx[k]
         );
+    }
+}
+
+/// `loads.gravity_ramp`: gravity rises linearly over the ramp (the first step of a block at
+/// rest feels none of it, the step after the ramp all of it); refused with the quasi-static
+/// integrator, whose increments apply the loads, and when not positive, naming the key.
+#[test]
+fn gravity_rises_over_its_ramp_and_the_key_is_checked() {
+    use sparse_mpm::simulation::Options;
+    let o = Options {
+        gravity: [0.0, -10.0],
+        gravity_ramp: Some(2.0),
+        ..Options::default()
+    };
+    assert_eq!(o.gravity_at(0.0), [0.0, 0.0]);
+    assert_eq!(o.gravity_at(1.0), [0.0, -5.0]);
+    assert_eq!(o.gravity_at(3.0), [0.0, -10.0]);
+    let scene = |extra: &str, integrator: &str, time: &str| {
+        format!(
+            "[grid]\ncell_size = [0.25, 0.25]\ncells = [8, 8]\n[schemes]\nintegrator = {integrator}\n[time]\n{time}\n\
+             [loads]\ngravity = [0.0, -10.0]\n{extra}\n[[bodies]]\nname = \"b\"\nmaterial = {{ model = \
+             \"linear_elastic\", youngs_modulus = 1e6, poisson_ratio = 0.3 }}\ndensity = 80.0\ngeometry = {{ \
+             rectangle = {{ min = [0.5, 0.5], max = [1.5, 1.5] }} }}\n"
+        )
+    };
+    let build = |text: String| sparse_mpm::scene::Scene::from_toml_str(&text).and_then(|s| s.build());
+    let mut sim = build(scene("gravity_ramp = 1.0", "\"explicit\"", "end = 2.0\ncfl = 0.5")).unwrap();
+    let first = sim.step().unwrap();
+    assert_eq!(first.momentum, [0.0, 0.0], "no gravity at t = 0");
+    let second = sim.step().unwrap();
+    assert!(second.momentum[1] < 0.0);
+    for (extra, integrator, time) in [
+        ("gravity_ramp = 1.0", "{ quasi_static = {} }", "end = 1.0"),
+        ("gravity_ramp = 0.0", "\"explicit\"", "end = 1.0"),
+        ("gravity_ramp = -1.0", "\"explicit\"", "end = 1.0"),
+    ] {
+        let e = build(scene(extra, integrator, time)).unwrap_err().to_string();
+        assert!(e.contains("loads.gravity_ramp"), "{extra} {integrator}: {e}");
     }
 }

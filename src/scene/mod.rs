@@ -271,6 +271,10 @@ pub struct Loads {
     /// Gravitational acceleration.
     #[serde(deserialize_with = "crate::pairs::exactly_two")]
     pub gravity: [f64; 2],
+    /// The time over which gravity rises linearly from zero (`None`: all of it from the start;
+    /// not with the quasi-static integrator, whose increments apply the loads).
+    #[serde(default)]
+    pub gravity_ramp: Option<f64>,
     /// Damping of the explicit step's grid force, for dynamic relaxation:
     /// `{ model = "local", alpha = 0.8 }` or `{ model = "mass_proportional", alpha = α }`,
     /// optionally `settled = 1e-6` ([`crate::damping`]).
@@ -518,6 +522,7 @@ impl Scene {
             },
             allow_unstable_time_step: self.time.allow_unstable,
             gravity: self.loads.gravity,
+            gravity_ramp: self.loads.gravity_ramp,
             damping: self.loads.damping,
             boundaries: self.boundaries.clone(),
             sort_interval: s.sort_interval,
@@ -566,6 +571,7 @@ impl Scene {
             "transfer.k" => format!("schemes.transfer.{}.k", self.schemes.transfer.name()),
             "transfer" => "schemes.transfer".to_string(),
             "gravity" => "loads.gravity".to_string(),
+            "gravity_ramp" => "loads.gravity_ramp".to_string(),
             "damping" | "damping.alpha" | "damping.settled" => format!("loads.{option}"),
             "threads" => "execution.threads".to_string(),
             other => format!("schemes.{other}"),

@@ -50,7 +50,7 @@ impl Simulation {
             ..super::stability::measure_speeds(&sim.setup, &sim.state.particles)
         };
         // The stable step before the first step, so that a fixed step above it is refused now.
-        let plan = StepPlan::of(&sim.setup, &sim.options);
+        let plan = StepPlan::of(&sim.setup, &sim.options, sim.state.time);
         let (input, out) = sim.split(&plan);
         super::phases::prepare_grid(input, out)?;
         super::stability::next_time_step(&sim.options, sim.state.steps, sim.stable_time_step())?;

@@ -35,7 +35,7 @@ use crate::mass::{Role, SolveReport};
 impl Simulation {
     /// One Newmark step of at most `max_dt` (the steps of the [module docs](self)).
     pub(super) fn newmark_phases(&mut self, newmark: Newmark, max_dt: f64) -> Result<StepReport> {
-        let plan = StepPlan::of(&self.setup, &self.options);
+        let plan = StepPlan::of(&self.setup, &self.options, self.state.time);
         let (input, mut out) = self.split(&plan);
         prepare_grid(input, out.reborrow())?; // (1)–(5)
         let (setup, options) = (input.setup, input.options);

@@ -43,6 +43,10 @@ pub struct Options {
     pub allow_unstable_time_step: bool,
     /// Gravity (acceleration) added to every particle's body force.
     pub gravity: [f64; 2],
+    /// The time over which gravity rises linearly from zero to [`Options::gravity`]
+    /// (`g min(t/T, 1)` at the start of each step; `None`: all of it from the start). A load
+    /// applied gradually excites less of the dynamics a damped run must then dissipate.
+    pub gravity_ramp: Option<f64>,
     /// Nodal boundary conditions.
     pub boundaries: Vec<BoundaryCondition>,
     /// Re-sort the particles by cell every this many steps (0: never).
@@ -71,6 +75,7 @@ impl Default for Options {
             time_step: TimeStep::Cfl { number: 0.5 },
             allow_unstable_time_step: false,
             gravity: [0.0, 0.0],
+            gravity_ramp: None,
             boundaries: Vec::new(),
             sort_interval: 50,
             stability_interval: DEFAULT_STABILITY_INTERVAL,
@@ -82,6 +87,13 @@ impl Default for Options {
 }
 
 impl Options {
+    /// Gravity at time `t`: `g min(t/T, 1)` with the ramp `T` ([`Options::gravity_ramp`]), `g`
+    /// without one.
+    pub fn gravity_at(&self, t: f64) -> [f64; 2] {
+        let factor = self.gravity_ramp.map_or(1.0, |ramp| (t / ramp).clamp(0.0, 1.0));
+        self.gravity.map(|g| factor * g)
+    }
+
     /// Checks every option on its own and against the others; [`Simulation::new`](super::Simulation::new)
     /// calls it, and a scene maps its errors to the scene's keys.
     ///
@@ -179,6 +191,22 @@ impl Options {
                     option: "damping",
                     reason: "damping (dynamic relaxation) is for the explicit integrator; the quasi-static one \
                              reaches equilibrium itself and Newmark's rule has its own dissipation"
+                        .into(),
+                });
+            }
+        }
+        if let Some(ramp) = self.gravity_ramp {
+            if !(ramp.is_finite() && ramp > 0.0) {
+                return Err(MpmError::InvalidOption {
+                    option: "gravity_ramp",
+                    reason: format!("{ramp}: the time over which gravity rises must be positive and finite"),
+                });
+            }
+            if matches!(self.integrator, Integrator::QuasiStatic(_)) {
+                return Err(MpmError::InvalidOption {
+                    option: "gravity_ramp",
+                    reason: "the quasi-static integrator applies its loads in load_steps increments: leave out the \
+                             gravity ramp"
                         .into(),
                 });
             }

@@ -27,7 +27,7 @@ impl Simulation {
             super::Integrator::QuasiStatic(q) => return self.quasi_static_phases(q, max_dt),
             super::Integrator::Explicit => {}
         }
-        let plan = StepPlan::of(&self.setup, &self.options);
+        let plan = StepPlan::of(&self.setup, &self.options, self.state.time);
         let (input, mut out) = self.split(&plan);
         prepare_grid(input, out.reborrow())?; // (1)–(5), mass
         let (setup, state) = (input.setup, &*out.state);
@@ -128,7 +128,7 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
     timed(profile, Phase::P2g, || {
         let terms = P2gTerms {
             apic: plan.apic,
-            gravity: options.gravity,
+            gravity: plan.gravity,
             stress,
         };
         kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, fields);
@@ -173,7 +173,7 @@ fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveRepor
     let series = plan.series;
     let prescribed = &setup.prescribed;
     if plan.lumped_grid_pass {
-        let (inverse, gravity, active) = (mass.inverse_lumped(), options.gravity, mass.is_active());
+        let (inverse, gravity, active) = (mass.inverse_lumped(), plan.gravity, mass.is_active());
         timed(profile, Phase::LumpedGrid, || {
             let workers = &setup.workers;
             kernels::update_lumped_grid(nodes, inverse, active, gravity, dt, prescribed, workers)
@@ -254,7 +254,7 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
     };
     let fused = Fused {
         stress: (stress_last == Some(StressFrom::Updated)).then_some(&setup.materials[..]),
-        moves: (stress_last != Some(StressFrom::Reprojected)).then_some(options.gravity),
+        moves: (stress_last != Some(StressFrom::Reprojected)).then_some(plan.gravity),
     };
     let (p, workers) = (&mut state.particles, &setup.workers);
     let mut blocks = std::mem::take(&mut scratch.g2p_blocks);
@@ -316,7 +316,7 @@ pub(super) fn finish_step(
     stable: f64,
     solves: [SolveReport; 2],
 ) -> Result<StepReport> {
-    let StepInput { setup, options, .. } = input;
+    let StepInput { setup, options, plan } = input;
     let StepOutput {
         state,
         cache,
@@ -330,8 +330,9 @@ pub(super) fn finish_step(
             dt,
             stable_time_step: stable,
             solves,
+            gravity: plan.gravity,
         };
-        super::report::report(setup, options, state, cache, scratch, taken)
+        super::report::report(setup, state, cache, scratch, taken)
     })?;
     state.keep(&report, &scratch.particle.kinetic);
     if let Some(damping) = options.damping {
@@ -421,11 +422,13 @@ pub(super) struct StepPlan {
     /// The mass options the grid mass is prepared with: the lumped mass alone for the
     /// quasi-static step (only its active set enters).
     pub(super) mass: crate::mass::MassOptions,
+    /// Gravity in this step ([`Options::gravity_at`] the step's start).
+    pub(super) gravity: [f64; 2],
 }
 
 impl StepPlan {
-    /// The plan of the next step of a simulation with `setup` and `options`.
-    pub(super) fn of(setup: &Setup, options: &Options) -> StepPlan {
+    /// The plan of the next step, from time `t`, of a simulation with `setup` and `options`.
+    pub(super) fn of(setup: &Setup, options: &Options, t: f64) -> StepPlan {
         let schedule = options.update.schedule();
         let explicit = options.integrator == super::Integrator::Explicit;
         let quasi_static = matches!(options.integrator, super::Integrator::QuasiStatic(_));
@@ -458,6 +461,7 @@ impl StepPlan {
             } else {
                 options.mass
             },
+            gravity: options.gravity_at(t),
         }
     }
 }

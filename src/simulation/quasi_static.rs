@@ -25,7 +25,7 @@ use crate::mass::{Role, SolveReport};
 impl Simulation {
     /// One load increment of at most `max_dt` (the steps of the [module docs](self)).
     pub(super) fn quasi_static_phases(&mut self, quasi_static: QuasiStatic, max_dt: f64) -> Result<StepReport> {
-        let plan = StepPlan::of(&self.setup, &self.options);
+        let plan = StepPlan::of(&self.setup, &self.options, self.state.time);
         let (input, mut out) = self.split(&plan);
         prepare_grid(input, out.reborrow())?; // (1)–(5)
         let super::TimeStep::Fixed { dt } = input.options.time_step else {

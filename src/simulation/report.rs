@@ -1,6 +1,6 @@
 //! What one step did: [`StepReport`], and its CSV columns.
 
-use super::{Cache, Options, Scratch, Setup, State};
+use super::{Cache, Scratch, Setup, State};
 use crate::error::{MpmError, Result};
 use crate::kernels::{ParticleSums, SumInput, SumPartials};
 use crate::mass::{SolveOutcome, SolveReport};
@@ -150,13 +150,14 @@ pub(super) struct StepTaken {
     pub(super) dt: f64,
     pub(super) stable_time_step: f64,
     pub(super) solves: [SolveReport; 2],
+    /// Gravity in the step (the potential energy's).
+    pub(super) gravity: [f64; 2],
 }
 
 /// The report of the step just taken: energies, momenta and mass summed over the particles and
 /// the grid, after checking every particle velocity is finite.
 pub(super) fn report(
     setup: &Setup,
-    options: &Options,
     state: &State,
     cache: &Cache,
     scratch: &mut Scratch,
@@ -167,11 +168,12 @@ pub(super) fn report(
         dt,
         stable_time_step,
         solves,
+        gravity,
     } = taken;
     let p = &state.particles;
     let t = match scratch.sums.take() {
         Some(sums) => sums,
-        None => particle_sums(&setup.workers, p, options.gravity, &mut scratch.report_blocks),
+        None => particle_sums(&setup.workers, p, gravity, &mut scratch.report_blocks),
     };
     if let Some(k) = t.non_finite {
         return Err(MpmError::NonFinite {

@@ -620,7 +620,11 @@ impl Planned {
                     alpha: 0.8,
                     settled: sparse_mpm::damping::DEFAULT_SETTLED,
                 };
-                Ok(Column::SMALL_STRAIN.relax(self.cells, &self.choices, damping, 200.0)?.1)
+                // The weight applied over two periods of the first mode.
+                let ramp = Some(2.0 * Column::SMALL_STRAIN.period());
+                Ok(Column::SMALL_STRAIN
+                    .relax(self.cells, &self.choices, damping, ramp, 200.0)?
+                    .1)
             }
         }
     }

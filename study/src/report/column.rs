@@ -26,8 +26,8 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
          σ_yy = −ρ₀ g (l0 − Y) at any deformation. The error is Σ |σ_yy − σ_exact| V⁰ / Σ ρ₀ g l0 V⁰ \
          (docs/verification.md). Quasi-static: 20 load increments with the exact tangent, no mass, at E = \
          1 MPa (4% strain) and E = 10 kPa (the column ends at a third of its height). Relaxed: the explicit \
-         step under the full weight with local damping (α = 0.8) until its motion has settled, E = 1 MPa, \
-         with each mass: how close the damped dynamics comes to the static answer, and whether the mass \
+         step under the weight, applied over two periods of the first mode, with local damping (α = 0.8) \
+         until its motion has settled, E = 1 MPa, with each mass: how close the damped dynamics comes to the static answer, and whether the mass \
          changes the cell-crossing noise it settles with.\n"
     )
     .ok();

@@ -73,6 +73,11 @@ impl Column {
         ..Column::SMALL_STRAIN
     };
 
+    /// The period of the column's first mode at small strain, `4 l0 / c` with `c = √(E/ρ₀)`.
+    pub fn period(&self) -> f64 {
+        4.0 * self.height / (self.youngs_modulus / self.density).sqrt()
+    }
+
     /// `σ_yy(Y) = −ρ₀ g (l0 − Y)`.
     pub fn stress_exact(&self, y: f64) -> f64 {
         -self.density * self.gravity * (self.height - y)
@@ -144,10 +149,10 @@ impl Column {
         error / scale
     }
 
-    /// The column run explicitly under its full weight with `damping` (dynamic relaxation) at the
-    /// Courant number and masses of `choices`, until the run reports itself settled or
-    /// `max_time` has passed: the simulation at its end and the metrics of [`Column::run`] (and
-    /// `time`, when it settled or stopped).
+    /// The column run explicitly under its weight, applied over `ramp` (`None`: at once), with
+    /// `damping` (dynamic relaxation) at the Courant number and masses of `choices`, until the
+    /// run reports itself settled after the ramp or `max_time` has passed: the simulation at its
+    /// end and the metrics of [`Column::run`] (and `time`, when it settled or stopped).
     ///
     /// # Errors
     /// Those of [`Column::simulation`], [`Simulation::set_integrator`] and [`Simulation::step`].
@@ -156,6 +161,7 @@ impl Column {
         cells_high: usize,
         choices: &Choices,
         damping: Damping,
+        ramp: Option<f64>,
         max_time: f64,
     ) -> Result<(Simulation, Outcome)> {
         let mut options = self.simulation(cells_high, choices)?.options().clone();
@@ -163,6 +169,7 @@ impl Column {
         options.time_step = TimeStep::Cfl { number: choices.cfl };
         options.update = choices.update;
         options.damping = Some(damping);
+        options.gravity_ramp = ramp;
         let quasi_static = self.simulation(cells_high, choices)?;
         let mut sim = Simulation::new(
             quasi_static.grid().clone(),
@@ -173,7 +180,7 @@ impl Column {
         let initial = initial_heights(sim.particles());
         let started = Instant::now();
         while sim.time() < max_time {
-            if sim.step()?.settled {
+            if sim.step()?.settled && sim.time() > ramp.unwrap_or(0.0) {
                 break;
             }
         }
