@@ -11,7 +11,7 @@
 //! | axis-aligned manufactured solution (B5), generalised vortex (B6) and its smooth profile, expanding ring | exact displacement | [`manufactured`] |
 //! | two elastic disks in impact (B8) | energy conservation | [`disks`] |
 //! | cantilever under gravity (B9) | Richardson-extrapolated tip deflection | [`cantilever`] |
-//! | elastic column under its own weight, quasi-static | exact `σ_yy(Y)` at any deformation | [`column`] |
+//! | elastic column under its own weight, quasi-static | exact `σ_yy(Y)` at any deformation | [`column`](mod@column) |
 //! | the dispersion relation over the whole spectrum | closed-form symbols | [`dispersion`] |
 //! | a velocity step and a pulse in a long bar | d'Alembert | [`wave`] |
 //! | the impulse-loaded bar: a pressure pulse at the free end of a fixed–free bar | d'Alembert with images | [`impulse`] |
