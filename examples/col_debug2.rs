@@ -11,7 +11,7 @@ fn main() {
         youngs_modulus: e,
         ..Column::SMALL_STRAIN
     };
-    for cells in [8, 16, 32, 64] {
+    for cells in [16, 32, 64, 128, 256] {
         let choices = Choices {
             shape,
             particles_per_cell: ppc,
