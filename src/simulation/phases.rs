@@ -79,7 +79,20 @@ pub(super) struct StepOutput<'a> {
     pub(super) profile: &'a mut Option<super::profile::Profile>,
 }
 
-impl StepOutput<'_> {
+/// [`StepOutput`]'s parts, each on its own.
+type Parts<'a> = (
+    &'a mut State,
+    &'a mut Cache,
+    &'a mut Scratch,
+    &'a mut Option<super::profile::Profile>,
+);
+
+impl<'a> StepOutput<'a> {
+    /// The parts, each on its own.
+    pub(super) fn into_parts(self) -> Parts<'a> {
+        (self.state, self.cache, self.scratch, self.profile)
+    }
+
     /// The same parts, borrowed again for one stage.
     pub(super) fn reborrow(&mut self) -> StepOutput<'_> {
         StepOutput {
@@ -95,12 +108,7 @@ impl StepOutput<'_> {
 /// particles first when due), and the stable-step estimate when due.
 pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
     let StepInput { setup, options, plan } = input;
-    let StepOutput {
-        state,
-        cache,
-        scratch,
-        profile,
-    } = out;
+    let (state, cache, scratch, profile) = out.into_parts();
     let (grid, workers) = (&setup.grid, &setup.workers);
     let interval = options.sort_interval;
     if interval > 0 && state.steps.is_multiple_of(interval) {
@@ -164,12 +172,7 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
 /// reports of the velocity and acceleration solves.
 fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveReport; 2]> {
     let StepInput { setup, options, plan } = input;
-    let StepOutput {
-        state,
-        cache: Cache { ops, mass, nodes },
-        scratch,
-        profile,
-    } = out;
+    let (state, Cache { ops, mass, nodes }, scratch, profile) = out.into_parts();
     let series = plan.series;
     let prescribed = &setup.prescribed;
     if plan.lumped_grid_pass {
@@ -236,12 +239,7 @@ fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveRepor
 /// sum them for the report), from the same per-particle code as the passes of their own.
 pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<()> {
     let StepInput { setup, options, plan } = input;
-    let StepOutput {
-        state,
-        cache: Cache { ops, mass, nodes },
-        scratch,
-        profile,
-    } = out;
+    let (state, Cache { ops, mass, nodes }, scratch, profile) = out.into_parts();
     let (series, stress_last) = (plan.series, plan.stress_last);
     let rule = G2pRule {
         transfer: plan.transfer,
@@ -317,12 +315,7 @@ pub(super) fn finish_step(
     solves: [SolveReport; 2],
 ) -> Result<StepReport> {
     let StepInput { setup, options, plan } = input;
-    let StepOutput {
-        state,
-        cache,
-        scratch,
-        profile,
-    } = out;
+    let (state, cache, scratch, profile) = out.into_parts();
     state.time += dt;
     state.steps += 1;
     let mut report = timed(profile, Phase::Report, || {
