@@ -572,3 +572,33 @@ mass = { velocity = { truncated_series = { k = 3 } }, acceleration = { iterative
     // And it round-trips.
     assert_eq!(Scene::from_toml_str(&scene.to_toml_string().unwrap()).unwrap(), scene);
 }
+
+/// A damped run (`loads.damping`) says when it settled: the first step whose `settled` column
+/// is 1, in the summary and in report.csv, and the damping's work closes the energy balance.
+#[test]
+fn a_damped_run_reports_when_it_settled() {
+    let mut scene = Scene::load(&scene_path("block_in_box")).unwrap();
+    scene.loads.damping = Some(sparse_mpm::damping::Damping {
+        model: sparse_mpm::damping::DampingModel::Local,
+        alpha: 0.8,
+        settled: sparse_mpm::damping::DEFAULT_SETTLED,
+    });
+    scene.time.end = 2.0;
+    let out = scratch_dir("damped");
+    let summary = run_scene(&scene, &out, RunLimits::default(), |_| {}).unwrap();
+    let (step, time) = summary.settled.expect("the damped block settles within 2 s");
+    assert!(time > 0.2 && time < 2.0, "settled at {time}");
+    let (header, rows) = read_csv(&summary.report).unwrap();
+    assert_eq!(header, StepReport::COLUMNS.map(String::from));
+    let column = |name: &str| StepReport::COLUMNS.iter().position(|c| *c == name).unwrap();
+    let (settled, work, total) = (column("settled"), column("damping_work"), column("total_energy"));
+    let first = rows.iter().position(|r| r[settled] == 1.0).unwrap();
+    assert_eq!(rows[first][0] as usize, step);
+    let balance: Vec<f64> = rows.iter().map(|r| r[total] + r[work]).collect();
+    let drift = balance.iter().map(|b| (b - balance[0]).abs()).fold(0.0, f64::max) / balance[0].abs();
+    let removed = rows.last().unwrap()[work];
+    assert!(
+        removed > 0.0 && drift < 0.05,
+        "damping work {removed}, balance drift {drift}"
+    );
+}

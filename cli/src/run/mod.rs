@@ -122,6 +122,8 @@ pub struct RunSummary {
     pub report: PathBuf,
     /// The last step's report.
     pub last: Option<StepReport>,
+    /// The first step (and its time) a damped run reported settled (`loads.damping`).
+    pub settled: Option<(usize, f64)>,
     /// The checkpoints written, in step order.
     pub checkpoints: Vec<PathBuf>,
 }
@@ -380,7 +382,7 @@ fn drive(
     }
     let mut clock = SnapshotClock::for_options(sim.options(), state.snapshot_interval, state.next_snapshot);
     let mut stepping = Duration::ZERO;
-    let mut last = None;
+    let (mut last, mut settled) = (None, None);
     let max_steps = options.limits.max_steps.unwrap_or(usize::MAX);
     let steps_before = sim.steps();
     while sim.time() < end_time * (1.0 - 1e-12) && sim.steps() < max_steps {
@@ -405,12 +407,15 @@ fn drive(
             dt: report.dt,
             stable_time_step: report.stable_time_step,
         });
+        if report.settled && settled.is_none() {
+            settled = Some((report.step, report.time));
+        }
         last = Some(report);
     }
     if files.pvd.entries().last().map(|e| e.0) != Some(sim.time()) {
         files.snapshot(&sim, &mut state)?;
     }
-    Ok(files.summary(&sim, sim.steps() - steps_before, stepping, start, last))
+    Ok(files.summary(&sim, sim.steps() - steps_before, stepping, start, (last, settled)))
 }
 
 /// The files a run writes as it goes: the snapshots and the `.pvd` that lists them, the
@@ -477,7 +482,7 @@ impl RunFiles<'_> {
         taken: usize,
         stepping: Duration,
         start: Instant,
-        last: Option<StepReport>,
+        (last, settled): (Option<StepReport>, Option<(usize, f64)>),
     ) -> RunSummary {
         let particles = sim.particles().len();
         let seconds = stepping.as_secs_f64();
@@ -496,6 +501,7 @@ impl RunFiles<'_> {
             pvd: self.pvd.path().to_path_buf(),
             report: self.csv.path().to_path_buf(),
             last,
+            settled,
             checkpoints: self.checkpoints,
         }
     }

@@ -335,6 +335,13 @@ fn print_summary(summary: &sparse_mpm_cli::run::RunSummary, out: &Path, quiet: b
                 human(r.momentum[1])
             );
         }
+        if let Some((step, time)) = summary.settled {
+            println!(
+                "settled at step {step}, t = {} (the kinetic energy of the particles' motion fell below \
+                 loads.damping.settled of its largest)",
+                human(time)
+            );
+        }
         println!(
             "output: {} ({} snapshots; open {} in ParaView), {} (one row per step)",
             out.display(),
