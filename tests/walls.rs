@@ -282,7 +282,8 @@ fn folded_operators_and_lumped_mass_equal_the_hand_fold_at_walls_and_corners() {
 fn wall_rules_default_to_mirror_on_fixed_edges_of_wide_kernels_and_bad_rules_name_the_field() {
     let quadratic = ShapeFunction::QuadraticBSpline;
     assert_eq!(WallRule::default_for(Condition::Fixed, quadratic), WallRule::Mirror);
-    assert_eq!(WallRule::default_for(Condition::Slip, quadratic), WallRule::Held);
+    assert_eq!(WallRule::default_for(Condition::Slip, quadratic), WallRule::Mirror);
+    assert_eq!(WallRule::default_for(Condition::Velocity, quadratic), WallRule::Held);
     assert_eq!(
         WallRule::default_for(Condition::Fixed, ShapeFunction::Linear),
         WallRule::Held
@@ -307,9 +308,11 @@ fn wall_rules_default_to_mirror_on_fixed_edges_of_wide_kernels_and_bad_rules_nam
     let ok = BoundaryCondition::edge(Edge::Bottom, Condition::Fixed);
     let cases = [
         (
-            BoundaryCondition::edge(Edge::Left, Condition::Slip).with_wall(WallRule::Mirror),
+            BoundaryCondition::edge(Edge::Left, Condition::Velocity)
+                .with_velocity(Some(0.0), None)
+                .with_wall(WallRule::Mirror),
             "boundaries[1].wall",
-            "\"mirror\" with condition = \"slip\"",
+            "\"mirror\" with condition = \"velocity\"",
         ),
         (
             BoundaryCondition::nodes(vec![1], Condition::Fixed).with_wall(WallRule::Held),

@@ -177,25 +177,124 @@ impl MirrorWalls {
         }
     }
 
-    /// Opposite mirrored walls at least `support()` cells apart, so that no stencil reaches
-    /// the ghost lines of both.
+    /// The walls of slip edges as component `c` (0: x, 1: y) sees them: odd (`s = −1`) on the
+    /// walls normal to `c`, even (`s = +1`) on the walls `c` runs along ([module docs](self),
+    /// slip walls).
+    pub fn component(&self, c: usize) -> MirrorWalls {
+        let mut out = self.clone();
+        for (axis, walls) in out.axes.iter_mut().enumerate() {
+            let sign = if axis == c { -1.0 } else { 1.0 };
+            for wall in [&mut walls.low, &mut walls.high].into_iter().flatten() {
+                wall.sign = sign;
+            }
+        }
+        out
+    }
+
+    /// Where line `i` of `axis` lies after reflecting it into the walls' interval, and the
+    /// product of the signs on the way (`(i, 1)` for a line at or between the walls). Walls
+    /// closer than the kernel's support reflect a ghost more than once.
+    fn reflect(&self, axis: usize, mut i: usize) -> (usize, f64) {
+        let walls = &self.axes[axis];
+        let mut sign = 1.0;
+        loop {
+            match (walls.low, walls.high) {
+                (Some(w), _) if i < w.line => {
+                    i = 2 * w.line - i;
+                    sign *= w.sign;
+                }
+                (_, Some(w)) if i > w.line => match (2 * w.line).checked_sub(i) {
+                    Some(m) => {
+                        i = m;
+                        sign *= w.sign;
+                    }
+                    None => return (i, 0.0), // beyond the grid's reach: no mirror
+                },
+                _ => return (i, sign),
+            }
+        }
+    }
+
+    /// Each ghost node of `grid` (a node on a ghost line of either axis) with its mirror, the
+    /// interior node it reflects to across both axes, and the product of the signs.
+    fn each_ghost(&self, grid: &Grid, mut visit: impl FnMut(usize, usize, f64)) {
+        let ([nx, ny], [sx, sy]) = (grid.nodes_per_axis(), grid.strides());
+        let range = |axis: usize, count: usize| {
+            let w = &self.axes[axis];
+            (w.low.map_or(0, |w| w.line), w.high.map_or(count - 1, |w| w.line))
+        };
+        let ([x0, x1], [y0, y1]) = ([range(0, nx).0, range(0, nx).1], [range(1, ny).0, range(1, ny).1]);
+        for j in 0..ny {
+            let row_ghost = j < y0 || j > y1;
+            let (tj, sj) = self.reflect(1, j);
+            let mut visit_node = |i: usize| {
+                let (ti, si) = self.reflect(0, i);
+                visit(i * sx + j * sy, ti * sx + tj * sy, si * sj);
+            };
+            if row_ghost {
+                (0..nx).for_each(&mut visit_node);
+            } else {
+                (0..x0).chain(x1 + 1..nx).for_each(&mut visit_node);
+            }
+        }
+    }
+
+    /// `v ← Cᵀ v` on the grid: each ghost value added to its mirror with the product of the
+    /// walls' signs (with `absolute`, without: `|C|ᵀ` for a mass), the ghost zeroed. Idempotent:
+    /// a folded field has nothing on its ghosts.
+    ///
+    /// ```text
+    /// v_(w+k) += s v_(w−k),   v_(w−k) = 0
+    /// ```
+    pub fn fold_field(&self, grid: &Grid, absolute: bool, v: &mut [f64]) {
+        self.each_ghost(grid, |g, m, s| {
+            let value = std::mem::take(&mut v[g]);
+            v[m] += if absolute { value * s.abs() } else { s * value };
+        });
+    }
+
+    /// `v ← C v` on the grid: each ghost value its mirror's times the product of the walls'
+    /// signs, `v_(w−k) = s v_(w+k)` (a corner ghost reflects across both walls).
+    pub fn unfold_field(&self, grid: &Grid, v: &mut [f64]) {
+        self.each_ghost(grid, |g, m, s| v[g] = s * v[m]);
+    }
+
+    /// Each ghost node of these walls as `(ghost, mirror, sign)`: the mirror the interior node
+    /// it reflects to, the sign the product along the way.
+    pub fn ghost_map(&self, grid: &Grid) -> Vec<(usize, usize, f64)> {
+        let mut out = Vec::new();
+        self.each_ghost(grid, |g, m, s| out.push((g, m, s)));
+        out
+    }
+
+    /// Opposite mirrored walls at least `support()` cells apart when one is a fixed wall (whose
+    /// fold of the operators reflects a ghost once), so that no stencil reaches the ghost lines
+    /// of both; two slip walls (`slip`, folded on the grid) at least a cell apart.
     ///
     /// # Errors
     /// [`MpmError::InvalidScene`] at `boundaries[k].wall` of the later wall.
-    pub(super) fn validate(&self, shape: ShapeFunction) -> Result<()> {
-        for (axis, walls) in self.axes.iter().enumerate() {
-            if let (Some(lo), Some(hi)) = (walls.low, walls.high) {
+    pub(super) fn validate_together([fixed, slip]: [&MirrorWalls; 2], shape: ShapeFunction) -> Result<()> {
+        for axis in 0..2 {
+            let low = fixed.axes[axis].low.or(slip.axes[axis].low);
+            let high = fixed.axes[axis].high.or(slip.axes[axis].high);
+            // The fold of the operators reflects a ghost once; the grid's fold of slip walls
+            // reflects it as often as it takes, and a cell between the walls is enough.
+            let least = if fixed.axes[axis].low.is_some() || fixed.axes[axis].high.is_some() {
+                shape.support()
+            } else {
+                1
+            };
+            if let (Some(lo), Some(hi)) = (low, high) {
                 let apart = hi.line.saturating_sub(lo.line);
-                if apart < shape.support() {
+                if apart < least {
                     return Err(MpmError::InvalidScene {
                         key: format!("boundaries[{}].wall", lo.condition.max(hi.condition)),
                         reason: format!(
                             "\"mirror\": the walls across {} at node lines {} and {} are {apart} cells apart, fewer \
-                             than the kernel's support ({})",
+                             than {least} (the kernel's support when a fixed wall is one of them)",
                             ["x", "y"][axis],
                             lo.line,
-                            hi.line,
-                            shape.support()
+                            hi.line
                         ),
                     });
                 }

@@ -64,18 +64,20 @@ pub enum WallRule {
     /// before the mirror rule; first order near the wall with kernels wider than linear).
     Held,
     /// The innermost line is the wall (held); the lines beyond it are ghosts whose values
-    /// are odd reflections of the interior, `v_(w−k) = −v_(w+k)`. Only with
-    /// [`Condition::Fixed`]. With linear kernels (one layer) it is the same as `Held`.
+    /// are reflections of the interior, `v_(w−k) = s v_(w+k)`: odd (`s = −1`) for both
+    /// components of a fixed wall and the normal component of a slip wall, even (`s = +1`) for
+    /// the tangential component of a slip wall. With [`Condition::Fixed`] and
+    /// [`Condition::Slip`]. With linear kernels (one layer) it is the same as `Held`.
     Mirror,
 }
 
 impl WallRule {
     /// The rule an edge condition without a `wall` key gets: [`WallRule::Mirror`] for a fixed
-    /// edge when the kernel has ghost lines (`boundary_layers() > 1`: GIMP, B-splines),
+    /// or slip edge when the kernel has ghost lines (`boundary_layers() > 1`: GIMP, B-splines),
     /// [`WallRule::Held`] otherwise.
     pub fn default_for(condition: Condition, shape: ShapeFunction) -> WallRule {
         match condition {
-            Condition::Fixed if shape.boundary_layers() > 1 => WallRule::Mirror,
+            Condition::Fixed | Condition::Slip if shape.boundary_layers() > 1 => WallRule::Mirror,
             Condition::Fixed | Condition::Slip | Condition::Velocity => WallRule::Held,
         }
     }
@@ -109,7 +111,9 @@ pub enum Edge {
 pub enum Condition {
     /// Both velocity components zero.
     Fixed,
-    /// The component normal to the edge zero (roller); only on an edge.
+    /// The component normal to the edge zero (roller); only on an edge. A symmetry plane is
+    /// a slip wall (as text also `"symmetry"`).
+    #[serde(alias = "symmetry")]
     Slip,
     /// The components `vx` and/or `vy` of the condition prescribed.
     Velocity,
@@ -224,8 +228,11 @@ pub struct Prescribed {
     /// The prescribed value of each entry of `constraints.fixed_x` (then of `fixed_y`), in the
     /// same order.
     pub values: [Vec<f64>; 2],
-    /// The walls under [`WallRule::Mirror`], whose ghost lines the operators fold.
+    /// The fixed walls under [`WallRule::Mirror`], whose ghost lines the operators fold.
     pub mirror: MirrorWalls,
+    /// The slip walls under [`WallRule::Mirror`], folded on the grid component by component
+    /// ([`MirrorWalls::component`]: the normal component odd, the tangential even).
+    pub slip: MirrorWalls,
 }
 
 impl Prescribed {
@@ -352,7 +359,7 @@ impl BoundaryCondition {
         Ok(())
     }
 
-    /// `wall` only with an edge, `"mirror"` only with a fixed condition.
+    /// `wall` only with an edge, `"mirror"` only with a fixed or slip condition.
     fn validate_wall(&self, k: usize) -> Result<()> {
         let err = |field: &str, reason: String| scene_error(k, field, reason);
         if let (Some(wall), None) = (self.wall, self.edge) {
@@ -361,18 +368,12 @@ impl BoundaryCondition {
                 format!("\"{}\": `wall` applies only to an `edge` condition", wall.name()),
             ));
         }
-        if self.wall == Some(WallRule::Mirror) && self.condition != Condition::Fixed {
-            let condition = match self.condition {
-                Condition::Fixed => "fixed",
-                Condition::Slip => "slip",
-                Condition::Velocity => "velocity",
-            };
+        if self.wall == Some(WallRule::Mirror) && self.condition == Condition::Velocity {
             return Err(err(
                 "wall",
-                format!(
-                    "\"mirror\" with condition = \"{condition}\": the mirror rule is implemented for fixed walls \
-                     only (use wall = \"held\")"
-                ),
+                "\"mirror\" with condition = \"velocity\": the mirror rule is implemented for fixed and slip \
+                 walls (use wall = \"held\")"
+                    .into(),
             ));
         }
         Ok(())
@@ -514,7 +515,16 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
         nodes.clear();
         if let Some(edge) = bc.edge {
             let layers = bc.layers.unwrap_or_else(|| shape.boundary_layers());
-            out.mirror.set(k, edge, layers, [nx, ny], bc.wall_rule(shape));
+            // The later condition on an edge decides: the other kind's wall there is cleared.
+            let rule = |kind| {
+                if bc.condition == kind {
+                    bc.wall_rule(shape)
+                } else {
+                    WallRule::Held
+                }
+            };
+            out.mirror.set(k, edge, layers, [nx, ny], rule(Condition::Fixed));
+            out.slip.set(k, edge, layers, [nx, ny], rule(Condition::Slip));
             // The edge's band of `layers` node lines only (its own nodes, not the grid's).
             let (is, js) = match edge {
                 Edge::Left => (0..layers.min(nx), 0..ny),
@@ -571,7 +581,7 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
             }
         }
     }
-    out.mirror.validate(shape)?;
+    MirrorWalls::validate_together([&out.mirror, &out.slip], shape)?;
     out.constraints.fixed_x = (0..n).filter(|&i| !vx_of[i].is_nan()).collect();
     out.constraints.fixed_y = (0..n).filter(|&i| !vy_of[i].is_nan()).collect();
     out.values = [

@@ -97,10 +97,33 @@ impl<'a> NewtonSystem<'a> {
 
 /// The mass of the Newmark residual, and what the acceleration solve did to it.
 pub(crate) struct NewtonMass {
-    /// `M` (nodes × nodes, the same for both components).
+    /// `M` (nodes × nodes), of the x component and, when `matrix_y` is `None`, of both.
     pub matrix: CscMatrix<f64>,
+    /// The y component's own `M`, when the components have masses of their own (slip walls
+    /// under the mirror rule: `crate::mass::GridMass::has_component_masses`).
+    pub matrix_y: Option<CscMatrix<f64>>,
     /// Solved as it is, regularised or fallen back to the lumped mass.
     pub outcome: SolveOutcome,
+}
+
+impl NewtonMass {
+    /// `M` of component `c` (0: x, 1: y).
+    pub(crate) fn component(&self, c: usize) -> &CscMatrix<f64> {
+        match (c, &self.matrix_y) {
+            (1, Some(y)) => y,
+            _ => &self.matrix,
+        }
+    }
+
+    /// `y = M x` for both components stacked.
+    pub(crate) fn times(&self, x: &[f64]) -> Vec<f64> {
+        let n = self.matrix.nrows();
+        [
+            csc_times(self.component(0), &x[..n]),
+            csc_times(self.component(1), &x[n..]),
+        ]
+        .concat()
+    }
 }
 
 /// The converged displacement and how it was reached.
@@ -151,18 +174,28 @@ impl Freedom {
         for (c, i, _) in prescribed.each() {
             free[c * n + i] = false;
         }
+        // The ghosts of slip walls under the mirror rule: free, their mirrors' values times the
+        // wall's sign for the component (stacked degrees of freedom).
+        let mirrored = mirrored_dofs(ops, prescribed);
+        for &(g, _, _) in &mirrored {
+            free[g] = true;
+        }
+        let reflect = |u: &mut [f64]| mirrored.iter().for_each(|&(g, m, s)| u[g] = s * u[m]);
         let mut start: Vec<f64> = (0..2 * n).map(|k| if free[k] { initial(k) } else { 0.0 }).collect();
         for (c, i, v) in prescribed.each() {
             start[c * n + i] = dt * v;
         }
+        reflect(&mut start);
         for fallback in fallbacks {
             if admissible(ops, &start) {
                 break;
             }
             (0..2 * n).filter(|&k| free[k]).for_each(|k| start[k] = fallback(k));
+            reflect(&mut start);
         }
         follow(ops, is_active, &free, &mut start, scratch);
-        let (dofs, reduction) = reduction(&e, &free, is_active);
+        reflect(&mut start);
+        let (dofs, reduction) = reduction(&e, &free, is_active, &mirrored);
         Freedom {
             free,
             start,
@@ -176,11 +209,24 @@ impl Freedom {
 /// component of the nodes with mass and of the nodes the extension `e` reaches, less the
 /// prescribed ones): `T` maps the free components of nodes with mass to every free degree of
 /// freedom, a follower's row holding its extension weights.
-pub(crate) fn reduction(e: &CscMatrix<f64>, free: &[bool], is_active: &[bool]) -> (Vec<usize>, Option<CscMatrix<f64>>) {
+///
+/// The ghost degrees of freedom of slip walls under the mirror rule, `mirrored` as
+/// `(ghost, mirror, sign)`, hold their mirror's row times the sign, so that `Tᵀ K T` and
+/// `Tᵀ M T` are the folded `Cᵀ K C` and `Cᵀ M C` (simulation/walls.rs).
+pub(crate) fn reduction(
+    e: &CscMatrix<f64>,
+    free: &[bool],
+    is_active: &[bool],
+    mirrored: &[(usize, usize, f64)],
+) -> (Vec<usize>, Option<CscMatrix<f64>>) {
     let n = is_active.len();
     let dofs: Vec<usize> = (0..2 * n).filter(|&k| free[k]).collect();
     if dofs.iter().all(|&k| is_active[k % n]) {
         return (dofs, None);
+    }
+    let mut mirror_of = vec![None; 2 * n];
+    for &(g, m, s) in mirrored {
+        mirror_of[g] = Some((m, s));
     }
     let mut column = vec![usize::MAX; 2 * n];
     let mut columns = 0;
@@ -192,20 +238,42 @@ pub(crate) fn reduction(e: &CscMatrix<f64>, free: &[bool], is_active: &[bool]) -
     }
     let rows = CsrMatrix::from(e);
     let mut coo = CooMatrix::new(dofs.len(), columns);
-    for (row, &k) in dofs.iter().enumerate() {
+    for (row, &dof) in dofs.iter().enumerate() {
+        let (k, sign) = mirror_of[dof].unwrap_or((dof, 1.0));
         let (c, i) = (k / n, k % n);
+        if !free[k] {
+            continue; // a prescribed mirror (the ghost follows nothing)
+        }
         if is_active[i] {
-            coo.push(row, column[k], 1.0);
+            coo.push(row, column[k], sign);
             continue;
         }
         let weights = rows.row(i);
         for (&j, &w) in weights.col_indices().iter().zip(weights.values()) {
             if w != 0.0 && column[c * n + j] != usize::MAX {
-                coo.push(row, column[c * n + j], w);
+                coo.push(row, column[c * n + j], sign * w);
             }
         }
     }
     (dofs, Some(CscMatrix::from(&coo)))
+}
+
+/// The ghost degrees of freedom of the slip walls under the mirror rule as
+/// `(ghost, mirror, sign)` (stacked: x components of every node, then y).
+fn mirrored_dofs(ops: &Operators, prescribed: &Prescribed) -> Vec<(usize, usize, f64)> {
+    let Some(grid) = ops.grid().filter(|_| !prescribed.slip.is_empty()) else {
+        return Vec::new();
+    };
+    let n = grid.num_nodes();
+    (0..2)
+        .flat_map(|c| {
+            let walls = prescribed.slip.component(c);
+            walls
+                .ghost_map(grid)
+                .into_iter()
+                .map(move |(g, m, s)| (c * n + g, c * n + m, s))
+        })
+        .collect()
 }
 
 /// (8b) for the displacement `u` (stacked): the free components of the inactive nodes in a
@@ -231,12 +299,6 @@ pub(crate) fn admissible(ops: &Operators, u: &[f64]) -> bool {
     displacement_gradients(ops, u)
         .iter()
         .all(|h| (1.0 + h[0]) * (1.0 + h[3]) - h[1] * h[2] > 0.0)
-}
-
-/// `y = M x` for both components stacked.
-pub(crate) fn mass_times(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
-    let n = m.nrows();
-    [csc_times(m, &x[..n]), csc_times(m, &x[n..])].concat()
 }
 
 fn norm(v: impl Iterator<Item = f64>) -> f64 {
@@ -304,7 +366,7 @@ impl NewtonSystem<'_> {
                 .map(|k| if local[k] != usize::MAX { u[k] } else { 0.0 })
                 .collect();
             let (mu, mc) = match &mass {
-                Some(m) => (mass_times(&m.matrix, &free_u), mass_times(&m.matrix, &self.predicted)),
+                Some(m) => (m.times(&free_u), m.times(&self.predicted)),
                 None => (vec![0.0; 2 * n], vec![0.0; 2 * n]),
             };
             let r = dofs
@@ -361,8 +423,8 @@ impl NewtonSystem<'_> {
                     coo.push(local[i], local[j], v);
                 }
             }
-            for (i, j, &v) in mass.iter().flat_map(|m| m.matrix.triplet_iter()) {
-                for c in [0, n] {
+            for (component, c) in [0, n].into_iter().enumerate() {
+                for (i, j, &v) in mass.iter().flat_map(|m| m.component(component).triplet_iter()) {
                     if local[c + i] != usize::MAX && local[c + j] != usize::MAX {
                         coo.push(local[c + i], local[c + j], inertia * v);
                     }
@@ -438,6 +500,7 @@ impl NewtonSystem<'_> {
             (_, SolveOutcome::FellBackToLumped { .. }) => None,
             (SingularityPolicy::FallbackToLumped, _) => Some(NewtonMass {
                 matrix: lumped_matrix(self.lumped, 1.0),
+                matrix_y: None,
                 outcome: SolveOutcome::FellBackToLumped {
                     node: None,
                     relative_pivot: f64::NAN,
@@ -445,6 +508,8 @@ impl NewtonSystem<'_> {
             }),
             (SingularityPolicy::Regularize { epsilon }, SolveOutcome::Solved) => Some(NewtonMass {
                 matrix: &(&mass.matrix * (1.0 - epsilon)) + &lumped_matrix(self.lumped, epsilon),
+                matrix_y: (mass.matrix_y.as_ref())
+                    .map(|y| &(y * (1.0 - epsilon)) + &lumped_matrix(self.lumped, epsilon)),
                 outcome: SolveOutcome::Regularized { node: None, epsilon },
             }),
             _ => None,

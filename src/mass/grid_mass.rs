@@ -126,6 +126,9 @@ pub struct GridMass {
     /// What the conjugate gradient keeps between the time loop's warm solves
     /// ([`GridMass::solve_warm_into`]).
     pub(super) cg: super::cg::CgState,
+    /// The y component's own grid mass when the components see different walls (slip walls
+    /// mirrored: [`GridMass::prepare_components`]); this one then solves the x component.
+    pub(super) component_y: Option<Box<GridMass>>,
 }
 
 impl GridMass {
@@ -225,6 +228,7 @@ impl GridMass {
         assert_eq!(self.lumped.len(), n, "one lumped mass per node");
         assert!(nodes.end <= n, "the nodes lie on the grid");
         validate(options)?;
+        self.component_y = None;
         self.options = *options;
         self.constraints.fixed_x.clone_from(&constraints.fixed_x);
         self.constraints.fixed_y.clone_from(&constraints.fixed_y);
@@ -308,7 +312,8 @@ impl GridMass {
         let stabilization_ok = matches!(self.options.stabilization, Stabilization::LinearExtension { .. });
         let solver = self.solver(role);
         let whole = solver.gamma.is_none_or(|g| g == 1.0);
-        if !(scheme_ok && stabilization_ok && whole && !self.substitutes(role)) {
+        // (Per-component masses are left to the exact estimate.)
+        if !(scheme_ok && stabilization_ok && whole && !self.substitutes(role)) || self.has_component_masses() {
             return None;
         }
         let stencil = self.matrices.stabilized_stencil()?;
@@ -385,6 +390,15 @@ impl GridMass {
     /// Free degrees of freedom of the x and y components: the active nodes less the prescribed
     /// ones, ascending.
     pub fn free_dofs(&self) -> [Vec<usize>; 2] {
+        if let Some(y) = &self.component_y {
+            let [x, _] = self.own_free_dofs();
+            let [_, yy] = y.own_free_dofs();
+            return [x, yy];
+        }
+        self.own_free_dofs()
+    }
+
+    fn own_free_dofs(&self) -> [Vec<usize>; 2] {
         let n = self.is_active.len();
         [&self.constraints.fixed_x, &self.constraints.fixed_y].map(|fixed| {
             let mut is_fixed = vec![false; n];
@@ -453,6 +467,9 @@ impl GridMass {
     /// [`MpmError::SingularMassMatrix`] under [`SingularityPolicy::Error`], or when even the
     /// regularized matrix is singular.
     pub(crate) fn substitute_nearly_singular(&mut self, node: usize, ratio: f64, ops: &Operators) -> Result<()> {
+        if let Some(y) = &mut self.component_y {
+            y.substitute_nearly_singular(node, ratio, ops)?;
+        }
         let policy = self.options.singularity;
         let roles: &[Role] = if self.shares_solver() {
             &[Role::Velocity]
@@ -572,13 +589,23 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
     /// solution over all nodes (NaN where a node was not free), empty before the first solve.
     /// The next solves start from them, so they are part of a checkpoint.
     pub(crate) fn warm_start(&self) -> [Vec<f64>; 4] {
-        self.cg.warm.clone()
+        let mut warm = self.cg.warm.clone();
+        if let Some(y) = &self.component_y {
+            // The y component's vectors are its own grid mass's.
+            for k in [1, 3] {
+                warm[k].clone_from(&y.cg.warm[k]);
+            }
+        }
+        warm
     }
 
     /// Makes `w` the start of the next warm velocity solve, on the active nodes (the lumped
     /// solution elsewhere): the updated grid velocity of a step is the next step's projection
     /// but for the particles' motion.
     pub(crate) fn set_velocity_warm_start(&mut self, w: &crate::fields::VectorField) {
+        if let Some(y) = &mut self.component_y {
+            y.set_velocity_warm_start(w);
+        }
         let state = &mut self.cg;
         if state.warm[0].is_empty() {
             return;
@@ -597,6 +624,9 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
 
     /// Sets the warm-start vectors of [`GridMass::warm_start`] (resuming from a checkpoint).
     pub(crate) fn set_warm_start(&mut self, warm: [Vec<f64>; 4]) {
+        if let Some(y) = &mut self.component_y {
+            y.cg.warm.clone_from(&warm);
+        }
         self.cg.warm = warm;
     }
 

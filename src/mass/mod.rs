@@ -25,6 +25,7 @@ use crate::shape::ShapeFunction;
 
 mod cg;
 mod cholesky;
+mod components;
 mod diagnostics;
 mod direct;
 pub mod extension;

@@ -82,6 +82,10 @@ pub struct SeriesOperator<'a> {
     pub inv_m: &'a [f64],
     /// `Π₀`: zeroes the prescribed components of a field.
     pub constrain: &'a dyn Fn(&mut VectorField),
+    /// Walls folded on the grid (slip walls under the mirror rule): `(v, true)` folds a grid
+    /// field onto the interior, `v ← Cᵀ v`, `(v, false)` unfolds it, `v ← C v`; the product
+    /// is then `Cᵀ N (m ∘ Nᵀ C x)`. `None` without such walls.
+    pub walls: Option<&'a dyn Fn(&mut VectorField, bool)>,
 }
 
 /// The truncated series applied to a lumped grid velocity `u` by particle–grid products only
@@ -111,14 +115,27 @@ pub fn series_velocity_into(
         m,
         inv_m,
         constrain,
+        walls,
     } = op;
     assert_eq!(inv_m.len(), ops.num_nodes(), "one inverse mass per node");
     let np = ops.num_particles();
+    let mut unfolded = VectorField::default();
     let mut apply_m = |x: &VectorField, mx: &mut VectorField, up: &mut VectorField| {
         up.x.resize(np, 0.0);
         up.y.resize(np, 0.0);
+        let x = match walls {
+            Some(walls) => {
+                unfolded.clone_from(x);
+                walls(&mut unfolded, false);
+                &unfolded
+            }
+            None => x,
+        };
         ops.gather(Operator::N, [&x.x, &x.y], [&mut up.x, &mut up.y]);
         ops.scatter_scaled(Operator::N, Some(m), [&up.x, &up.y], [&mut mx.x, &mut mx.y]);
+        if let Some(walls) = walls {
+            walls(mx, true);
+        }
     };
     series_into(k, inv_m, u, &mut apply_m, constrain, out, scratch);
 }

@@ -89,7 +89,8 @@ impl GridMass {
         ops: &Operators,
         u: &mut VectorField,
     ) -> Result<SolveReport> {
-        self.solve_from(Start::Cold { tolerance_floor: 0.0 }, role, r, prescribed, ops, u)
+        let cold = || Start::Cold { tolerance_floor: 0.0 };
+        self.solve_components([cold(), cold()], role, r, prescribed, ops, u)
     }
 
     /// [`GridMass::solve_into`] warm-started, as the time loop solves: the conjugate gradient
@@ -113,8 +114,17 @@ impl GridMass {
         u: &mut VectorField,
     ) -> Result<SolveReport> {
         let mut state = std::mem::take(&mut self.cg);
-        let report = self.solve_from(Start::Warm(&mut state), role, r, prescribed, ops, u);
+        let mut state_y = self
+            .component_y
+            .as_mut()
+            .map(|y| std::mem::take(&mut y.cg))
+            .unwrap_or_default();
+        let starts = [Start::Warm(&mut state), Start::Warm(&mut state_y)];
+        let report = self.solve_components(starts, role, r, prescribed, ops, u);
         self.cg = state;
+        if let Some(y) = &mut self.component_y {
+            y.cg = state_y;
+        }
         report
     }
 
@@ -138,14 +148,15 @@ impl GridMass {
         ops: &Operators,
         u: &mut VectorField,
     ) -> Result<()> {
-        let start = Start::Cold {
+        let start = || Start::Cold {
             tolerance_floor: ESTIMATE_SOLVE_TOLERANCE,
         };
-        self.solve_from(start, role, r, None, ops, u).map(|_| ())
+        self.solve_components([start(), start()], role, r, None, ops, u)
+            .map(|_| ())
     }
 
-    /// [`GridMass::solve_into`] from `start`.
-    fn solve_from(
+    /// [`GridMass::solve_into`] from `start`, by this grid mass alone.
+    pub(super) fn solve_from(
         &self,
         start: Start<'_>,
         role: Role,

@@ -119,7 +119,12 @@ impl Simulation {
             setup,
             options,
             state,
-            cache: Cache { ops, mass, nodes },
+            cache: Cache {
+                ops,
+                mass,
+                nodes,
+                component_ops: Default::default(),
+            },
             profile: None,
         })
     }

@@ -63,6 +63,7 @@ mod report;
 mod series;
 mod speeds;
 mod stability;
+mod walls;
 
 pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, MAX_CHECKPOINT_BYTES};
 pub use near_singular::NEARLY_SINGULAR_RATIO;
@@ -143,6 +144,9 @@ struct Cache {
     mass: GridMass,
     /// Grid fields of the step.
     nodes: GridState,
+    /// The operators folded for each velocity component, when slip walls are mirrored and a
+    /// consistent mass is assembled from them (simulation/walls.rs).
+    component_ops: [Operators; 2],
 }
 
 /// Work arrays of the phases, kept between steps.

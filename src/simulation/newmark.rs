@@ -28,7 +28,7 @@ use super::motion::{move_by, stacked};
 use super::phases::{finish_step, prepare_grid, project_velocity, solve_acceleration, StepPlan};
 use super::{Cache, Simulation, StepReport};
 use crate::error::Result;
-use crate::implicit::newton::{mass_times, Converged, Freedom, NewtonMass, NewtonSystem};
+use crate::implicit::newton::{Converged, Freedom, NewtonMass, NewtonSystem};
 use crate::implicit::Newmark;
 use crate::mass::{Role, SolveReport};
 
@@ -42,10 +42,12 @@ impl Simulation {
         let dt = newmark.time_step(options.time_step, out.state.time, out.state.steps, max_dt)?;
         let step = out.state.steps + 1;
         let state = &*out.state;
-        let (Cache { ops, mass, nodes }, scratch) = (&mut *out.cache, &mut *out.scratch);
+        let (Cache { ops, mass, nodes, .. }, scratch) = (&mut *out.cache, &mut *out.scratch);
         let velocity_solve = project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?; // (6)
         let prescribed = &setup.prescribed;
         let base_solve = solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)?; // (7)
+        let fields = &mut [&mut nodes.projected, &mut nodes.acceleration];
+        super::walls::unfold(&prescribed.slip, &setup.grid, fields);
         let n = ops.num_nodes();
         let (vn, an) = (stacked(&nodes.projected), stacked(&nodes.acceleration));
         let is_active = mass.is_active();
@@ -75,10 +77,15 @@ impl Simulation {
             ..NewtonSystem::new(ops, &state.particles, materials, mass.lumped(), force, freedom, step)
         };
         let (matrix, outcome) = (mass.solved_matrix(Role::Acceleration), base_solve.outcome);
+        let matrix_y = mass.component_y_solved_matrix(Role::Acceleration);
         let mut solver = std::mem::take(&mut scratch.newton);
         let solved = system.solve(
             start,
-            Some(NewtonMass { matrix, outcome }),
+            Some(NewtonMass {
+                matrix,
+                matrix_y,
+                outcome,
+            }),
             &mut solver,
             &mut scratch.newton_residuals,
         );
@@ -89,7 +96,7 @@ impl Simulation {
             relative,
             mass,
         } = solved?;
-        let NewtonMass { matrix, outcome } = mass.expect("Newmark solves with a mass");
+        let newton_mass = mass.expect("Newmark solves with a mass");
         // (9) Nodes without mass carry no acceleration; their velocity is their displacement rate.
         let gamma = newmark.gamma;
         let mut v1: Vec<f64> = (0..2 * n)
@@ -105,14 +112,20 @@ impl Simulation {
         for (c, i, v) in prescribed.each() {
             v1[c * n + i] = v;
         }
+        let mut w1 = crate::fields::VectorField {
+            x: v1[..n].to_vec(),
+            y: v1[n..].to_vec(),
+        };
+        super::walls::unfold(&prescribed.slip, &setup.grid, &mut [&mut w1]);
+        let v1 = stacked(&w1);
         move_by(input, out.reborrow(), &u, Some(&v1), dt, step)?; // (10)
                                                                   // The kinetic energies of the grid, ½ vᵀ M v, in the report's balance: the integrator's
                                                                   // share apart from the transfers' (the trapezoidal rule keeps the grid's energy).
         let kinetic = &mut out.scratch.particle.kinetic;
-        (kinetic.projected, kinetic.updated) = (grid_kinetic(&matrix, &vn), grid_kinetic(&matrix, &v1));
+        (kinetic.projected, kinetic.updated) = (grid_kinetic(&newton_mass, &vn), grid_kinetic(&newton_mass, &v1));
         let newton = SolveReport {
             scheme: base_solve.scheme,
-            outcome,
+            outcome: newton_mass.outcome,
             iterations,
             relative_residual: relative,
         };
@@ -121,6 +134,6 @@ impl Simulation {
 }
 
 /// `½ vᵀ M v` for both components of `v` (stacked).
-fn grid_kinetic(m: &nalgebra_sparse::CscMatrix<f64>, v: &[f64]) -> f64 {
-    0.5 * v.iter().zip(mass_times(m, v)).map(|(a, b)| a * b).sum::<f64>()
+fn grid_kinetic(m: &NewtonMass, v: &[f64]) -> f64 {
+    0.5 * v.iter().zip(m.times(v)).map(|(a, b)| a * b).sum::<f64>()
 }

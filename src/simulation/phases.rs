@@ -4,7 +4,7 @@
 use super::profile::{timed, Phase};
 use super::report::StepTaken;
 use super::series::{with_series_operator, SeriesTransfer};
-use super::{stability, Body, Cache, Options, Scratch, Setup, Simulation, State, StepReport, Transfer};
+use super::{stability, walls, Body, Cache, Options, Scratch, Setup, Simulation, State, StepReport, Transfer};
 use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
@@ -13,7 +13,7 @@ use crate::kernels::{
     self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState, P2gTerms,
     ParticleSums, Stress, StressInput, StressOutput, StressPartials, StressSums,
 };
-use crate::mass::{series_velocity_into, GridMass, Role, SolveReport};
+use crate::mass::{series_velocity_into, GridMass, MassScheme, Role, SolveReport};
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::schemes::StressFrom;
@@ -120,7 +120,7 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
         });
     }
     let p = &state.particles;
-    let mirror = &setup.prescribed.mirror;
+    let (mirror, slip) = (&setup.prescribed.mirror, &setup.prescribed.slip);
     timed(profile, Phase::Assemble, || {
         cache.ops.reassemble_with(grid, options.shape, &p.x, &p.y, workers)?;
         mirror.fold(grid, options.shape, &p.x, &p.y, &mut cache.ops); // mirrored walls
@@ -131,7 +131,7 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
     } else {
         Stress::Include
     };
-    let (ops, mass, nodes) = (&cache.ops, &mut cache.mass, &mut cache.nodes);
+    let (ops, mass, nodes, each) = (&cache.ops, &mut cache.mass, &mut cache.nodes, &mut cache.component_ops);
     let fields = !plan.lumped_grid_pass;
     timed(profile, Phase::P2g, || {
         let terms = P2gTerms {
@@ -141,10 +141,25 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
         };
         kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, fields);
         mirror.fold_lumped(grid, p, ops, mass.lumped_mut());
+        walls::fold_lumped(slip, grid, mass.lumped_mut());
+        walls::fold(slip, grid, &mut nodes.momentum);
+        walls::fold(slip, grid, &mut nodes.force);
     }); // (2)–(5)
     let constraints = &setup.prescribed.constraints;
+    let every = || 0..ops.num_nodes();
+    let span = if mirror.is_empty() && slip.is_empty() {
+        ops.node_span()
+    } else {
+        every()
+    };
+    let lumped_only = plan.mass.velocity == MassScheme::Lumped && plan.mass.acceleration == MassScheme::Lumped;
     timed(profile, Phase::Mass, || {
-        mass.prepare_with(ops, &p.mass, &plan.mass, constraints, mass_nodes(ops, mirror), workers)
+        if slip.is_empty() || lumped_only {
+            return mass.prepare_with(ops, &p.mass, &plan.mass, constraints, span, workers);
+        }
+        walls::component_operators(slip, grid, options.shape, p, ops, each);
+        let [x, y] = &*each;
+        mass.prepare_components([x, y], &p.mass, &plan.mass, constraints, span, workers)
     })?;
     // (The implicit integrator has no stable step to estimate.)
     let explicit = options.integrator == super::Integrator::Explicit;
@@ -172,7 +187,7 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
 /// reports of the velocity and acceleration solves.
 fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveReport; 2]> {
     let StepInput { setup, options, plan } = input;
-    let (state, Cache { ops, mass, nodes }, scratch, profile) = out.into_parts();
+    let (state, Cache { ops, mass, nodes, .. }, scratch, profile) = out.into_parts();
     let series = plan.series;
     let prescribed = &setup.prescribed;
     if plan.lumped_grid_pass {
@@ -197,6 +212,7 @@ fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveRepor
     let velocity_solve = timed(profile, Phase::Project, || {
         project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)
     })?; // (6)
+    walls::unfold(&prescribed.slip, &setup.grid, &mut [&mut nodes.projected]);
     if plan.stress_first {
         timed(profile, Phase::StressFirst, || {
             let m = &state.particles.mass;
@@ -204,6 +220,7 @@ fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveRepor
             update_stress(setup, state, scratch, dt)?;
             let p = &state.particles;
             kernels::add_internal_force(ops, &p.volume, &p.sxx, &p.syy, &p.sxy, &mut nodes.force);
+            walls::fold(&prescribed.slip, &setup.grid, &mut nodes.force);
             Ok::<_, MpmError>(())
         })?; // USF: (11)–(13), (5)
     }
@@ -215,6 +232,7 @@ fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveRepor
     let acceleration_solve = timed(profile, Phase::Accelerate, || {
         solve_acceleration(prescribed, ops, mass, &nodes.force, &mut nodes.acceleration)
     })?; // (7)
+    walls::unfold(&prescribed.slip, &setup.grid, &mut [&mut nodes.acceleration]);
     let (v, a) = (&nodes.projected, &nodes.acceleration);
     timed(profile, Phase::GridVelocity, || {
         update_grid_velocity(prescribed, mass.is_active(), v, a, dt, &mut nodes.updated)
@@ -239,7 +257,7 @@ fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveRepor
 /// sum them for the report), from the same per-particle code as the passes of their own.
 pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<()> {
     let StepInput { setup, options, plan } = input;
-    let (state, Cache { ops, mass, nodes }, scratch, profile) = out.into_parts();
+    let (state, Cache { ops, mass, nodes, .. }, scratch, profile) = out.into_parts();
     let (series, stress_last) = (plan.series, plan.stress_last);
     let rule = G2pRule {
         transfer: plan.transfer,
@@ -294,6 +312,7 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
     if stress_last == Some(StressFrom::Reprojected) {
         timed(profile, Phase::Stress, || {
             kernels::reproject_momentum(ops, &state.particles, plan.apic, nodes, workers); // (11)
+            walls::fold(&setup.prescribed.slip, &setup.grid, &mut nodes.momentum);
             project_velocity(setup, ops, mass, &nodes.momentum, &mut nodes.projected)?;
             let m = &state.particles.mass;
             stress_gradient(setup, ops, mass, m, series, nodes, scratch);
@@ -379,16 +398,6 @@ fn series_velocity(
     );
 }
 
-/// The nodes where the lumped mass of p2g can be non-zero: the operators' span, or every node
-/// with mirrored walls (whose fold adds ghost mass to mirror nodes, possibly outside it).
-fn mass_nodes(ops: &Operators, mirror: &crate::boundary::MirrorWalls) -> std::ops::Range<usize> {
-    if mirror.is_empty() {
-        ops.node_span()
-    } else {
-        0..ops.num_nodes()
-    }
-}
-
 /// The smallest relative lumped mass of a node the quasi-static step solves for: lighter nodes
 /// (a particle's fringe, where cubic B-splines and GIMP reach with weights of 10⁻⁶ and less)
 /// follow their particles by the extension, since their stiffness, without the inertia that
@@ -439,6 +448,7 @@ impl StepPlan {
                 && !schedule.stress_first
                 && series.is_none()
                 && setup.prescribed.mirror.is_empty()
+                && setup.prescribed.slip.is_empty()
                 && options.damping.is_none()
                 && explicit,
             stress_first: schedule.stress_first && explicit,
@@ -530,6 +540,10 @@ fn extend(
     let changed = extend_to_inactive_nodes(ops, is_active, u, scratch);
     if changed {
         prescribed.apply_velocity(&mut u.x, &mut u.y);
+    }
+    // The ghosts of slip walls take their mirrors' values (simulation/walls.rs).
+    if let Some(grid) = ops.grid().filter(|_| !prescribed.slip.is_empty()) {
+        walls::unfold(&prescribed.slip, grid, &mut [u]);
     }
     changed
 }

@@ -37,7 +37,7 @@ impl Simulation {
         let dt = dt.min(max_dt);
         let step = out.state.steps + 1;
         let (setup, state) = (input.setup, &*out.state);
-        let (Cache { ops, mass, nodes }, scratch) = (&mut *out.cache, &mut *out.scratch);
+        let (Cache { ops, mass, nodes, .. }, scratch) = (&mut *out.cache, &mut *out.scratch);
         let zero = |_: usize| 0.0;
         let mut freedom = Freedom::of(
             ops,

@@ -87,10 +87,12 @@ pub(super) fn with_series_operator<T>(
     f: impl FnOnce(SeriesOperator<'_>) -> T,
 ) -> T {
     let constrain = |u: &mut VectorField| prescribed.zero(&mut u.x, &mut u.y);
+    let walls = super::walls::hook(&prescribed.slip, ops);
     f(SeriesOperator {
         ops,
         m,
         inv_m: mass.inverse_lumped(),
         constrain: &constrain,
+        walls: walls.as_ref().map(|w| w as &dyn Fn(&mut VectorField, bool)),
     })
 }

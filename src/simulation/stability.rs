@@ -487,6 +487,9 @@ pub(super) fn estimate_by(
         prepared[p.body[k]].tangent(f)
     };
     let free = &free_dofs(setup, ops, mass);
+    let hook = super::walls::hook(&setup.prescribed.slip, ops);
+    let walls = hook.as_ref().map(|w| w as &dyn Fn(&mut VectorField, bool));
+    let space = stiffness::FreeSpace { free, walls };
     let series = SeriesTransfer::of(options.transfer).and_then(SeriesTransfer::stress_terms);
     let inverse = |role: Role| {
         move |r: &VectorField| -> Result<VectorField> {
@@ -507,6 +510,7 @@ pub(super) fn estimate_by(
                 m: &p.mass,
                 inv_m: mass.inverse_lumped(),
                 constrain: &constrain,
+                walls,
             };
             series_velocity_into(op, k, &u, &mut out, &mut scratch);
             Ok(out)
@@ -543,17 +547,31 @@ pub(super) fn estimate_by(
         None if lumped => {
             // The lumped solve as a scaling of the free entries (the same bits as the solve).
             let inverse = Inverse::Lumped(mass.inverse_lumped());
-            stiffness::max_frequency_squared_with(ops, &p.mass, &p.volume, &tangent_of, free, inverse, None)?
+            stiffness::max_frequency_squared_with(ops, &p.mass, &p.volume, &tangent_of, space, inverse, None)?
         }
-        None => stiffness::max_frequency_squared_with(
-            ops,
-            &p.mass,
-            &p.volume,
-            &tangent_of,
-            free,
-            Inverse::Solve(&mut velocity),
-            (!same).then_some(Inverse::Solve(&mut acceleration)),
-        )?,
+        None => {
+            let estimate = stiffness::max_frequency_squared_with(
+                ops,
+                &p.mass,
+                &p.volume,
+                &tangent_of,
+                space,
+                Inverse::Solve(&mut velocity),
+                (!same).then_some(Inverse::Solve(&mut acceleration)),
+            )?;
+            // A mass per component (slip walls mirrored) has no update bound: its own check
+            // for a nearly singular mass, against the single nodes' frequencies with the
+            // lumped mass (`stiffness::component_node_top`).
+            if mass.has_component_masses() {
+                let [x, y] = &cache.component_ops;
+                let (top, at) = stiffness::component_node_top([x, y], &p.volume, &tangent_of, free, mass.lumped());
+                let mut mode = vec![0.0; 2 * n];
+                mode[at] = 1.0;
+                node_top = top;
+                tracking.nearly_singular = nearly_singular(estimate.omega_squared, top, &mode);
+            }
+            estimate
+        }
     };
     tracking.counts.estimates += 1;
     tracking.counts.estimate_steps += estimate.lanczos_steps;

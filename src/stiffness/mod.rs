@@ -26,7 +26,7 @@ use crate::transfer::VectorField;
 
 mod bound;
 pub use bound::BAND_STEPS;
-pub(crate) use bound::{mpm_update_bound_estimate, BoundRun, BoundWork, ParticleStiffness};
+pub(crate) use bound::{component_node_top, mpm_update_bound_estimate, BoundRun, BoundWork, ParticleStiffness};
 
 /// The grid stiffness `K = Bᵀ D B` (2n × 2n, x degrees of freedom first), from four weighted
 /// products per block as in the [module docs](self).
@@ -388,7 +388,20 @@ pub fn mpm_max_frequency_squared(
     let tangent_of = |p: usize| tangent[p];
     let velocity = Inverse::Solve(inverse_velocity);
     let acceleration = inverse_acceleration.map(Inverse::Solve);
-    max_frequency_squared_with(ops, mass, volume, &tangent_of, free, velocity, acceleration)
+    let space = FreeSpace { free, walls: None };
+    max_frequency_squared_with(ops, mass, volume, &tangent_of, space, velocity, acceleration)
+}
+
+/// The degrees of freedom [`max_frequency_squared_with`] iterates on: the free flags, and the
+/// walls folded on the grid (slip walls under the mirror rule: `(v, true)` folds a grid field,
+/// `v ← Cᵀ v`, `(v, false)` unfolds it, `v ← C v`), around whose products `K` and `M` become
+/// `Cᵀ K C` and `Cᵀ M C`.
+#[derive(Clone, Copy)]
+pub(crate) struct FreeSpace<'a> {
+    /// One flag per degree of freedom (x of every node, then y).
+    pub free: &'a [bool],
+    /// The fold of walls folded on the grid, if any.
+    pub walls: Option<&'a dyn Fn(&mut VectorField, bool)>,
 }
 
 /// How [`max_frequency_squared_with`] applies a mass inverse.
@@ -410,17 +423,29 @@ pub(crate) fn max_frequency_squared_with(
     mass: &[f64],
     volume: &[f64],
     tangent: &impl Fn(usize) -> [f64; 3],
-    free: &[bool],
+    space: FreeSpace<'_>,
     velocity: Inverse<'_, '_>,
     acceleration: Option<Inverse<'_, '_>>,
 ) -> Result<FrequencyEstimate> {
-    let n = ops.num_nodes();
+    let (n, free) = (ops.num_nodes(), space.free);
     assert_eq!(free.len(), 2 * n, "one flag per degree of freedom");
     let dofs = FreeDofs::new(free);
+    let fold = |v: &mut VectorField, to_interior: bool| {
+        if let Some(walls) = space.walls {
+            walls(v, to_interior);
+        }
+    };
     let k_into = |v: &[f64], u: &mut VectorField, f: &mut VectorField| -> Vec<f64> {
         dofs.expand(v, u);
+        fold(u, false);
         apply_tangent_stiffness_into(ops, volume, tangent, u, f);
+        fold(f, true);
         dofs.compress(f)
+    };
+    let mass_into = |u: &mut VectorField, f: &mut VectorField| {
+        fold(u, false);
+        ops.mass_product_into(mass, u, f);
+        fold(f, true);
     };
     let start = dofs.start_vector();
     let run = |inverse: Inverse<'_, '_>| -> Result<(f64, usize)> {
@@ -437,7 +462,7 @@ pub(crate) fn max_frequency_squared_with(
                     let mut w = kv;
                     dofs.scale(&mut w, inv);
                     dofs.expand(&w, u);
-                    ops.mass_product_into(mass, u, f);
+                    mass_into(u, f);
                     let mut out = dofs.compress(f);
                     dofs.scale(&mut out, inv);
                     Ok(out)
@@ -445,8 +470,8 @@ pub(crate) fn max_frequency_squared_with(
                 Inverse::Solve(solve) => {
                     dofs.expand(&kv, u);
                     solve(u)
-                        .and_then(|w| {
-                            ops.mass_product_into(mass, &w, f);
+                        .and_then(|mut w| {
+                            mass_into(&mut w, f);
                             solve(f)
                         })
                         .map(|w| dofs.compress(&w))

@@ -34,6 +34,7 @@ pub mod impulse;
 pub mod manufactured;
 pub mod rotation;
 pub mod single_point;
+pub mod slip_box;
 pub mod wave;
 
 /// The algorithmic choices of a verification run: the axes a study varies.
