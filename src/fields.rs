@@ -4,6 +4,11 @@
 
 use crate::lanes::Real;
 
+/// A fold of walls applied to grid fields (slip walls under the mirror rule,
+/// `crate::boundary::mirror`): `(v, true)` folds `v` onto the interior nodes, `v ← Cᵀ v`;
+/// `(v, false)` unfolds it, `v ← C v`.
+pub type GridFold<'a> = &'a dyn Fn(&mut VectorField, bool);
+
 /// A 2D vector quantity at every node or every particle, as two component vectors.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct VectorField {

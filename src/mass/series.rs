@@ -85,7 +85,7 @@ pub struct SeriesOperator<'a> {
     /// Walls folded on the grid (slip walls under the mirror rule): `(v, true)` folds a grid
     /// field onto the interior, `v ← Cᵀ v`, `(v, false)` unfolds it, `v ← C v`; the product
     /// is then `Cᵀ N (m ∘ Nᵀ C x)`. `None` without such walls.
-    pub walls: Option<&'a dyn Fn(&mut VectorField, bool)>,
+    pub walls: Option<crate::fields::GridFold<'a>>,
 }
 
 /// The truncated series applied to a lumped grid velocity `u` by particle–grid products only

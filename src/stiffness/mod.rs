@@ -401,7 +401,7 @@ pub(crate) struct FreeSpace<'a> {
     /// One flag per degree of freedom (x of every node, then y).
     pub free: &'a [bool],
     /// The fold of walls folded on the grid, if any.
-    pub walls: Option<&'a dyn Fn(&mut VectorField, bool)>,
+    pub walls: Option<crate::fields::GridFold<'a>>,
 }
 
 /// How [`max_frequency_squared_with`] applies a mass inverse.

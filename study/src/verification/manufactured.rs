@@ -30,7 +30,7 @@ use std::f64::consts::PI;
 use std::time::Instant;
 
 use super::{Choices, History, Outcome};
-use sparse_mpm::boundary::{BoundaryCondition, Condition};
+use sparse_mpm::boundary::{BoundaryCondition, Condition, Edge};
 use sparse_mpm::error::Result;
 use sparse_mpm::grid::Grid;
 use sparse_mpm::material::{Material, NeoHookean};
@@ -524,8 +524,9 @@ impl Manufactured for GeneralisedVortex {
 /// Runs a manufactured solution on `cells` cells across its domain: particles on the
 /// `particles_per_cell²` sub-lattice of the cells inside the body, started at the exact
 /// velocity, loaded by the exact body force at each step's start time, to the problem's end
-/// time; with the domain's edges as rollers where the problem has them (every node line at or
-/// beyond an edge holds the normal component).
+/// time; with the domain's edges as rollers where the problem has them (slip edges on the
+/// domain's outline: mirrored with GIMP and B-splines, every node line at or beyond an edge
+/// holding the normal component with linear functions).
 ///
 /// Metrics: `displacement_error_l2` (`max_t √(Σ V₀ |x_p − X_p − u(X_p, t)|² / Σ V₀)`) and
 /// `displacement_error_max` (`max_t max_p |x_p − X_p − u|`), both over the problem's
@@ -551,17 +552,11 @@ pub fn run(problem: &impl Manufactured, cells: usize, choices: &Choices) -> Resu
         Particles::new(x, y, vec![problem.reference_density() * volume; n], vec![volume; n])?.with_velocity(vx, vy)?;
     let mut boundaries = Vec::new();
     if problem.rollers() {
-        let [nx, ny] = grid.nodes_per_axis();
-        let outside = |i: usize| i <= pad || i >= pad + cells;
-        let nodes = |axis: usize| -> Vec<usize> {
-            (0..ny)
-                .flat_map(|j| (0..nx).map(move |i| (i, j)))
-                .filter(|&(i, j)| outside(if axis == 0 { i } else { j }))
-                .map(|(i, j)| grid.node_index(i, j))
-                .collect()
-        };
-        boundaries.push(BoundaryCondition::nodes(nodes(0), Condition::Velocity).with_velocity(Some(0.0), None));
-        boundaries.push(BoundaryCondition::nodes(nodes(1), Condition::Velocity).with_velocity(None, Some(0.0)));
+        // Slip edges whose wall is the domain's edge (the node line `pad` in): mirrored with
+        // GIMP and B-splines, the lines beyond it held with linear functions.
+        for edge in [Edge::Left, Edge::Right, Edge::Bottom, Edge::Top] {
+            boundaries.push(BoundaryCondition::edge(edge, Condition::Slip).with_layers(pad + 1));
+        }
     }
     let options = choices.options(boundaries);
     let bodies = vec![Body {
