@@ -31,8 +31,9 @@ fn errors(column: &Column, shape: ShapeFunction) -> ([f64; 3], f64) {
 
 /// E = 1 MPa, ν = 0, ρ₀ = 80, g = 10, l0 = 50, 2 × 2 particles per cell, 20 load steps: GIMP
 /// converges (order ≥ 1.3 from 16 to 64 cells high, error below 2e-3 at 64); the B-splines are
-/// below 2e-3 at 64 and fall from 16 to 64 (the quadratic ones to the floor of the increments'
-/// quadrature at moved particles, docs/verification.md); bilinear functions do not converge (the
+/// below 2e-3 at 64 and fall from 16 to 64, the cubic ones at order ≥ 1.5 (the quadratic ones
+/// to the floor of the increments' quadrature at moved particles, docs/verification.md);
+/// bilinear functions do not converge (the
 /// cell-crossing error: about 3% at every resolution).
 #[test]
 fn the_column_under_its_own_weight_converges_with_gimp_and_b_splines_and_not_with_linear() {
@@ -42,6 +43,11 @@ fn the_column_under_its_own_weight_converges_with_gimp_and_b_splines_and_not_wit
     for shape in [ShapeFunction::QuadraticBSpline, ShapeFunction::CubicBSpline] {
         let (e, order) = errors(&column, shape);
         assert!(e[2] < 2e-3 && e[2] < e[0], "{}: {e:?}, order {order}", shape.name());
+        // The cubic B-spline converges at order ≥ 1.5 (1.56 measured); the quadratic one stops
+        // at the floor of particle quadrature at knots (0.68, docs/verification.md).
+        if shape == ShapeFunction::CubicBSpline {
+            assert!(order >= 1.5, "cubic: {e:?}, order {order}");
+        }
     }
     let (linear, _) = errors(&column, ShapeFunction::Linear);
     assert!(

@@ -55,6 +55,51 @@ impl CgLayout for CscMatrix<f64> {
 }
 
 impl GridMass {
+    /// The conjugate gradient's warm-start vectors, one per (role, component): the last
+    /// solution over all nodes (NaN where a node was not free), empty before the first solve.
+    /// The next solves start from them, so they are part of a checkpoint.
+    pub(crate) fn warm_start(&self) -> [Vec<f64>; 4] {
+        let mut warm = self.cg.warm.clone();
+        if let Some(y) = &self.component_y {
+            // The y component's vectors are its own grid mass's.
+            for k in [1, 3] {
+                warm[k].clone_from(&y.cg.warm[k]);
+            }
+        }
+        warm
+    }
+
+    /// Makes `w` the start of the next warm velocity solve, on the active nodes (the lumped
+    /// solution elsewhere): the updated grid velocity of a step is the next step's projection
+    /// but for the particles' motion.
+    pub(crate) fn set_velocity_warm_start(&mut self, w: &crate::fields::VectorField) {
+        if let Some(y) = &mut self.component_y {
+            y.set_velocity_warm_start(w);
+        }
+        let state = &mut self.cg;
+        if state.warm[0].is_empty() {
+            return;
+        }
+        for (c, values) in [&w.x, &w.y].into_iter().enumerate() {
+            let last = &mut state.warm[2 * (Role::Velocity as usize) + c];
+            last.clear();
+            last.extend(
+                values
+                    .iter()
+                    .zip(&self.is_active)
+                    .map(|(v, &a)| if a { *v } else { f64::NAN }),
+            );
+        }
+    }
+
+    /// Sets the warm-start vectors of [`GridMass::warm_start`] (resuming from a checkpoint).
+    pub(crate) fn set_warm_start(&mut self, warm: [Vec<f64>; 4]) {
+        if let Some(y) = &mut self.component_y {
+            y.cg.warm.clone_from(&warm);
+        }
+        self.cg.warm = warm;
+    }
+
     /// The conjugate gradient on each component (`cg.rs`) from the lumped solution, or with
     /// `warm` from the previous warm solution of the same role and component (the lumped
     /// solution on nodes that were not free then), which this one then replaces: the

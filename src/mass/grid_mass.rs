@@ -585,51 +585,6 @@ combination of nodes moves with almost no mass and the stable step collapses; {}
         Ok(())
     }
 
-    /// The conjugate gradient's warm-start vectors, one per (role, component): the last
-    /// solution over all nodes (NaN where a node was not free), empty before the first solve.
-    /// The next solves start from them, so they are part of a checkpoint.
-    pub(crate) fn warm_start(&self) -> [Vec<f64>; 4] {
-        let mut warm = self.cg.warm.clone();
-        if let Some(y) = &self.component_y {
-            // The y component's vectors are its own grid mass's.
-            for k in [1, 3] {
-                warm[k].clone_from(&y.cg.warm[k]);
-            }
-        }
-        warm
-    }
-
-    /// Makes `w` the start of the next warm velocity solve, on the active nodes (the lumped
-    /// solution elsewhere): the updated grid velocity of a step is the next step's projection
-    /// but for the particles' motion.
-    pub(crate) fn set_velocity_warm_start(&mut self, w: &crate::fields::VectorField) {
-        if let Some(y) = &mut self.component_y {
-            y.set_velocity_warm_start(w);
-        }
-        let state = &mut self.cg;
-        if state.warm[0].is_empty() {
-            return;
-        }
-        for (c, values) in [&w.x, &w.y].into_iter().enumerate() {
-            let last = &mut state.warm[2 * (Role::Velocity as usize) + c];
-            last.clear();
-            last.extend(
-                values
-                    .iter()
-                    .zip(&self.is_active)
-                    .map(|(v, &a)| if a { *v } else { f64::NAN }),
-            );
-        }
-    }
-
-    /// Sets the warm-start vectors of [`GridMass::warm_start`] (resuming from a checkpoint).
-    pub(crate) fn set_warm_start(&mut self, warm: [Vec<f64>; 4]) {
-        if let Some(y) = &mut self.component_y {
-            y.cg.warm.clone_from(&warm);
-        }
-        self.cg.warm = warm;
-    }
-
     /// Replaces the lumped mass (resuming from a checkpoint: what [`GridMass::lumped`] shows
     /// until the next step prepares the grid mass again).
     pub(crate) fn set_lumped(&mut self, lumped: Vec<f64>) {

@@ -2,7 +2,7 @@
 //! restore (a saved state) both go through [`Simulation::build`], which validates the parts,
 //! resolves the boundary conditions, starts the workers and assembles the operators.
 
-use super::phases::StepPlan;
+use super::plan::StepPlan;
 use super::stability::Speeds;
 use super::{Body, Cache, Options, Scratch, Setup, Simulation, State};
 use crate::boundary::{self, Prescribed};

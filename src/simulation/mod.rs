@@ -57,6 +57,7 @@ mod near_singular;
 mod newmark;
 mod options;
 mod phases;
+mod plan;
 mod profile;
 mod quasi_static;
 mod report;

@@ -25,7 +25,8 @@
 //! acceleration solve's columns of the step report.
 
 use super::motion::{move_by, stacked};
-use super::phases::{finish_step, prepare_grid, project_velocity, solve_acceleration, StepPlan};
+use super::phases::{finish_step, prepare_grid, project_velocity, solve_acceleration};
+use super::plan::StepPlan;
 use super::{Cache, Simulation, StepReport};
 use crate::error::Result;
 use crate::implicit::newton::{Converged, Freedom, NewtonMass, NewtonSystem};

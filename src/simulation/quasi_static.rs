@@ -15,7 +15,8 @@
 //! enters, whatever `schemes.mass` says; the particles are at rest after every increment.
 
 use super::motion::{move_by, stacked};
-use super::phases::{finish_step, prepare_grid, StepPlan};
+use super::phases::{finish_step, prepare_grid};
+use super::plan::StepPlan;
 use super::{Cache, Simulation, StepReport};
 use crate::error::{MpmError, Result};
 use crate::implicit::newton::{Converged, Freedom, NewtonSystem};
