@@ -14,7 +14,7 @@
 //! [`BenchSpec`] also carries what the timing harness reads (particle counts, steps,
 //! repetitions, profiling), so that one value describes a benchmark configuration.
 
-use crate::boundary::{BoundaryCondition, Condition, Edge};
+use crate::boundary::{BoundaryCondition, Condition, Edge, WallRule};
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
 use crate::mass::{MassOptions, MassScheme, Stabilization};
@@ -207,6 +207,9 @@ pub fn falling_block(n: usize, spec: &BenchSpec, time_step: TimeStep, stability_
         .into_iter()
         .map(|edge| BoundaryCondition {
             layers: Some(WALL_LAYERS),
+            // Held, as the peers clamp their boundary cells (not the mirror rule a slip edge
+            // takes by default with GIMP and B-splines).
+            wall: Some(WallRule::Held),
             ..BoundaryCondition::edge(edge, Condition::Slip)
         })
         .collect();
