@@ -69,7 +69,9 @@ impl GridMass {
         Ok(())
     }
 
-    /// Whether the components have grid masses of their own ([`GridMass::prepare_components`]).
+    /// Whether the components have grid masses of their own: the time loop's consistent mass
+    /// beside slip walls under the mirror rule, which reflect the normal component oddly and
+    /// the tangential one evenly (`M_c = N̂_c diag(m) N̂_cᵀ` for c = x, y).
     pub fn has_component_masses(&self) -> bool {
         self.component_y.is_some()
     }
