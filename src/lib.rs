@@ -113,6 +113,7 @@
 
 pub mod bench;
 pub mod boundary;
+pub mod contact;
 pub mod damping;
 pub mod error;
 mod fields;

@@ -33,7 +33,7 @@ pub fn velocity_gradient_into(ops: &Operators, u: &VectorField, l: &mut [Vec<f64
     }
     let mut none: Vec<()> = Vec::new();
     workers.split_blocks(l.each_mut().map(|c| &mut c[..]), &mut none, |first, out| {
-        crate::with_support!(ops, gradient_block::<S>(ops, u, first, out))
+        crate::with_support!(ops, gradient_block::<S>(ops, |_| u, first, out))
     });
 }
 
@@ -47,9 +47,38 @@ fn add_gradient<R: Real>(l: &mut [R; 4], gx: R, gy: R, ux: R, uy: R) {
     l[3] = l[3] + gy * uy;
 }
 
-fn gradient_block<const S: usize>(ops: &Operators, u: &VectorField, first: usize, l: [&mut [f64]; 4]) {
+/// [`velocity_gradient_into`] with one grid velocity per body (contact, [`crate::contact`]):
+/// particle `p` of body `b` reads `u[b]`, `L_p = [Gxᵀ u_b, Gyᵀ u_b]_p`.
+///
+/// # Panics
+/// If a body has no field, or a field does not have one entry per node.
+pub fn velocity_gradient_layered(
+    ops: &Operators,
+    u: &[&VectorField],
+    body: &[usize],
+    l: &mut [Vec<f64>; 4],
+    workers: &Workers,
+) {
+    let np = ops.num_particles();
+    assert!(u.iter().all(|u| u.len() == ops.num_nodes()), "one velocity per node");
+    for c in l.iter_mut() {
+        c.resize(np, 0.0);
+    }
+    let mut none: Vec<()> = Vec::new();
+    workers.split_blocks(l.each_mut().map(|c| &mut c[..]), &mut none, |first, out| {
+        crate::with_support!(ops, gradient_block::<S>(ops, |p| u[body[p]], first, out))
+    });
+}
+
+fn gradient_block<'a, const S: usize>(
+    ops: &Operators,
+    field: impl Fn(usize) -> &'a VectorField,
+    first: usize,
+    l: [&mut [f64]; 4],
+) {
     for j in 0..l[0].len() {
         let mut g = [0.0; 4];
+        let u = field(first + j);
         let st = ops.stencil::<S>(first + j);
         for b in 0..S {
             let (start, _, gx, gy) = st.row(b);
@@ -149,6 +178,7 @@ pub fn g2p(
     let view = Packed {
         values: &packed,
         stride: width,
+        layer: 0,
     };
     g2p_packed(ops, view, rule, dt, &fused, p, scratch, workers, &mut blocks);
     scratch.kinetic = KineticEnergies::total(&blocks);
@@ -159,23 +189,33 @@ pub fn g2p(
 /// The grid velocities [`g2p`] reads, packed node by node over the operators' node span:
 /// `[w, v]`, or `[w, v, v*, u]` ([`G2pRule::packed_width`]), two components each.
 pub(crate) fn pack_velocities(ops: &Operators, grid: &GridState, rule: &G2pRule, packed: &mut Vec<f64>) {
+    pack_layers(ops, &[grid], rule, packed);
+}
+
+/// [`pack_velocities`] of one grid state per body, one after the other (contact,
+/// [`crate::contact`]); returns the values per body ([`Packed::layer`]).
+pub(crate) fn pack_layers(ops: &Operators, grids: &[&GridState], rule: &G2pRule, packed: &mut Vec<f64>) -> usize {
     let span = ops.node_span();
     let width = rule.packed_width();
-    let (w, v) = (&grid.updated, &grid.projected);
-    let target = match rule.motion {
-        Some(motion) => grid.field(motion),
-        None if rule.transfer.series_terms().is_some() => &grid.series,
-        None => w,
-    };
-    let gradient = grid.field(rule.gradient.unwrap_or(GridField::Updated));
-    reserve_packed(packed, width * grid.updated.len());
+    let len = grids.first().map_or(0, |g| g.updated.len());
+    reserve_packed(packed, width * len * grids.len());
     packed.clear();
-    for i in span {
-        packed.extend_from_slice(&[w.x[i], w.y[i], v.x[i], v.y[i]]);
-        if width == 8 {
-            packed.extend_from_slice(&[target.x[i], target.y[i], gradient.x[i], gradient.y[i]]);
+    for grid in grids {
+        let (w, v) = (&grid.updated, &grid.projected);
+        let target = match rule.motion {
+            Some(motion) => grid.field(motion),
+            None if rule.transfer.series_terms().is_some() => &grid.series,
+            None => w,
+        };
+        let gradient = grid.field(rule.gradient.unwrap_or(GridField::Updated));
+        for i in span.clone() {
+            packed.extend_from_slice(&[w.x[i], w.y[i], v.x[i], v.y[i]]);
+            if width == 8 {
+                packed.extend_from_slice(&[target.x[i], target.y[i], gradient.x[i], gradient.y[i]]);
+            }
         }
     }
+    width * span.len()
 }
 
 /// Address space for `len` packed values (pages are touched as the span needs them), so that a
@@ -250,11 +290,14 @@ pub(crate) fn g2p_packed(
 }
 
 /// The grid velocities a grid-to-particle pass reads: node `lo + i` holds `W` values (`[w, v]`,
-/// or `[w, v, v*, u]`) from `values[stride · i]`.
+/// or `[w, v, v*, u]`) from `values[stride · i]`; with one field per body (contact,
+/// [`crate::contact`]), body `b`'s from `values[b · layer + stride · i]`.
 #[derive(Clone, Copy)]
 pub(crate) struct Packed<'a> {
     pub values: &'a [f64],
     pub stride: usize,
+    /// Values per body's field (0: one field for every particle).
+    pub layer: usize,
 }
 
 /// What every block of [`g2p`] reads.
@@ -429,9 +472,12 @@ fn gather_sums<R: Gather, const S: usize, const W: usize>(
     cols: &Columns<R, S>,
     packed: Packed,
     lo: usize,
+    layers: [usize; 8],
     wanted: Wanted,
 ) -> Gathered<R> {
-    let Packed { values: packed, stride } = packed;
+    let Packed {
+        values: packed, stride, ..
+    } = packed;
     debug_assert!(stride >= W, "a node holds the values read");
     let z = R::splat(0.0);
     let (wa, dwa, da, wb, dwb, db) = (&cols.wa, &cols.dwa, &cols.da, &cols.wb, &cols.dwb, &cols.db);
@@ -445,7 +491,7 @@ fn gather_sums<R: Gather, const S: usize, const W: usize>(
     // Each lane's first packed value, and the stencil's reach from there, checked once.
     let mut at = [0; 8];
     for (l, at) in at.iter_mut().enumerate().take(R::LANES) {
-        *at = stride * (cols.first[l] - lo);
+        *at = layers[l] + stride * (cols.first[l] - lo);
     }
     let reach = stride * ((S - 1) * cols.run_stride + S - 1) + W;
     assert!(
@@ -582,7 +628,14 @@ fn update_group<R: Gather, const S: usize, const W: usize>(
     };
     let (xp, yp) = (R::load(out.position[0], j), R::load(out.position[1], j));
     let cols = Columns::<R, S>::load(input.ops, k, xp, yp);
-    let g = gather_sums::<R, S, W>(&cols, input.packed, input.lo, wanted);
+    // Each particle reads its own body's field when there is one per body.
+    let mut layers = [0; 8];
+    if input.packed.layer > 0 {
+        for (l, at) in layers.iter_mut().enumerate().take(R::LANES) {
+            *at = input.body[k + l] * input.packed.layer;
+        }
+    }
+    let g = gather_sums::<R, S, W>(&cols, input.packed, input.lo, layers, wanted);
     let ([vx, vy], [tx, ty], [rx, ry]) = (g.w, g.t, g.r);
     if let Some(l) = out.gradient.as_mut() {
         for c in 0..4 {

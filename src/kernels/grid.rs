@@ -87,6 +87,7 @@ impl GridState {
         Packed {
             values: self.accumulator[start..start + self.span.len()].as_flattened(),
             stride: 5,
+            layer: 0,
         }
     }
 

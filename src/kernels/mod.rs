@@ -13,6 +13,7 @@
 //! | [`add_internal_force`] | (5) alone: `f −= [Gx (V∘σxx) + Gy (V∘σxy); Gx (V∘σxy) + Gy (V∘σyy)]` |
 //! | [`reproject_momentum`] | MUSL's `q' = N (m ∘ v_p) [+ APIC]` |
 //! | [`velocity_gradient_into`] | `L = [Gxᵀ u, Gyᵀ u]` |
+//! | [`velocity_gradient_layered`] | the same with one grid velocity per body (contact) |
 //! | [`g2p`] | (9)–(11): new particle velocities, APIC moments, position increments, `L` |
 //! | [`extend_to_inactive_nodes`] | (8b): massless support nodes take their particles' mean velocity |
 //! | `update_lumped_grid` | (6)–(8) with the lumped mass in both solves, in one pass over the nodes |
@@ -32,8 +33,8 @@ mod stiffness;
 
 pub use crate::lanes::{kernel_lanes, set_kernel_lanes, set_scalar_kernels};
 pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
-pub use g2p::{g2p, velocity_gradient_into, G2pRule};
-pub(crate) use g2p::{g2p_packed, pack_velocities, Fused, G2pBlock, Packed};
+pub use g2p::{g2p, velocity_gradient_into, velocity_gradient_layered, G2pRule};
+pub(crate) use g2p::{g2p_packed, pack_layers, pack_velocities, Fused, G2pBlock, Packed};
 pub(crate) use grid::update_lumped_grid;
 pub(crate) use p2g::p2g_with;
 pub(crate) use p2g::subtract_particle_force;

@@ -116,6 +116,10 @@ pub struct Scene {
     /// Nodal boundary conditions.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub boundaries: Vec<BoundaryCondition>,
+    /// Contact between bodies, one grid velocity field per body ([`crate::contact`]); absent:
+    /// the bodies share one field.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact: Option<ContactSpec>,
     /// What to write.
     #[serde(default)]
     pub output: OutputSpec,
@@ -150,6 +154,7 @@ impl PartialEq for Scene {
             loads,
             bodies,
             boundaries,
+            contact,
             output,
             execution,
             base_dir,
@@ -163,6 +168,7 @@ impl PartialEq for Scene {
             && *loads == other.loads
             && *bodies == other.bodies
             && *boundaries == other.boundaries
+            && *contact == other.contact
             && *output == other.output
             && *execution == other.execution
             && *base_dir == other.base_dir
@@ -280,6 +286,39 @@ pub struct Loads {
     /// optionally `settled = 1e-6` ([`crate::damping`]).
     #[serde(default)]
     pub damping: Option<crate::damping::Damping>,
+}
+
+/// `[contact]`: contact between the bodies ([`crate::contact`]), by body name.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// Coulomb's coefficient between every pair of bodies (0, the default: frictionless).
+    #[serde(default)]
+    pub friction: f64,
+    /// Pairs with their own coefficient: `[[contact.pairs]] bodies = ["a", "b"], friction = μ`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pairs: Vec<PairSpec>,
+    /// Bodies of prescribed motion: each moves at its `velocity` throughout (a ramp, a floor, an
+    /// indenter).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rigid: Vec<String>,
+    /// Nodes where a body's share of a pair's mass is below this are not corrected.
+    #[serde(default = "default_min_mass_fraction")]
+    pub min_mass_fraction: f64,
+}
+
+fn default_min_mass_fraction() -> f64 {
+    crate::contact::DEFAULT_MIN_MASS_FRACTION
+}
+
+/// One of `[[contact.pairs]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PairSpec {
+    /// The two bodies' names.
+    pub bodies: [String; 2],
+    /// Their friction coefficient.
+    pub friction: f64,
 }
 
 /// Where a body's particles are.
@@ -524,6 +563,7 @@ impl Scene {
             gravity: self.loads.gravity,
             gravity_ramp: self.loads.gravity_ramp,
             damping: self.loads.damping,
+            contact: self.contact.as_ref().map(|c| self.contact_options(c)),
             boundaries: self.boundaries.clone(),
             sort_interval: s.sort_interval,
             stability_interval: self
@@ -560,6 +600,73 @@ impl Scene {
 
     /// An [`MpmError::InvalidOption`] of the library restated as [`MpmError::InvalidScene`] at
     /// the scene key that sets the option; other errors unchanged.
+    /// The index of the body named `name` (one past the last when there is none, which
+    /// [`Contact::validate`](crate::contact::Contact::validate) refuses).
+    fn body_index(&self, name: &str) -> usize {
+        self.bodies
+            .iter()
+            .position(|b| b.name == name)
+            .unwrap_or(self.bodies.len())
+    }
+
+    /// The library's contact options of `[contact]`: names to indices, rigid bodies at their
+    /// initial velocities.
+    fn contact_options(&self, c: &ContactSpec) -> crate::contact::Contact {
+        crate::contact::Contact {
+            friction: c.friction,
+            pairs: c
+                .pairs
+                .iter()
+                .map(|p| crate::contact::PairFriction {
+                    bodies: [self.body_index(&p.bodies[0]), self.body_index(&p.bodies[1])],
+                    friction: p.friction,
+                })
+                .collect(),
+            rigid: c
+                .rigid
+                .iter()
+                .map(|name| {
+                    let body = self.body_index(name);
+                    let velocity = self.bodies.get(body).map_or([0.0; 2], |b| b.velocity);
+                    crate::contact::RigidBody { body, velocity }
+                })
+                .collect(),
+            min_mass_fraction: c.min_mass_fraction,
+        }
+    }
+
+    /// `[contact]`'s body names, each naming a body of the scene, and its coefficients.
+    fn validate_contact(&self) -> Result<()> {
+        let Some(c) = &self.contact else {
+            return Ok(());
+        };
+        let known = |key: String, name: &str| {
+            if self.bodies.iter().any(|b| b.name == name) {
+                Ok(())
+            } else {
+                let names: Vec<&str> = self.bodies.iter().map(|b| b.name.as_str()).collect();
+                Err(invalid(
+                    key,
+                    format!("no body is named {name:?} (the bodies: {names:?})"),
+                ))
+            }
+        };
+        for (k, pair) in c.pairs.iter().enumerate() {
+            for (j, name) in pair.bodies.iter().enumerate() {
+                known(format!("contact.pairs[{k}].bodies[{j}]"), name)?;
+            }
+        }
+        for (k, name) in c.rigid.iter().enumerate() {
+            known(format!("contact.rigid[{k}]"), name)?;
+        }
+        self.contact_options(c)
+            .validate(self.bodies.len())
+            .map_err(|e| match e {
+                MpmError::InvalidOption { option, reason } => invalid(option, reason),
+                e => e,
+            })
+    }
+
     fn scene_error(&self, e: MpmError) -> MpmError {
         let MpmError::InvalidOption { option, reason } = e else {
             return e;
@@ -574,6 +681,7 @@ impl Scene {
             "gravity_ramp" => "loads.gravity_ramp".to_string(),
             "damping" | "damping.alpha" | "damping.settled" => format!("loads.{option}"),
             "threads" => "execution.threads".to_string(),
+            "contact" => "contact".to_string(),
             other => format!("schemes.{other}"),
         };
         invalid(key, reason)

@@ -40,6 +40,7 @@ impl Scene {
         self.validate_schemes()?;
         // Before the options' own checks, which cannot name a boundary's key.
         self.validate_boundaries()?;
+        self.validate_contact()?;
         self.options().validate().map_err(|e| self.scene_error(e))?;
         if self.bodies.is_empty() {
             return Err(invalid("bodies", "the scene needs at least one [[bodies]] entry"));

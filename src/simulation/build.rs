@@ -124,6 +124,7 @@ impl Simulation {
                 mass,
                 nodes,
                 component_ops: Default::default(),
+                layers: Default::default(),
             },
             profile: None,
         })
@@ -151,6 +152,9 @@ impl State {
 fn validate_parts(particles: &Particles, bodies: &[Body], options: &Options) -> Result<()> {
     particles.validate()?;
     options.validate()?;
+    if let Some(contact) = &options.contact {
+        contact.validate(bodies.len())?;
+    }
     for body in bodies {
         body.material.validate()?;
     }

@@ -52,6 +52,7 @@
 
 mod build;
 mod checkpoint;
+mod contact;
 mod motion;
 mod near_singular;
 mod newmark;
@@ -125,11 +126,13 @@ struct State {
     stability: Option<Stability>,
 }
 
-/// What a damped run keeps between steps.
+/// The energy accounts a run keeps between steps: what the damping and the contact removed.
 #[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 struct Relaxation {
     /// Energy the damping removed, `Σ −f_d · v Δt`.
     damping_work: f64,
+    /// The work of friction between bodies so far ([`crate::contact`]).
+    friction_dissipation: f64,
     /// The largest kinetic energy `½ Σ m_p |Nᵀw|²` of the run (the settling is measured
     /// against it).
     peak_kinetic: f64,
@@ -148,6 +151,8 @@ struct Cache {
     /// The operators folded for each velocity component, when slip walls are mirrored and a
     /// consistent mass is assembled from them (simulation/walls.rs).
     component_ops: [Operators; 2],
+    /// One grid per body, under contact ([`crate::contact`]; empty without).
+    layers: contact::Layers,
 }
 
 /// Work arrays of the phases, kept between steps.

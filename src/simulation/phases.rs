@@ -36,7 +36,12 @@ impl Simulation {
             stability::stable_time_step(&setup.grid, state)
         });
         let dt = stability::next_time_step(input.options, out.state.steps, stable)?.min(max_dt);
-        let solves = grid_phases(input, out.reborrow(), dt)?; // (6)–(8b), XPIC/FMPM
+        let solves = if input.options.contact.is_some() {
+            let (state, cache, scratch, _) = out.reborrow().into_parts();
+            super::contact::grid_phases(input.setup, input.options, state, cache, scratch, dt)?
+        } else {
+            grid_phases(input, out.reborrow(), dt)?
+        }; // (6)–(8b), XPIC/FMPM
         particle_phases(input, out.reborrow(), dt)?; // (9)–(13)
         finish_step(input, out, dt, stable, solves)
     }
@@ -133,6 +138,7 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
         Stress::Include
     };
     let (ops, mass, nodes, each) = (&cache.ops, &mut cache.mass, &mut cache.nodes, &mut cache.component_ops);
+    let mass = &mut *mass;
     let fields = !plan.lumped_grid_pass;
     timed(profile, Phase::P2g, || {
         let terms = P2gTerms {
@@ -146,22 +152,17 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
         walls::fold(slip, grid, &mut nodes.momentum);
         walls::fold(slip, grid, &mut nodes.force);
     }); // (2)–(5)
-    let constraints = &setup.prescribed.constraints;
-    let every = || 0..ops.num_nodes();
-    let span = if mirror.is_empty() && slip.is_empty() {
-        ops.node_span()
-    } else {
-        every()
-    };
-    let lumped_only = plan.mass.velocity == MassScheme::Lumped && plan.mass.acceleration == MassScheme::Lumped;
     timed(profile, Phase::Mass, || {
-        if slip.is_empty() || lumped_only {
-            return mass.prepare_with(ops, &p.mass, &plan.mass, constraints, span, workers);
+        if !slip.is_empty() && !lumped_only(plan) {
+            walls::component_operators(slip, grid, options.shape, p, ops, each);
         }
-        walls::component_operators(slip, grid, options.shape, p, ops, each);
-        let [x, y] = &*each;
-        mass.prepare_components([x, y], &p.mass, &plan.mass, constraints, span, workers)
+        prepare_mass(setup, options, plan, ops, each, p, mass)
     })?;
+    if options.contact.is_some() {
+        timed(profile, Phase::Mass, || {
+            super::contact::prepare_layers(setup, options, plan, state, cache)
+        })?;
+    }
     // (The implicit integrator has no stable step to estimate.)
     let explicit = options.integrator == super::Integrator::Explicit;
     let due = stability::estimate_due(options, state, &cache.mass);
@@ -182,6 +183,38 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
         state.stability = Some(estimate);
     }
     Ok(())
+}
+
+/// Whether both solves take the lumped mass.
+fn lumped_only(plan: &StepPlan) -> bool {
+    plan.mass.velocity == MassScheme::Lumped && plan.mass.acceleration == MassScheme::Lumped
+}
+
+/// The grid mass of the particles `p` (whose `m_L` p2g left in `mass`) for the step's scheme:
+/// one matrix per component from the folded operators `each` when slip walls are mirrored
+/// (simulation/walls.rs), one matrix otherwise.
+pub(super) fn prepare_mass(
+    setup: &Setup,
+    options: &Options,
+    plan: &StepPlan,
+    ops: &Operators,
+    each: &[Operators; 2],
+    p: &Particles,
+    mass: &mut GridMass,
+) -> Result<()> {
+    let (mirror, slip, workers) = (&setup.prescribed.mirror, &setup.prescribed.slip, &setup.workers);
+    let constraints = &setup.prescribed.constraints;
+    let span = if mirror.is_empty() && slip.is_empty() {
+        ops.node_span()
+    } else {
+        0..ops.num_nodes()
+    };
+    let _ = options;
+    if slip.is_empty() || lumped_only(plan) {
+        return mass.prepare_with(ops, &p.mass, &plan.mass, constraints, span, workers);
+    }
+    let [x, y] = each;
+    mass.prepare_components([x, y], &p.mass, &plan.mass, constraints, span, workers)
 }
 
 /// (6)–(8b) and XPIC/FMPM's series velocity (USF: the stress update after (6)); the
@@ -258,7 +291,14 @@ fn grid_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<[SolveRepor
 /// sum them for the report), from the same per-particle code as the passes of their own.
 pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Result<()> {
     let StepInput { setup, options, plan } = input;
-    let (state, Cache { ops, mass, nodes, .. }, scratch, profile) = out.into_parts();
+    let (state, cache, scratch, profile) = out.into_parts();
+    let Cache {
+        ops,
+        mass,
+        nodes,
+        layers,
+        ..
+    } = cache;
     let (series, stress_last) = (plan.series, plan.stress_last);
     let rule = G2pRule {
         transfer: plan.transfer,
@@ -281,11 +321,19 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
         // The lumped grid pass left [w, v] in p2g's accumulator; otherwise pack them.
         let velocities = if by_grid_pass {
             nodes.lumped_velocities()
+        } else if options.contact.is_some() {
+            let layer = super::contact::pack(ops, layers, &rule, &mut packed);
+            kernels::Packed {
+                values: &packed,
+                stride: rule.packed_width(),
+                layer,
+            }
         } else {
             kernels::pack_velocities(ops, nodes, &rule, &mut packed);
             kernels::Packed {
                 values: &packed,
                 stride: rule.packed_width(),
+                layer: 0,
             }
         };
         kernels::g2p_packed(
@@ -310,7 +358,14 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
     } else {
         scratch.g2p_blocks = blocks;
     }
-    if stress_last == Some(StressFrom::Reprojected) {
+    if stress_last == Some(StressFrom::Reprojected) && options.contact.is_some() {
+        timed(profile, Phase::Stress, || {
+            super::contact::reproject_and_update_stress(setup, options, plan, state, ops, layers, scratch, dt)
+        })?; // (11)–(13)
+        timed(profile, Phase::Move, || {
+            move_particles(&scratch.particle.displacement, &mut state.particles)
+        }); // (9)
+    } else if stress_last == Some(StressFrom::Reprojected) {
         timed(profile, Phase::Stress, || {
             kernels::reproject_momentum(ops, &state.particles, plan.apic, nodes, workers); // (11)
             walls::fold(&setup.prescribed.slip, &setup.grid, &mut nodes.momentum);
@@ -429,7 +484,7 @@ pub(super) fn solve_acceleration(
 }
 
 /// (8) `w = Π (v + Δt a)` on active nodes, 0 elsewhere.
-fn update_grid_velocity(
+pub(super) fn update_grid_velocity(
     prescribed: &Prescribed,
     is_active: &[bool],
     v: &VectorField,
@@ -447,7 +502,7 @@ fn update_grid_velocity(
 
 /// (8b) in the grid velocity `u`; prescribed components keep their values. Whether any node
 /// changed.
-fn extend(
+pub(super) fn extend(
     ops: &Operators,
     prescribed: &Prescribed,
     is_active: &[bool],
@@ -513,7 +568,7 @@ fn move_particles(d: &VectorField, p: &mut Particles) {
 /// (12) `F ← (I + Δt L) F`, `σ ← material(σ, L, F)`; (13) `V ← V det(I + Δt L)`, with the
 /// velocity gradient `L` of the particle scratch; the strain energy and the wave speed into
 /// `state`.
-fn update_stress(setup: &Setup, state: &mut State, scratch: &mut Scratch, dt: f64) -> Result<()> {
+pub(super) fn update_stress(setup: &Setup, state: &mut State, scratch: &mut Scratch, dt: f64) -> Result<()> {
     let (l, blocks) = (&scratch.particle.velocity_gradient, &mut scratch.stress_blocks);
     let p = &mut state.particles;
     let input = StressInput {

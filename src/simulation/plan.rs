@@ -20,8 +20,8 @@ pub(super) const QUASI_STATIC_ACTIVE_TOLERANCE: f64 = 1e-3;
 pub(super) struct StepPlan {
     /// (6)–(8) in one pass over the grid ([`crate::kernels::update_lumped_grid`]): the lumped mass in
     /// both solves, no stress update between them (not USF), no series velocity (not XPIC,
-    /// FMPM), no mirrored walls (whose lumped mass is folded), no damping, the explicit
-    /// integrator.
+    /// FMPM), no mirrored walls (whose lumped mass is folded), no damping, no contact, the
+    /// explicit integrator.
     pub(super) lumped_grid_pass: bool,
     /// USF: the stress update between (6) and (7), so p2g leaves out `f_int`.
     pub(super) stress_first: bool,
@@ -59,6 +59,7 @@ impl StepPlan {
                 && setup.prescribed.mirror.is_empty()
                 && setup.prescribed.slip.is_empty()
                 && options.damping.is_none()
+                && options.contact.is_none()
                 && explicit,
             stress_first: schedule.stress_first && explicit,
             // The implicit step strains the particles in its grid-to-particle pass.

@@ -58,6 +58,15 @@ pub struct StepReport {
     /// balance of a damped run is `total_energy + damping_work`, constant up to the transfers'
     /// and the integrator's share.
     pub damping_work: f64,
+    /// The normal contact force between bodies in the step ([`crate::contact`]): the normal
+    /// impulses of the force stage's corrections over `Δt`, summed over the nodes and pairs
+    /// (0 without contact).
+    pub contact_force: f64,
+    /// The work of friction between bodies so far, `Σ −Δp'_t · (w'_a − w'_b)` over the steps
+    /// ([`crate::contact`]): the energy balance of a frictional run is `total_energy +
+    /// friction_dissipation`, constant up to the transfers' share and the normal corrections'
+    /// (an inelastic collision at each node where the bodies meet).
+    pub friction_dissipation: f64,
     /// Whether a damped run has settled: the kinetic energy of the motion that moves the
     /// particles, `½ Σ_p m_p |(Nᵀ w)_p|²`, at most
     /// [`Damping::settled`](crate::damping::Damping::settled) times its largest so far (always
@@ -68,7 +77,7 @@ pub struct StepReport {
 
 impl StepReport {
     /// Column names of [`StepReport::values`], for a CSV header.
-    pub const COLUMNS: [&'static str; 27] = [
+    pub const COLUMNS: [&'static str; 29] = [
         "step",
         "time",
         "dt",
@@ -96,11 +105,13 @@ impl StepReport {
         "velocity_fallback_node",
         "damping_work",
         "settled",
+        "contact_force",
+        "friction_dissipation",
     ];
 
     /// The report as numbers, in the order of [`StepReport::COLUMNS`]. Outcomes are coded
     /// 0 = solved, 1 = fell back to lumped, 2 = regularized; the fallback node is −1 when none.
-    pub fn values(&self) -> [f64; 27] {
+    pub fn values(&self) -> [f64; 29] {
         let code = |r: &SolveReport| match r.outcome {
             SolveOutcome::Solved => 0.0,
             SolveOutcome::FellBackToLumped { .. } => 1.0,
@@ -140,6 +151,8 @@ impl StepReport {
             node,
             self.damping_work,
             f64::from(u8::from(self.settled)),
+            self.contact_force,
+            self.friction_dissipation,
         ]
     }
 }
@@ -224,6 +237,8 @@ pub(super) fn report(
         velocity_solve,
         acceleration_solve,
         damping_work: state.relaxation.damping_work,
+        contact_force: cache.layers.force,
+        friction_dissipation: state.relaxation.friction_dissipation,
         settled: false,
     })
 }

@@ -42,6 +42,7 @@ pub(super) struct OptionsRecord {
     threads: usize,
     integrator: Integrator,
     damping: Option<crate::damping::Damping>,
+    contact: Option<crate::contact::Contact>,
 }
 
 /// A [`BoundaryCondition`] with every field written (its own serde form omits absent ones,
@@ -112,6 +113,7 @@ impl OptionsRecord {
             threads,
             integrator,
             damping,
+            contact,
         } = options;
         OptionsRecord {
             shape: *shape,
@@ -129,6 +131,7 @@ impl OptionsRecord {
             threads: *threads,
             integrator: *integrator,
             damping: *damping,
+            contact: contact.clone(),
         }
     }
 
@@ -149,6 +152,7 @@ impl OptionsRecord {
             threads,
             integrator,
             damping,
+            contact,
         } = self;
         Options {
             shape,
@@ -166,6 +170,7 @@ impl OptionsRecord {
             threads,
             integrator,
             damping,
+            contact,
         }
     }
 }

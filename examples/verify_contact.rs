@@ -1,0 +1,168 @@
+//! Contact against closed forms ([`sparse_mpm::contact`]).
+//!
+//! A block, and a disk, on a rigid floor under gravity tilted by θ (the floor a body of
+//! prescribed, zero velocity, each meeting it through its own grid field). The block's centre
+//! of mass follows `x(t) = ½ g (sin θ − μ cos θ) t²` when `tan θ > μ` and stays put otherwise;
+//! a solid disk rolls at `⅔ g sin θ` when `μ ≥ tan θ / 3` and slides at `g (sin θ − μ cos θ)`
+//! below. (The disk that should roll slides: see docs/verification.md.)
+//!
+//! `cargo run --release --example verify_contact`
+
+use sparse_mpm::scene::Scene;
+
+const G: f64 = 9.81;
+const END: f64 = 0.4;
+
+/// The block (0.1 × 0.05 m on 1 cm cells, E = 1 MPa, ρ = 1000), or a disk of radius 0.05 m, on a
+/// rigid floor under gravity tilted by `theta` degrees (reaching its full value over `ramp`
+/// seconds).
+fn slope_scene(theta: f64, mu: f64, shape: &str, body: &str, ramp: f64) -> String {
+    let (s, c) = theta.to_radians().sin_cos();
+    let pad = if shape == "linear" { 0.0 } else { 0.02 };
+    let cells = |l: f64| ((l + 2.0 * pad) / 0.01_f64).round() as usize;
+    format!(
+        r#"
+[grid]
+origin = [{o}, {o}]
+cell_size = [0.01, 0.01]
+cells = [{nx}, {ny}]
+[schemes]
+shape = "{shape}"
+update = "musl"
+transfer = "flip"
+[time]
+end = {END}
+cfl = 0.4
+[loads]
+gravity = [{gx}, {gy}]
+gravity_ramp = {ramp}
+[[bodies]]
+name = "{body}"
+material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
+density = 1000.0
+geometry = {geometry}
+[[bodies]]
+name = "floor"
+material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
+density = 1000.0
+geometry = {{ rectangle = {{ min = [0.0, 0.0], max = [0.6, 0.05] }} }}
+[contact]
+friction = {mu}
+rigid = ["floor"]
+"#,
+        o = -pad,
+        nx = cells(0.6),
+        ny = cells(0.2),
+        gx = G * s,
+        gy = -G * c,
+        geometry = if body == "disk" {
+            "{ disk = { center = [0.1, 0.1], radius = 0.05 } }"
+        } else {
+            "{ rectangle = { min = [0.05, 0.05], max = [0.15, 0.1] } }"
+        },
+    )
+}
+
+/// The body's centre-of-mass displacement along the slope at each step, with the times.
+fn slide_path(scene: &str) -> sparse_mpm::error::Result<Vec<(f64, f64)>> {
+    let scene = Scene::from_toml_str(scene)?;
+    let mut sim = scene.build()?;
+    let centre = |sim: &sparse_mpm::simulation::Simulation| {
+        let p = sim.particles();
+        let (mut m, mut mx) = (0.0, 0.0);
+        for k in 0..p.len() {
+            if p.body[k] == 0 {
+                m += p.mass[k];
+                mx += p.mass[k] * p.x[k];
+            }
+        }
+        mx / m
+    };
+    let x0 = centre(&sim);
+    let mut out = vec![(0.0, 0.0)];
+    sim.run_until(END, |sim, _| {
+        out.push((sim.time(), centre(sim) - x0));
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+fn main() -> sparse_mpm::error::Result<()> {
+    println!("on a rigid floor under tilted gravity, to t = {END} s (1 cm cells, 2 × 2 particles per cell, MUSL, FLIP, lumped mass)");
+    println!(
+        "{:>6} {:>5} {:>5} {:>18} {:>10} {:>10} {:>10} {:>9}",
+        "body", "θ", "μ", "shape", "a exact", "a fitted", "x(T) err", "max err"
+    );
+    // (body, θ, μ, exact acceleration, gravity ramp): the block slides at g (sin θ − μ cos θ)
+    // or sticks (its load set down over 0.1 s: applied at once, the block bounces, and where
+    // the normal force falls below tan θ / μ of the weight it slips); the disk rolls at ⅔ g sin θ
+    // when μ ≥ tan θ / 3, and slides at g (sin θ − μ cos θ) below.
+    let slide = |theta: f64, mu: f64| {
+        let (s, c) = f64::to_radians(theta).sin_cos();
+        (G * (s - mu * c)).max(0.0)
+    };
+    let roll = |theta: f64| 2.0 / 3.0 * G * f64::to_radians(theta).sin();
+    let cases = [
+        ("block", 30.0, 0.0, slide(30.0, 0.0), 0.0),
+        ("block", 30.0, 0.3, slide(30.0, 0.3), 0.0),
+        ("block", 45.0, 0.5, slide(45.0, 0.5), 0.0),
+        ("block", 30.0, 0.7, 0.0, 0.1),
+        ("disk", 30.0, 0.3, roll(30.0), 0.0),
+        ("disk", 30.0, 0.1, slide(30.0, 0.1), 0.0),
+    ];
+    for shape in ["linear", "quadratic_bspline"] {
+        for (body, theta, mu, a, ramp) in cases {
+            let path = slide_path(&slope_scene(theta, mu, shape, body, f64::max(ramp, 1e-9)))?;
+            let (t_end, x_end) = *path.last().unwrap();
+            let exact = |t: f64| if ramp > 0.0 { 0.0 } else { 0.5 * a * t * t };
+            // Over the second half of the run, relative to the slide at its end (to the
+            // block's length when it sticks).
+            let scale = if a > 0.0 { exact(t_end) } else { 0.1 };
+            let err = path
+                .iter()
+                .filter(|(t, _)| *t >= 0.5 * END)
+                .map(|&(t, x)| (x - exact(t)).abs() / scale)
+                .fold(0.0, f64::max);
+            // The acceleration of a parabola through the second half: x = x0 + v0 t + ½ a t².
+            let fitted = fit_acceleration(&path);
+            println!(
+                "{body:>6} {theta:>5} {mu:>5} {shape:>18} {a:>10.4} {fitted:>10.4} {:>10.2e} {err:>9.2e}",
+                (x_end - exact(t_end)) / scale
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The least-squares `a` of `x = c + v t + ½ a t²` over the second half of `path`.
+fn fit_acceleration(path: &[(f64, f64)]) -> f64 {
+    let pts: Vec<(f64, f64)> = path.iter().copied().filter(|(t, _)| *t >= 0.5 * END).collect();
+    // Normal equations of the basis 1, t, t²/2.
+    let mut a = [[0.0; 3]; 3];
+    let mut b = [0.0; 3];
+    for &(t, x) in &pts {
+        let phi = [1.0, t, 0.5 * t * t];
+        for i in 0..3 {
+            for j in 0..3 {
+                a[i][j] += phi[i] * phi[j];
+            }
+            b[i] += phi[i] * x;
+        }
+    }
+    // Gaussian elimination (3 × 3, well conditioned over half a second).
+    for i in 0..3 {
+        for k in i + 1..3 {
+            let f = a[k][i] / a[i][i];
+            for j in 0..3 {
+                a[k][j] -= f * a[i][j];
+            }
+            b[k] -= f * b[i];
+        }
+    }
+    let mut x = [0.0; 3];
+    for i in (0..3).rev() {
+        let s: f64 = (i + 1..3).map(|j| a[i][j] * x[j]).sum();
+        x[i] = (b[i] - s) / a[i][i];
+    }
+    x[2]
+}

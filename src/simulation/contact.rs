@@ -1,0 +1,478 @@
+//! Contact in the explicit step ([`crate::contact`]): one grid field per body, from the
+//! operators restricted to its particles, `N_b = N diag(1_b)`, and the bodies' fields corrected
+//! where they meet.
+//!
+//! A body's fields are the step's own kernels run with the other bodies' particles weightless:
+//! the particles' mass and volume are swapped for `1_b ∘ m` and `1_b ∘ V` for the time of the
+//! call ([`with_body`]), so that `p2g` gives `m_b`, `q_b`, `f_b`, the grid mass gives `M_b`,
+//! and the internal force `G_b (V σ)`, each with the same operations as without contact. The
+//! grid-to-particle pass and the velocity gradient read each particle's own body's field.
+
+use super::phases::{extend, project_velocity, solve_acceleration, update_grid_velocity, update_stress};
+use super::plan::StepPlan;
+use super::walls;
+use super::{Cache, Options, Scratch, Setup, State};
+use crate::contact::{pair_correction, pair_correction_in_contact, Contact, NodeBody};
+use crate::error::Result;
+use crate::fields::VectorField;
+use crate::grid::Grid;
+use crate::kernels::{self, GridState, P2gTerms, Stress};
+use crate::mass::{GridMass, SolveOutcome, SolveReport};
+use crate::operators::{Operator, Operators};
+use crate::particles::Particles;
+
+/// One body's grid: its mass (lumped, and the scheme's), its fields, and its volume gradient
+/// `g_b = G_b V`.
+#[derive(Debug)]
+pub(super) struct Layer {
+    pub(super) mass: GridMass,
+    pub(super) nodes: GridState,
+    gradient: VectorField,
+}
+
+impl Layer {
+    fn new(grid: &Grid) -> Layer {
+        Layer {
+            mass: GridMass::default(),
+            nodes: GridState::new(grid),
+            gradient: VectorField::zeros(grid.num_nodes()),
+        }
+    }
+}
+
+/// The bodies' grids, and what the contact did in the last step.
+#[derive(Debug, Default)]
+pub(super) struct Layers {
+    pub(super) bodies: Vec<Layer>,
+    /// `1_b ∘ m` and `1_b ∘ V` of the body in hand ([`with_body`]).
+    masks: [Vec<f64>; 2],
+    /// The normal contact force of the last step: the force stage's normal impulses over `Δt`,
+    /// summed over the corrected pairs and nodes.
+    pub(super) force: f64,
+    /// The pairs the momentum stage and the force stage found in contact at each node.
+    touching: [Vec<Touching>; 2],
+}
+
+/// Runs `f` on the particles with every body but `b` weightless (mass and volume 0), so that
+/// every product with `N`, `Gx`, `Gy` is one with `N_b`, `G_b`; the particles are as they were
+/// afterwards.
+fn with_body<T>(p: &mut Particles, b: usize, masks: &mut [Vec<f64>; 2], f: impl FnOnce(&Particles) -> T) -> T {
+    let [m, v] = masks;
+    let own = |k: usize, x: f64| if p.body[k] == b { x } else { 0.0 };
+    m.clear();
+    m.extend(p.mass.iter().enumerate().map(|(k, &x)| own(k, x)));
+    v.clear();
+    v.extend(p.volume.iter().enumerate().map(|(k, &x)| own(k, x)));
+    std::mem::swap(&mut p.mass, m);
+    std::mem::swap(&mut p.volume, v);
+    let out = f(p);
+    std::mem::swap(&mut p.mass, m);
+    std::mem::swap(&mut p.volume, v);
+    out
+}
+
+/// (2)–(5) and the grid mass of every body, after the operators' assembly.
+pub(super) fn prepare_layers(
+    setup: &Setup,
+    options: &Options,
+    plan: &StepPlan,
+    state: &mut State,
+    cache: &mut Cache,
+) -> Result<()> {
+    let (grid, workers) = (&setup.grid, &setup.workers);
+    let (mirror, slip) = (&setup.prescribed.mirror, &setup.prescribed.slip);
+    let Cache {
+        ops,
+        layers,
+        component_ops,
+        ..
+    } = cache;
+    let Layers { bodies, masks, .. } = layers;
+    bodies.resize_with(setup.bodies.len(), || Layer::new(grid));
+    let terms = P2gTerms {
+        apic: plan.apic,
+        gravity: plan.gravity,
+        stress: if plan.stress_first {
+            Stress::Omit
+        } else {
+            Stress::Include
+        },
+    };
+    for (b, layer) in bodies.iter_mut().enumerate() {
+        with_body(&mut state.particles, b, masks, |p| {
+            let Layer {
+                mass, nodes, gradient, ..
+            } = layer;
+            mass.lumped_mut().resize(ops.num_nodes(), 0.0);
+            kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, true);
+            mirror.fold_lumped(grid, p, ops, mass.lumped_mut());
+            walls::fold_lumped(slip, grid, mass.lumped_mut());
+            walls::fold(slip, grid, &mut nodes.momentum);
+            walls::fold(slip, grid, &mut nodes.force);
+            ops.scatter(Operator::Gx, [&p.volume], [&mut gradient.x]);
+            ops.scatter(Operator::Gy, [&p.volume], [&mut gradient.y]);
+            super::phases::prepare_mass(setup, options, plan, ops, component_ops, p, mass)
+        })?;
+    }
+    Ok(())
+}
+
+/// (6)–(8b) of every body, with the contact corrections of the momentum stage (after (6)) and
+/// of the force stage (after (8)); USF's stress update between. The centre-of-mass velocities
+/// go into the shared fields (what the report and [`Simulation::grid_velocity`] read).
+///
+/// [`Simulation::grid_velocity`]: super::Simulation::grid_velocity
+pub(super) fn grid_phases(
+    setup: &Setup,
+    options: &Options,
+    state: &mut State,
+    cache: &mut Cache,
+    scratch: &mut Scratch,
+    dt: f64,
+) -> Result<[SolveReport; 2]> {
+    let contact = options
+        .contact
+        .as_ref()
+        .expect("contact phases run with contact options");
+    let (grid, prescribed) = (&setup.grid, &setup.prescribed);
+    let Cache { ops, layers, nodes, .. } = cache;
+    let Layers {
+        bodies,
+        force,
+        touching,
+        ..
+    } = layers;
+    let mut solves = [Vec::new(), Vec::new()];
+    for layer in bodies.iter_mut() {
+        let (mass, fields) = (&mut layer.mass, &mut layer.nodes);
+        solves[0].push(project_velocity(
+            setup,
+            ops,
+            mass,
+            &fields.momentum,
+            &mut fields.projected,
+        )?);
+        walls::unfold(&prescribed.slip, grid, &mut [&mut fields.projected]);
+    }
+    // The momentum stage, in place (as NairnMPM does): FLIP's increment Nᵀ(w − v) carries
+    // the force stage's correction; the momentum stage's reaches the positions and the strain.
+    let [momentum_stage, force_stage] = touching;
+    let decide = Decide::Approach(momentum_stage);
+    correct(contact, setup, bodies, ops.node_span(), Stage::Momentum, decide).add_to(state);
+    for layer in bodies.iter_mut() {
+        let (mass, fields) = (&mut layer.mass, &mut layer.nodes);
+        if let Some(damping) = options.damping {
+            let power = damping.apply(&mut fields.force, &fields.projected, mass.lumped(), mass.is_active());
+            state.relaxation.damping_work -= dt * power;
+        }
+        solves[1].push(solve_acceleration(
+            prescribed,
+            ops,
+            mass,
+            &fields.force,
+            &mut fields.acceleration,
+        )?);
+        walls::unfold(&prescribed.slip, grid, &mut [&mut fields.acceleration]);
+        let (v, a) = (&fields.projected, &fields.acceleration);
+        update_grid_velocity(prescribed, mass.is_active(), v, a, dt, &mut fields.updated);
+    }
+    let decide = Decide::Approach(force_stage);
+    let stage = correct(contact, setup, bodies, ops.node_span(), Stage::Force, decide);
+    stage.add_to(state);
+    *force = stage.normal_impulse / dt;
+    for layer in bodies.iter_mut() {
+        layer.mass.set_velocity_warm_start(&layer.nodes.updated);
+        let active = layer.mass.is_active();
+        extend(
+            ops,
+            prescribed,
+            active,
+            &mut layer.nodes.updated,
+            &mut scratch.extension,
+        );
+    }
+    centre_of_mass(bodies, nodes);
+    Ok(solves.map(|s| combined(&s)))
+}
+
+/// MUSL's (11)–(13) with one field per body: each body's momentum re-projected from its
+/// particles' new velocities, corrected where the bodies meet, and each particle strained by
+/// its own body's velocity.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn reproject_and_update_stress(
+    setup: &Setup,
+    options: &Options,
+    plan: &StepPlan,
+    state: &mut State,
+    ops: &Operators,
+    layers: &mut Layers,
+    scratch: &mut Scratch,
+    dt: f64,
+) -> Result<()> {
+    let contact = options
+        .contact
+        .as_ref()
+        .expect("contact phases run with contact options");
+    let (grid, prescribed, workers) = (&setup.grid, &setup.prescribed, &setup.workers);
+    let Layers {
+        bodies,
+        masks,
+        touching,
+        ..
+    } = layers;
+    for (b, layer) in bodies.iter_mut().enumerate() {
+        let (mass, fields) = (&mut layer.mass, &mut layer.nodes);
+        with_body(&mut state.particles, b, masks, |p| {
+            kernels::reproject_momentum(ops, p, plan.apic, fields, workers); // (11)
+        });
+        walls::fold(&prescribed.slip, grid, &mut fields.momentum);
+        project_velocity(setup, ops, mass, &fields.momentum, &mut fields.projected)?;
+        walls::unfold(&prescribed.slip, grid, &mut [&mut fields.projected]);
+    }
+    // Where the force stage found contact (the particles moved with those corrections); the
+    // particles' velocities are not changed here, so what this removes is not counted.
+    let decide = Decide::Known(&touching[1]);
+    correct(contact, setup, bodies, ops.node_span(), Stage::Strain, decide);
+    for layer in bodies.iter_mut() {
+        let active = layer.mass.is_active();
+        extend(
+            ops,
+            prescribed,
+            active,
+            &mut layer.nodes.projected,
+            &mut scratch.extension,
+        );
+    }
+    layered_gradient(setup, ops, bodies, &state.particles, |n| &n.projected, scratch);
+    update_stress(setup, state, scratch, dt)
+}
+
+/// The packed velocities of every body for the grid-to-particle pass, and the values per body.
+pub(super) fn pack(ops: &Operators, cache_layers: &Layers, rule: &kernels::G2pRule, packed: &mut Vec<f64>) -> usize {
+    let grids: Vec<&GridState> = cache_layers.bodies.iter().map(|l| &l.nodes).collect();
+    kernels::pack_layers(ops, &grids, rule, packed)
+}
+
+/// `L_p = [Gxᵀ u_b, Gyᵀ u_b]_p` with `u_b` the field `field` of particle `p`'s body, into the
+/// particle scratch.
+fn layered_gradient(
+    setup: &Setup,
+    ops: &Operators,
+    bodies: &[Layer],
+    p: &Particles,
+    field: impl Fn(&GridState) -> &VectorField,
+    scratch: &mut Scratch,
+) {
+    let fields: Vec<&VectorField> = bodies.iter().map(|l| field(&l.nodes)).collect();
+    let l = &mut scratch.particle.velocity_gradient;
+    kernels::velocity_gradient_layered(ops, &fields, &p.body, l, &setup.workers);
+}
+
+/// The three times a step corrects the bodies' velocities.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Stage {
+    /// The projected velocities `v_b` (6).
+    Momentum,
+    /// The updated velocities `w_b = v_b + Δt a_b` (8).
+    Force,
+    /// MUSL's re-projected velocities, which strain the particles (11).
+    Strain,
+}
+
+impl Stage {
+    /// The field the stage corrects.
+    fn field(self, n: &mut GridState) -> &mut VectorField {
+        match self {
+            Stage::Momentum | Stage::Strain => &mut n.projected,
+            Stage::Force => &mut n.updated,
+        }
+    }
+}
+
+/// What one stage of corrections did: its normal impulses, and (the force stage) the work of
+/// friction over the step, its tangential impulse against the slip that remains,
+///
+/// ```text
+/// W_f = −Σ Δp'_t · (w'_a − w'_b)      (≥ 0: friction opposes the slip; 0 where the pair sticks)
+/// ```
+#[derive(Debug, Default, Clone, Copy)]
+struct Tally {
+    normal_impulse: f64,
+    friction: f64,
+}
+
+impl Tally {
+    fn add_to(self, state: &mut State) {
+        state.relaxation.friction_dissipation += self.friction;
+    }
+}
+
+/// A pair of bodies the force stage found in contact at a node.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Touching {
+    node: usize,
+    bodies: [usize; 2],
+}
+
+/// How [`correct`] decides where the bodies are in contact.
+enum Decide<'a> {
+    /// Where they share a node and approach, each such pair recorded.
+    Approach(&'a mut Vec<Touching>),
+    /// Where the force stage found them (the strain update's velocities): MUSL's re-projected
+    /// velocities are corrected where the step's motion was, whatever their own approach.
+    Known(&'a [Touching]),
+}
+
+/// The contact corrections of the field `field` of the pairs of bodies `decide` selects
+/// ([`pair_correction`]), pairs at a node in the order of their indices; rigid bodies' fields
+/// set to their velocities first, and the prescribed components of boundary conditions kept.
+fn correct(
+    contact: &Contact,
+    setup: &Setup,
+    bodies: &mut [Layer],
+    span: std::ops::Range<usize>,
+    stage: Stage,
+    decide: Decide,
+) -> Tally {
+    let rigid: Vec<Option<[f64; 2]>> = (0..bodies.len()).map(|b| contact.rigid_velocity(b)).collect();
+    for (layer, v) in bodies.iter_mut().zip(&rigid) {
+        if let Some([vx, vy]) = *v {
+            let Layer { mass, nodes, .. } = layer;
+            let u = stage.field(nodes);
+            for i in span.clone().filter(|&i| mass.is_active()[i]) {
+                (u.x[i], u.y[i]) = (vx, vy);
+            }
+        }
+    }
+    let mut tally = Tally::default();
+    let mut pair = |bodies: &mut [Layer], i: usize, [a, b]: [usize; 2], known: bool| {
+        let mut at = |k: usize| {
+            let l = &mut bodies[k];
+            let mass = l.mass.lumped()[i];
+            let gradient = [l.gradient.x[i], l.gradient.y[i]];
+            let u = stage.field(&mut l.nodes);
+            NodeBody {
+                mass,
+                velocity: [u.x[i], u.y[i]],
+                volume_gradient: gradient,
+                rigid: rigid[k].is_some(),
+            }
+        };
+        let (na, nb) = (at(a), at(b));
+        let mu = contact.friction_between(a, b);
+        let c = if known {
+            pair_correction_in_contact(&na, &nb, mu)
+        } else {
+            let total = na.mass + nb.mass;
+            let floor = contact.min_mass_fraction * total;
+            if na.mass < floor || nb.mass < floor {
+                return false;
+            }
+            pair_correction(&na, &nb, mu)
+        };
+        let Some(c) = c else {
+            return false;
+        };
+        let mut after = [na.velocity, nb.velocity];
+        for (slot, (k, body, sign)) in [(a, na, 1.0), (b, nb, -1.0)].into_iter().enumerate() {
+            if body.rigid {
+                continue;
+            }
+            let u = stage.field(&mut bodies[k].nodes);
+            u.x[i] += sign * c.impulse[0] / body.mass;
+            u.y[i] += sign * c.impulse[1] / body.mass;
+            after[slot] = [u.x[i], u.y[i]];
+        }
+        if stage == Stage::Force {
+            // Friction's work over the step: its impulse against the slip that remains.
+            let slip = [after[0][0] - after[1][0], after[0][1] - after[1][1]];
+            tally.friction -= c.tangential[0] * slip[0] + c.tangential[1] * slip[1];
+        }
+        tally.normal_impulse += c.normal_impulse;
+        true
+    };
+    match decide {
+        Decide::Known(touching) => {
+            for t in touching {
+                pair(bodies, t.node, t.bodies, true);
+            }
+        }
+        Decide::Approach(touching) => {
+            touching.clear();
+            let nb = bodies.len();
+            for i in span {
+                let present = |l: &Layer| l.mass.is_active()[i] && l.mass.lumped()[i] > 0.0;
+                if bodies.iter().filter(|l| present(l)).count() < 2 {
+                    continue;
+                }
+                for a in 0..nb {
+                    for b in a + 1..nb {
+                        if present(&bodies[a]) && present(&bodies[b]) && pair(bodies, i, [a, b], false) {
+                            touching.push(Touching {
+                                node: i,
+                                bodies: [a, b],
+                            });
+                        }
+                    }
+                }
+            }
+        }
+    }
+    for layer in bodies.iter_mut() {
+        let u = stage.field(&mut layer.nodes);
+        setup.prescribed.apply_velocity(&mut u.x, &mut u.y);
+    }
+    tally
+}
+
+/// The centre-of-mass velocities `Σ_b m_b u_b / Σ_b m_b` of the bodies' projected and updated
+/// fields into the shared ones (a body's own where it is alone; body 0's where none has mass).
+fn centre_of_mass(bodies: &[Layer], nodes: &mut GridState) {
+    let n = nodes.updated.len();
+    for (pick, out) in [
+        (0, &mut nodes.projected as &mut VectorField),
+        (1, &mut nodes.updated as &mut VectorField),
+    ] {
+        fn field(l: &Layer, pick: usize) -> &VectorField {
+            if pick == 0 {
+                &l.nodes.projected
+            } else {
+                &l.nodes.updated
+            }
+        }
+        let field = |l| field(l, pick);
+        for i in 0..n {
+            let mut with_mass = bodies.iter().filter(|l| l.mass.lumped()[i] > 0.0);
+            let (x, y) = match (with_mass.next(), with_mass.next()) {
+                (Some(l), None) => (field(l).x[i], field(l).y[i]),
+                (None, _) => (field(&bodies[0]).x[i], field(&bodies[0]).y[i]),
+                (Some(_), Some(_)) => {
+                    let (mut m, mut px, mut py) = (0.0, 0.0, 0.0);
+                    for l in bodies {
+                        let w = l.mass.lumped()[i];
+                        m += w;
+                        px += w * field(l).x[i];
+                        py += w * field(l).y[i];
+                    }
+                    (px / m, py / m)
+                }
+            };
+            out.x[i] = x;
+            out.y[i] = y;
+        }
+    }
+}
+
+/// One report of the bodies' solves: their iterations summed, the largest residual, the first
+/// outcome other than solved.
+fn combined(reports: &[SolveReport]) -> SolveReport {
+    let mut out = reports[0].clone();
+    out.iterations = reports.iter().map(|r| r.iterations).sum();
+    out.relative_residual = reports.iter().map(|r| r.relative_residual).fold(0.0, f64::max);
+    out.outcome = reports
+        .iter()
+        .map(|r| r.outcome.clone())
+        .find(|o| *o != SolveOutcome::Solved)
+        .unwrap_or(SolveOutcome::Solved);
+    out
+}
