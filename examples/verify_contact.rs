@@ -16,7 +16,7 @@ const END: f64 = 0.4;
 /// The block (0.1 × 0.05 m on 1 cm cells, E = 1 MPa, ρ = 1000), or a disk of radius 0.05 m, on a
 /// rigid floor under gravity tilted by `theta` degrees (reaching its full value over `ramp`
 /// seconds).
-fn slope_scene(theta: f64, mu: f64, shape: &str, body: &str, ramp: f64) -> String {
+fn slope_scene(theta: f64, mu: f64, shape: &str, body: &str, ramp: f64, floor: Floor) -> String {
     let (s, c) = theta.to_radians().sin_cos();
     let pad = if shape == "linear" { 0.0 } else { 0.02 };
     let cells = |l: f64| ((l + 2.0 * pad) / 0.01_f64).round() as usize;
@@ -43,24 +43,42 @@ density = 1000.0
 geometry = {geometry}
 [[bodies]]
 name = "floor"
-material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
+material = {{ model = "linear_elastic", youngs_modulus = 1e7, poisson_ratio = 0.3, plane = "strain" }}
 density = 1000.0
 geometry = {{ rectangle = {{ min = [0.0, 0.0], max = [0.6, 0.05] }} }}
+{floor}
 [contact]
 friction = {mu}
-rigid = ["floor"]
+{rigid}
 "#,
         o = -pad,
         nx = cells(0.6),
         ny = cells(0.2),
         gx = G * s,
         gy = -G * c,
+        floor = match floor {
+            Floor::Rigid => "",
+            Floor::Held => "[[boundaries]]\nedge = \"bottom\"\ncondition = \"fixed\"",
+        },
+        rigid = match floor {
+            Floor::Rigid => "rigid = [\"floor\"]".to_string(),
+            // The ramp's surface gives the normal: the block's corners would turn the average.
+            Floor::Held => format!("[[contact.pairs]]\nbodies = [\"{body}\", \"floor\"]\nnormal = \"floor\""),
+        },
         geometry = if body == "disk" {
             "{ disk = { center = [0.1, 0.1], radius = 0.05 } }"
         } else {
             "{ rectangle = { min = [0.05, 0.05], max = [0.15, 0.1] } }"
         },
     )
+}
+
+/// The floor: a rigid body, or an elastic slab (E = 10 MPa) held at its base whose surface gives
+/// the contact normal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Floor {
+    Rigid,
+    Held,
 }
 
 /// The body's centre-of-mass displacement along the slope at each step, with the times.
@@ -90,8 +108,8 @@ fn slide_path(scene: &str) -> sparse_mpm::error::Result<Vec<(f64, f64)>> {
 fn main() -> sparse_mpm::error::Result<()> {
     println!("on a rigid floor under tilted gravity, to t = {END} s (1 cm cells, 2 × 2 particles per cell, MUSL, FLIP, lumped mass)");
     println!(
-        "{:>6} {:>5} {:>5} {:>18} {:>10} {:>10} {:>10} {:>9}",
-        "body", "θ", "μ", "shape", "a exact", "a fitted", "x(T) err", "max err"
+        "{:>6} {:>6} {:>5} {:>5} {:>18} {:>10} {:>10} {:>10} {:>9}",
+        "body", "floor", "θ", "μ", "shape", "a exact", "a fitted", "x(T) err", "max err"
     );
     // (body, θ, μ, exact acceleration, gravity ramp): the block slides at g (sin θ − μ cos θ)
     // or sticks (its load set down over 0.1 s: applied at once, the block bounces, and where
@@ -110,9 +128,14 @@ fn main() -> sparse_mpm::error::Result<()> {
         ("disk", 30.0, 0.3, roll(30.0), 0.0),
         ("disk", 30.0, 0.1, slide(30.0, 0.1), 0.0),
     ];
+    let runs = cases
+        .iter()
+        .map(|&c| (Floor::Rigid, c))
+        .chain(cases[..4].iter().map(|&c| (Floor::Held, c)));
     for shape in ["linear", "quadratic_bspline"] {
-        for (body, theta, mu, a, ramp) in cases {
-            let path = slide_path(&slope_scene(theta, mu, shape, body, f64::max(ramp, 1e-9)))?;
+        for (floor, (body, theta, mu, a, ramp)) in runs.clone() {
+            let scene = slope_scene(theta, mu, shape, body, f64::max(ramp, 1e-9), floor);
+            let path = slide_path(&scene)?;
             let (t_end, x_end) = *path.last().unwrap();
             let exact = |t: f64| if ramp > 0.0 { 0.0 } else { 0.5 * a * t * t };
             // Over the second half of the run, relative to the slide at its end (to the
@@ -126,7 +149,8 @@ fn main() -> sparse_mpm::error::Result<()> {
             // The acceleration of a parabola through the second half: x = x0 + v0 t + ½ a t².
             let fitted = fit_acceleration(&path);
             println!(
-                "{body:>6} {theta:>5} {mu:>5} {shape:>18} {a:>10.4} {fitted:>10.4} {:>10.2e} {err:>9.2e}",
+                "{body:>6} {:>6} {theta:>5} {mu:>5} {shape:>18} {a:>10.4} {fitted:>10.4} {:>10.2e} {err:>9.2e}",
+                format!("{floor:?}").to_lowercase(),
                 (x_end - exact(t_end)) / scale
             );
         }

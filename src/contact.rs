@@ -72,8 +72,8 @@ pub struct Contact {
     /// Coulomb's coefficient `μ` between every pair of bodies (0: frictionless; infinite: no
     /// slip once in contact).
     pub friction: f64,
-    /// Pairs of bodies with a coefficient of their own.
-    pub pairs: Vec<PairFriction>,
+    /// Pairs of bodies with a coefficient or a normal of their own.
+    pub pairs: Vec<Pair>,
     /// Bodies of prescribed motion.
     pub rigid: Vec<RigidBody>,
     /// Nodes where a body's share of the pair's lumped mass is below this are not corrected.
@@ -91,13 +91,45 @@ impl Default for Contact {
     }
 }
 
-/// A pair of bodies (their indices) with its own friction coefficient.
+/// A pair of bodies (their indices) with a friction coefficient and a normal of its own.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct PairFriction {
+pub struct Pair {
     /// The two bodies' indices.
     pub bodies: [usize; 2],
     /// Coulomb's coefficient `μ` between them.
     pub friction: f64,
+    /// How their contact normal is found.
+    pub normal: Normal,
+}
+
+/// How the contact normal of a pair is found at a node.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub enum Normal {
+    /// The average of the two bodies' volume gradients, `unit(g_a − g_b)` (Nairn's
+    /// recommendation; a rigid body's own gradient when one of the two is rigid).
+    #[default]
+    Average,
+    /// The surface of this body (its index, one of the pair's): its own volume gradient. For a
+    /// flat body met by a smaller one (a ramp and a block), whose corners would tilt the
+    /// average: there the block's side faces turn the averaged normal sideways, and a block
+    /// sliding frictionless on an elastic ramp was held back by 3% (linear) and stopped
+    /// (quadratic B-splines).
+    Body(usize),
+    /// A fixed direction, from the first body of the pair toward the second (normalised).
+    Direction([f64; 2]),
+}
+
+/// The normal rule [`contact_normal`] applies at a node, for bodies `a` and `b` in that order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PairNormal {
+    /// `unit(g_a − g_b)`, or a rigid body's own.
+    Average,
+    /// `unit(g_a)`.
+    OfA,
+    /// `−unit(g_b)`.
+    OfB,
+    /// This direction, from `a` toward `b`.
+    Direction([f64; 2]),
 }
 
 /// A body whose particles move at a prescribed velocity (an indenter, a ramp, a floor).
@@ -133,6 +165,21 @@ impl Contact {
         }
         for (k, pair) in self.pairs.iter().enumerate() {
             let [a, b] = pair.bodies;
+            match pair.normal {
+                Normal::Body(c) if c != a && c != b => {
+                    return bad(
+                        "contact.pairs",
+                        format!("pair {k}: the normal of body {c}, which is not one of the pair ({a}, {b})"),
+                    );
+                }
+                Normal::Direction(d) if !(d[0].is_finite() && d[1].is_finite() && d[0].hypot(d[1]) > 0.0) => {
+                    return bad(
+                        "contact.pairs",
+                        format!("pair {k}: the normal {d:?} is not a finite non-zero direction"),
+                    );
+                }
+                _ => {}
+            }
             if a >= bodies || b >= bodies {
                 return bad("contact.pairs", format!("pair {k} names body {} of {bodies}", a.max(b)));
             }
@@ -178,6 +225,24 @@ impl Contact {
             .map_or(self.friction, |p| p.friction)
     }
 
+    /// The normal rule between bodies `a` and `b`, in that order: the pair's own, else the
+    /// average.
+    pub fn normal_between(&self, a: usize, b: usize) -> PairNormal {
+        let Some(pair) = self.pairs.iter().find(|p| sorted(p.bodies) == sorted([a, b])) else {
+            return PairNormal::Average;
+        };
+        match pair.normal {
+            Normal::Average => PairNormal::Average,
+            Normal::Body(c) if c == a => PairNormal::OfA,
+            Normal::Body(_) => PairNormal::OfB,
+            Normal::Direction(d) => {
+                let sign = if pair.bodies[0] == a { 1.0 } else { -1.0 };
+                let l = d[0].hypot(d[1]);
+                PairNormal::Direction([sign * d[0] / l, sign * d[1] / l])
+            }
+        }
+    }
+
     /// The prescribed velocity of body `b`, if it is rigid.
     pub fn rigid_velocity(&self, b: usize) -> Option<[f64; 2]> {
         self.rigid.iter().find(|r| r.body == b).map(|r| r.velocity)
@@ -216,50 +281,56 @@ pub struct Correction {
 /// ([module docs](self)):
 ///
 /// ```text
-/// Δp = μ_ab (v_b − v_a),  n = unit(g_a − g_b);  none unless Δp · n < 0
+/// Δp = μ_ab (v_b − v_a), n the normal ([`contact_normal`]);  none unless Δp · n < 0
 /// Δp' = Δp                                           if |Δp_t| ≤ μ |Δp · n|
 ///     = Δp_n + μ |Δp · n| Δp_t / |Δp_t|              otherwise
 /// ```
 ///
-/// `None` when the bodies do not approach, when both are rigid, or when the normal is not
-/// defined (equal volume gradients).
-pub fn pair_correction(a: &NodeBody, b: &NodeBody, mu: f64) -> Option<Correction> {
-    correction(a, b, mu, true)
+/// `None` when the bodies do not approach or when both are rigid.
+pub fn pair_correction(a: &NodeBody, b: &NodeBody, n: [f64; 2], mu: f64) -> Option<Correction> {
+    correction(a, b, n, mu, true)
+}
+
+/// The contact normal at a node of bodies `a` and `b` (`a`'s outward normal, toward `b`) under
+/// `rule`; `None` where it is not defined (a zero gradient).
+///
+/// ```text
+/// Average:  unit(g_a − g_b)  (−unit(g_b) if b is rigid, unit(g_a) if a is)
+/// OfA: unit(g_a)    OfB: −unit(g_b)    Direction(d): d
+/// ```
+pub fn contact_normal(a: &NodeBody, b: &NodeBody, rule: PairNormal) -> Option<[f64; 2]> {
+    let (ga, gb) = (a.volume_gradient, b.volume_gradient);
+    let g = match rule {
+        PairNormal::Direction(d) => return Some(d),
+        PairNormal::OfB => [-gb[0], -gb[1]],
+        PairNormal::OfA => ga,
+        // A rigid body's surface is the one to meet: its own gradient gives the normal.
+        PairNormal::Average if b.rigid => [-gb[0], -gb[1]],
+        PairNormal::Average if a.rigid => ga,
+        PairNormal::Average => [ga[0] - gb[0], ga[1] - gb[1]],
+    };
+    let length = g[0].hypot(g[1]);
+    // (NaN fails this too.)
+    (length.partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater)).then(|| [g[0] / length, g[1] / length])
 }
 
 /// [`pair_correction`] of a pair known to be in contact (the strain update's velocities, after
 /// the force stage found the contact): no approach test, the normal impulse's magnitude
 /// `|Δp · n|` bounds the friction.
-pub(crate) fn pair_correction_in_contact(a: &NodeBody, b: &NodeBody, mu: f64) -> Option<Correction> {
-    correction(a, b, mu, false)
+pub(crate) fn pair_correction_in_contact(a: &NodeBody, b: &NodeBody, n: [f64; 2], mu: f64) -> Option<Correction> {
+    correction(a, b, n, mu, false)
 }
 
-fn correction(a: &NodeBody, b: &NodeBody, mu: f64, approach: bool) -> Option<Correction> {
+fn correction(a: &NodeBody, b: &NodeBody, n: [f64; 2], mu: f64, approach: bool) -> Option<Correction> {
     let reduced = match (a.rigid, b.rigid) {
         (true, true) => return None,
         (false, true) => a.mass,
         (true, false) => b.mass,
         (false, false) => a.mass * b.mass / (a.mass + b.mass),
     };
-    // A rigid body's surface is the one to meet: its own gradient gives the normal.
-    let g = if b.rigid {
-        [-b.volume_gradient[0], -b.volume_gradient[1]]
-    } else if a.rigid {
-        a.volume_gradient
-    } else {
-        [
-            a.volume_gradient[0] - b.volume_gradient[0],
-            a.volume_gradient[1] - b.volume_gradient[1],
-        ]
-    };
-    let length = g[0].hypot(g[1]);
-    // (NaN fails these too.)
-    if length.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-        || reduced.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-    {
+    if reduced.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
-    let n = [g[0] / length, g[1] / length];
     let dp = [
         reduced * (b.velocity[0] - a.velocity[0]),
         reduced * (b.velocity[1] - a.velocity[1]),
@@ -303,7 +374,9 @@ mod tests {
         // a below b (a's volume gradient points up, out of a; b's down): normal +y from a.
         let a = body(2.0, [1.0, 3.0], [0.0, 1.0]);
         let b = body(1.0, [0.0, -3.0], [0.0, -1.0]);
-        let c = pair_correction(&a, &b, 0.0).unwrap();
+        let n = contact_normal(&a, &b, PairNormal::Average).unwrap();
+        assert_eq!(n, [0.0, 1.0]);
+        let c = pair_correction(&a, &b, n, 0.0).unwrap();
         let va = [
             a.velocity[0] + c.impulse[0] / a.mass,
             a.velocity[1] + c.impulse[1] / a.mass,
@@ -323,7 +396,7 @@ mod tests {
         assert_eq!(c.tangential, [0.0, 0.0]);
         // Separating: nothing.
         let away = body(1.0, [0.0, 5.0], [0.0, -1.0]);
-        assert!(pair_correction(&a, &away, 0.3).is_none());
+        assert!(pair_correction(&a, &away, n, 0.3).is_none());
     }
 
     #[test]
@@ -338,7 +411,14 @@ mod tests {
             velocity: [0.2, -1.0],
             ..a
         };
-        let c = pair_correction(&slow, &b, 0.3).unwrap();
+        // The rigid body's own normal, whatever the other's gradient.
+        let tilted = NodeBody {
+            volume_gradient: [5.0, -1.0],
+            ..slow
+        };
+        let n = contact_normal(&tilted, &b, PairNormal::Average).unwrap();
+        assert_eq!(n, [0.0, -1.0]);
+        let c = pair_correction(&slow, &b, n, 0.3).unwrap();
         assert_eq!(c.impulse, [-0.2, 1.0]);
         assert_eq!(c.tangential, [-0.2, 0.0]);
         // |Δp_t| = 2 > 0.3: slides, the tangential change μ |Δp·n|.
@@ -346,7 +426,7 @@ mod tests {
             velocity: [2.0, -1.0],
             ..a
         };
-        let c = pair_correction(&fast, &b, 0.3).unwrap();
+        let c = pair_correction(&fast, &b, n, 0.3).unwrap();
         assert!((c.impulse[0] + 0.3).abs() < 1e-15 && (c.impulse[1] - 1.0).abs() < 1e-15);
         assert_eq!(c.normal_impulse, 1.0);
         // On the cone: |Δp_t| = μ |Δp · n|.
@@ -356,11 +436,11 @@ mod tests {
             velocity: [0.0, 1.0],
             ..a
         };
-        assert!(pair_correction(&away, &b, 0.3).is_none());
-        let held = pair_correction_in_contact(&away, &b, 0.0).unwrap();
+        assert!(pair_correction(&away, &b, n, 0.3).is_none());
+        let held = pair_correction_in_contact(&away, &b, n, 0.0).unwrap();
         assert_eq!(held.impulse, [0.0, -1.0]);
         // Two rigid bodies never correct each other.
-        assert!(pair_correction(&b, &b, 0.3).is_none());
+        assert!(pair_correction(&b, &b, n, 0.3).is_none());
     }
 
     #[test]
@@ -372,14 +452,21 @@ mod tests {
         let text = |c: &Contact| c.validate(2).unwrap_err().to_string();
         assert!(text(&c).contains("contact.friction"));
         c.friction = 0.2;
-        c.pairs = vec![PairFriction {
+        c.pairs = vec![Pair {
             bodies: [0, 2],
             friction: 0.1,
+            normal: Normal::Body(1),
         }];
         assert!(text(&c).contains("contact.pairs"));
         c.pairs[0].bodies = [1, 0];
         c.validate(2).unwrap();
         assert_eq!(c.friction_between(0, 1), 0.1);
+        assert_eq!(c.normal_between(0, 1), PairNormal::OfB);
+        c.pairs[0].normal = Normal::Direction([0.0, 2.0]);
+        assert_eq!(c.normal_between(0, 1), PairNormal::Direction([0.0, -1.0]));
+        c.pairs[0].normal = Normal::Direction([0.0, 0.0]);
+        assert!(text(&c).contains("contact.pairs"));
+        c.pairs[0].normal = Normal::Average;
         c.rigid = vec![RigidBody {
             body: 1,
             velocity: [f64::NAN, 0.0],

@@ -317,8 +317,24 @@ fn default_min_mass_fraction() -> f64 {
 pub struct PairSpec {
     /// The two bodies' names.
     pub bodies: [String; 2],
-    /// Their friction coefficient.
-    pub friction: f64,
+    /// Their friction coefficient (`[contact] friction` when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
+    /// Their contact normal: `"average"` (the default), the name of one of the two (that body's
+    /// own surface), or a direction `[nx, ny]` from the first toward the second
+    /// ([`crate::contact::Normal`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal: Option<NormalSpec>,
+}
+
+/// `[[contact.pairs]] normal`: a name (`"average"` or a body's) or a direction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum NormalSpec {
+    /// `"average"`, or the name of one of the pair's bodies.
+    Named(String),
+    /// A direction from the first body toward the second.
+    Direction([f64; 2]),
 }
 
 /// Where a body's particles are.
@@ -617,9 +633,15 @@ impl Scene {
             pairs: c
                 .pairs
                 .iter()
-                .map(|p| crate::contact::PairFriction {
+                .map(|p| crate::contact::Pair {
                     bodies: [self.body_index(&p.bodies[0]), self.body_index(&p.bodies[1])],
-                    friction: p.friction,
+                    friction: p.friction.unwrap_or(c.friction),
+                    normal: match &p.normal {
+                        None => crate::contact::Normal::Average,
+                        Some(NormalSpec::Named(n)) if n == "average" => crate::contact::Normal::Average,
+                        Some(NormalSpec::Named(n)) => crate::contact::Normal::Body(self.body_index(n)),
+                        Some(NormalSpec::Direction(d)) => crate::contact::Normal::Direction(*d),
+                    },
                 })
                 .collect(),
             rigid: c
@@ -654,6 +676,14 @@ impl Scene {
         for (k, pair) in c.pairs.iter().enumerate() {
             for (j, name) in pair.bodies.iter().enumerate() {
                 known(format!("contact.pairs[{k}].bodies[{j}]"), name)?;
+            }
+            if let Some(NormalSpec::Named(name)) = &pair.normal {
+                if name != "average" && !pair.bodies.contains(name) {
+                    return Err(invalid(
+                        format!("contact.pairs[{k}].normal"),
+                        format!("{name:?} is neither \"average\" nor one of the pair {:?}", pair.bodies),
+                    ));
+                }
             }
         }
         for (k, name) in c.rigid.iter().enumerate() {

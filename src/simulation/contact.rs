@@ -12,7 +12,7 @@ use super::phases::{extend, project_velocity, solve_acceleration, update_grid_ve
 use super::plan::StepPlan;
 use super::walls;
 use super::{Cache, Options, Scratch, Setup, State};
-use crate::contact::{pair_correction, pair_correction_in_contact, Contact, NodeBody};
+use crate::contact::{contact_normal, pair_correction, pair_correction_in_contact, Contact, NodeBody};
 use crate::error::Result;
 use crate::fields::VectorField;
 use crate::grid::Grid;
@@ -360,15 +360,18 @@ fn correct(
         };
         let (na, nb) = (at(a), at(b));
         let mu = contact.friction_between(a, b);
+        let Some(n) = contact_normal(&na, &nb, contact.normal_between(a, b)) else {
+            return false;
+        };
         let c = if known {
-            pair_correction_in_contact(&na, &nb, mu)
+            pair_correction_in_contact(&na, &nb, n, mu)
         } else {
             let total = na.mass + nb.mass;
             let floor = contact.min_mass_fraction * total;
             if na.mass < floor || nb.mass < floor {
                 return false;
             }
-            pair_correction(&na, &nb, mu)
+            pair_correction(&na, &nb, n, mu)
         };
         let Some(c) = c else {
             return false;

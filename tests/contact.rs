@@ -1,0 +1,280 @@
+//! Contact between bodies ([`sparse_mpm::contact`]): closed forms on a slope, the two disks'
+//! energy and momentum, bits where contact does not act, checkpoints, and the keys.
+
+use sparse_mpm::scene::Scene;
+use sparse_mpm::simulation::Simulation;
+
+const G: f64 = 9.81;
+
+/// A block (0.1 × 0.05 m, 1 cm cells, E = 1 MPa) on a floor under gravity tilted by `theta`
+/// degrees: the floor rigid, or an elastic slab held at its base whose surface gives the normal.
+fn slope(theta: f64, mu: f64, shape: &str, rigid: bool, ramp: f64, end: f64) -> String {
+    let (s, c) = theta.to_radians().sin_cos();
+    let pad = if shape == "linear" { 0.0 } else { 0.02 };
+    let cells = |l: f64| ((l + 2.0 * pad) / 0.01_f64).round() as usize;
+    let floor = if rigid {
+        "rigid = [\"floor\"]".to_string()
+    } else {
+        "[[contact.pairs]]\nbodies = [\"block\", \"floor\"]\nnormal = \"floor\"".to_string()
+    };
+    let held = if rigid {
+        ""
+    } else {
+        "[[boundaries]]\nedge = \"bottom\"\ncondition = \"fixed\""
+    };
+    format!(
+        r#"
+[grid]
+origin = [{o}, {o}]
+cell_size = [0.01, 0.01]
+cells = [{nx}, {ny}]
+[schemes]
+shape = "{shape}"
+update = "musl"
+transfer = "flip"
+[time]
+end = {end}
+cfl = 0.4
+[loads]
+gravity = [{gx}, {gy}]
+gravity_ramp = {ramp}
+[[bodies]]
+name = "block"
+material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
+density = 1000.0
+geometry = {{ rectangle = {{ min = [0.05, 0.05], max = [0.15, 0.1] }} }}
+[[bodies]]
+name = "floor"
+material = {{ model = "linear_elastic", youngs_modulus = 1e7, poisson_ratio = 0.3, plane = "strain" }}
+density = 1000.0
+geometry = {{ rectangle = {{ min = [0.0, 0.0], max = [0.6, 0.05] }} }}
+{held}
+[contact]
+friction = {mu}
+{floor}
+"#,
+        o = -pad,
+        nx = cells(0.6),
+        ny = cells(0.2),
+        gx = G * s,
+        gy = -G * c,
+    )
+}
+
+/// Body 0's centre of mass along x.
+fn centre(sim: &Simulation) -> f64 {
+    let p = sim.particles();
+    let (mut m, mut mx) = (0.0, 0.0);
+    for k in (0..p.len()).filter(|&k| p.body[k] == 0) {
+        m += p.mass[k];
+        mx += p.mass[k] * p.x[k];
+    }
+    mx / m
+}
+
+/// The block's slide at each step of the scene's run, with the times.
+fn slide(scene: &str) -> Vec<(f64, f64)> {
+    let scene = Scene::from_toml_str(scene).unwrap();
+    let mut sim = scene.build().unwrap();
+    let x0 = centre(&sim);
+    let mut out = Vec::new();
+    sim.run_until(scene.time.end, |sim, _| {
+        out.push((sim.time(), centre(sim) - x0));
+        Ok(())
+    })
+    .unwrap();
+    out
+}
+
+/// The largest error of `path` against `½ a t²` over its second half, relative to the slide at
+/// its end.
+fn slide_error(path: &[(f64, f64)], a: f64) -> f64 {
+    let (end, _) = *path.last().unwrap();
+    let exact = |t: f64| 0.5 * a * t * t;
+    path.iter()
+        .filter(|(t, _)| *t >= 0.5 * end)
+        .map(|&(t, x)| (x - exact(t)).abs() / exact(end))
+        .fold(0.0, f64::max)
+}
+
+fn sliding(theta: f64, mu: f64) -> f64 {
+    let (s, c) = f64::to_radians(theta).sin_cos();
+    G * (s - mu * c)
+}
+
+#[test]
+fn a_block_slides_on_a_rigid_floor_at_g_sin_minus_mu_cos_and_sticks_inside_the_friction_angle() {
+    for (theta, mu) in [(30.0, 0.0), (30.0, 0.3), (45.0, 0.5)] {
+        let path = slide(&slope(theta, mu, "quadratic_bspline", true, 1e-9, 0.25));
+        let err = slide_error(&path, sliding(theta, mu));
+        assert!(
+            err < 0.02,
+            "θ = {theta}, μ = {mu}: {err:.3e} from ½ g (sin θ − μ cos θ) t²"
+        );
+    }
+    // μ = 0.7 > tan 30°: the load set down over 0.05 s, the block stays within 1e-3 of its
+    // length (0.1 m).
+    let path = slide(&slope(30.0, 0.7, "quadratic_bspline", true, 0.05, 0.25));
+    let most = path.iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
+    assert!(most < 1e-4, "the block that should stick moved {most:.3e} m");
+}
+
+#[test]
+fn a_block_slides_on_an_elastic_ramp_through_body_to_body_contact() {
+    for shape in ["linear", "quadratic_bspline"] {
+        let path = slide(&slope(30.0, 0.3, shape, false, 1e-9, 0.4));
+        let err = slide_error(&path, sliding(30.0, 0.3));
+        assert!(err < 0.02, "{shape}: {err:.3e} from ½ g (sin θ − μ cos θ) t²");
+    }
+    let path = slide(&slope(30.0, 0.7, "linear", false, 0.05, 0.25));
+    let most = path.iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
+    assert!(most < 1e-4, "the block that should stick moved {most:.3e} m");
+}
+
+fn two_disks(contact: &str, end: f64, threads: usize) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/two_disks.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    let text = text.replace("end = 3.5", &format!("end = {end}"));
+    let mut scene = Scene::from_toml_str(&format!("{text}\n{contact}\n[execution]\nthreads = {threads}\n")).unwrap();
+    scene.output = Default::default();
+    scene
+}
+
+#[test]
+fn frictionless_disks_part_with_their_energy_and_the_pair_keeps_its_momentum() {
+    let scene = two_disks("[contact]\nfriction = 0.0", 3.5, 1);
+    let mut sim = scene.build().unwrap();
+    let (mut first, mut last, mut touched) = (None, None, false);
+    let mut reports = Vec::new();
+    sim.run_until(scene.time.end, |_, r| {
+        first.get_or_insert(r.total_energy);
+        touched |= r.contact_force > 0.0;
+        if touched && r.contact_force == 0.0 {
+            last = Some(r.total_energy);
+        }
+        reports.push(r.momentum);
+        Ok(())
+    })
+    .unwrap();
+    let (e0, e1) = (first.unwrap(), last.expect("the disks part"));
+    assert!((e1 - e0).abs() < 0.02 * e0, "energy after parting {e1} against {e0}");
+    // The disks start with opposite momenta: the pair's stays zero to round-off.
+    for p in reports {
+        assert!(p[0].abs() < 1e-12 && p[1].abs() < 1e-12, "momentum {p:?}");
+    }
+}
+
+fn particle_bits(sim: &Simulation) -> Vec<u64> {
+    let p = sim.particles();
+    [&p.x, &p.y, &p.vx, &p.vy, &p.sxx, &p.syy, &p.sxy, &p.volume]
+        .iter()
+        .flat_map(|f| f.iter().map(|v| v.to_bits()))
+        .collect()
+}
+
+#[test]
+fn bodies_that_never_share_a_node_take_the_same_bits_with_contact_on_any_thread_count() {
+    // The disks share no node before t ≈ 1.2.
+    let run = |contact: &str, threads: usize| {
+        let scene = two_disks(contact, 0.9, threads);
+        let mut sim = scene.build().unwrap();
+        let mut forces = 0.0;
+        sim.run_until(scene.time.end, |_, r| {
+            forces += r.contact_force;
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(forces, 0.0);
+        particle_bits(&sim)
+    };
+    let without = run("", 1);
+    assert!(
+        without == run("[contact]\nfriction = 0.3", 1),
+        "contact changed bodies apart"
+    );
+    assert!(without == run("[contact]\nfriction = 0.3", 2), "two threads");
+}
+
+#[test]
+fn contact_runs_resume_from_a_checkpoint_bit_for_bit_and_threads_do_not_change_them() {
+    let dir = std::env::temp_dir().join(format!("sparse-mpm-contact-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("contact.ckpt");
+    // The disks in contact from t ≈ 1.2: run to 1.5, checkpoint, go on to 1.8.
+    let straight = {
+        let scene = two_disks("[contact]\nfriction = 0.2", 1.8, 1);
+        let mut sim = scene.build().unwrap();
+        // (Stopping at 1.5 shortens a step, as the checkpointed run does.)
+        sim.run_until(1.5, |_, _| Ok(())).unwrap();
+        sim.run_until(1.8, |_, _| Ok(())).unwrap();
+        sim
+    };
+    let scene = two_disks("[contact]\nfriction = 0.2", 1.8, 2);
+    let mut two = scene.build().unwrap();
+    two.run_until(1.5, |_, _| Ok(())).unwrap();
+    two.run_until(1.8, |_, _| Ok(())).unwrap();
+    assert!(particle_bits(&two) == particle_bits(&straight), "two threads");
+    let mut sim = scene.build().unwrap();
+    sim.run_until(1.5, |_, _| Ok(())).unwrap();
+    sim.write_checkpoint(&file).unwrap();
+    let mut resumed = Simulation::read_checkpoint(&file).unwrap();
+    let mut last = None;
+    resumed
+        .run_until(1.8, |_, r| {
+            last = Some((r.contact_force, r.friction_dissipation));
+            Ok(())
+        })
+        .unwrap();
+    assert!(
+        particle_bits(&resumed) == particle_bits(&straight),
+        "resumed on two threads"
+    );
+    let (force, friction) = last.unwrap();
+    assert!(
+        force > 0.0 && friction > 0.0,
+        "the disks press and rub: {force}, {friction}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn contact_keys_and_the_schemes_it_works_with_are_checked_by_name() {
+    let base = slope(30.0, 0.3, "linear", true, 1e-9, 0.1);
+    let base = &base[..base.find("[contact]").unwrap()];
+    let error = |text: &str| match Scene::from_toml_str(text).and_then(|s| s.build().map(|_| ())) {
+        Ok(()) => panic!("accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    };
+    for (contact, key) in [
+        ("[contact]\nfrictoin = 0.1", "frictoin"),
+        ("[contact]\nfriction = -0.1", "contact.friction"),
+        (
+            "[contact]\n[[contact.pairs]]\nbodies = [\"block\", \"flor\"]",
+            "contact.pairs[0].bodies[1]",
+        ),
+        ("[contact]\nrigid = [\"ramp\"]", "contact.rigid[0]"),
+        (
+            "[contact]\n[[contact.pairs]]\nbodies = [\"block\", \"floor\"]\nnormal = \"wall\"",
+            "contact.pairs[0].normal",
+        ),
+        (
+            "[contact]\n[[contact.pairs]]\nbodies = [\"block\", \"block\"]",
+            "with itself",
+        ),
+    ] {
+        let message = error(&format!("{base}{contact}"));
+        assert!(message.contains(key), "{contact:?}: {message}");
+    }
+    for (from, to, what) in [
+        (
+            "transfer = \"flip\"",
+            "transfer = \"flip\"\nmass = { velocity = \"consistent\", acceleration = \"consistent\" }",
+            "lumped",
+        ),
+        ("transfer = \"flip\"", "transfer = \"xpic:2\"", "XPIC"),
+        ("update = \"musl\"", "update = \"usf\"", "USF"),
+    ] {
+        let message = error(&format!("{}[contact]\n", base.replace(from, to)));
+        assert!(message.contains("contact") && message.contains(what), "{to}: {message}");
+    }
+}
