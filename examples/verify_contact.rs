@@ -106,7 +106,7 @@ fn slide_path(scene: &str) -> sparse_mpm::error::Result<Vec<(f64, f64)>> {
 }
 
 fn main() -> sparse_mpm::error::Result<()> {
-    println!("on a rigid floor under tilted gravity, to t = {END} s (1 cm cells, 2 × 2 particles per cell, MUSL, FLIP, lumped mass)");
+    println!("on a floor under tilted gravity, to t = {END} s (1 cm cells, 2 × 2 particles per cell, MUSL, FLIP, lumped mass)");
     println!(
         "{:>6} {:>6} {:>5} {:>5} {:>18} {:>10} {:>10} {:>10} {:>9}",
         "body", "floor", "θ", "μ", "shape", "a exact", "a fitted", "x(T) err", "max err"

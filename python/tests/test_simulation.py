@@ -16,7 +16,7 @@ def read_report(path):
     return {name: table[:, k] for k, name in enumerate(header)}
 
 
-@pytest.mark.parametrize("name", ["seed_problem", "vibrating_bar", "two_disks"])
+@pytest.mark.parametrize("name", ["seed_problem", "vibrating_bar", "two_disks", "two_disks_contact"])
 def test_run_equals_mpm_run_report(name, root, run_mpm, tmp_path):
     scene = root / "scenes" / f"{name}.toml"
     run_mpm("run", scene, "--out", tmp_path / "run")
@@ -28,6 +28,36 @@ def test_run_equals_mpm_run_report(name, root, run_mpm, tmp_path):
         np.testing.assert_array_equal(report[key], expected[key], err_msg=key)
     assert sim.steps == len(expected["step"])
     assert sim.time == expected["time"][-1]
+
+
+def test_contact_from_a_dict(root):
+    """A block on a rigid ramp under tilted gravity slides at g (sin θ − μ cos θ)."""
+    theta, mu, g = np.radians(30.0), 0.3, 9.81
+    elastic = {"model": "linear_elastic", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "plane": "strain"}
+    scene = {
+        "grid": {"origin": [0.0, 0.0], "cell_size": [0.01, 0.01], "cells": [60, 20]},
+        "time": {"end": 0.3, "cfl": 0.4},
+        "loads": {"gravity": [g * np.sin(theta), -g * np.cos(theta)]},
+        "bodies": [
+            {"name": "block", "material": elastic, "density": 1000.0,
+             "geometry": {"rectangle": {"min": [0.05, 0.05], "max": [0.15, 0.1]}}},
+            {"name": "ramp", "material": elastic, "density": 1000.0,
+             "geometry": {"rectangle": {"min": [0.0, 0.0], "max": [0.6, 0.05]}}},
+        ],
+        "contact": {"friction": mu, "rigid": ["ramp"]},
+    }
+    sim = mpm.Simulation.from_dict(scene)
+    p = sim.particles()
+    block = p["body"] == 0
+    x0 = (p["mass"] * p["x"])[block].sum() / p["mass"][block].sum()
+    report = sim.run()
+    p = sim.particles()
+    x1 = (p["mass"] * p["x"])[block].sum() / p["mass"][block].sum()
+    exact = 0.5 * g * (np.sin(theta) - mu * np.cos(theta)) * sim.time**2
+    assert abs((x1 - x0) - exact) < 0.02 * exact
+    assert report["contact_force"][-1] > 0 and report["friction_dissipation"][-1] > 0
+    with pytest.raises(mpm.MpmError, match="contact.rigid"):
+        mpm.Simulation.from_dict({**scene, "contact": {"rigid": ["floor"]}})
 
 
 def test_step_by_step_equals_run(root):

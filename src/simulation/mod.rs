@@ -6,7 +6,8 @@
 //! ([`Transfer`]), the mass treatment of each solve ([`MassOptions`](crate::mass::MassOptions)), the position rule
 //! ([`PositionUpdate`](crate::schemes::PositionUpdate)), the time step ([`TimeStep`]), gravity and the boundary conditions
 //! ([`BoundaryCondition`](crate::boundary::BoundaryCondition)). Particles belong to bodies, each with its own [`Material`](crate::material::Material); bodies
-//! meet through the shared grid (no contact algorithm: the grid velocity is single-valued).
+//! meet through the shared grid (its velocity single-valued), or with [`Options::contact`]
+//! through contact, one grid field per body ([`crate::contact`]).
 //!
 //! ## One step
 //! With `w = v + Δt a` the updated grid velocity and `Π` the prescribed-velocity projection
