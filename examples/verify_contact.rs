@@ -20,6 +20,49 @@ fn slope_scene(theta: f64, mu: f64, shape: &str, body: &str, ramp: f64, floor: F
     let (s, c) = theta.to_radians().sin_cos();
     let pad = if shape == "linear" { 0.0 } else { 0.02 };
     let cells = |l: f64| ((l + 2.0 * pad) / 0.01_f64).round() as usize;
+    let geometry = if body == "disk" {
+        "{ disk = { center = [0.1, 0.1], radius = 0.05 } }"
+    } else {
+        "{ rectangle = { min = [0.05, 0.05], max = [0.15, 0.1] } }"
+    };
+    if floor == Floor::Wall {
+        // The grid's bottom edge a slip wall with friction at y = 0.05: its innermost node line
+        // (the second with quadratic B-splines, whose line beyond it the kernel reaches).
+        let below = if shape == "linear" { 0.0 } else { 0.01 };
+        return format!(
+            r#"
+[grid]
+origin = [{o}, {y0}]
+cell_size = [0.01, 0.01]
+cells = [{nx}, {ny}]
+[schemes]
+shape = "{shape}"
+update = "musl"
+transfer = "flip"
+[time]
+end = {END}
+cfl = 0.4
+[loads]
+gravity = [{gx}, {gy}]
+gravity_ramp = {ramp}
+[[bodies]]
+name = "{body}"
+material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
+density = 1000.0
+geometry = {geometry}
+[[boundaries]]
+edge = "bottom"
+condition = "slip"
+friction = {mu}
+"#,
+            o = -pad,
+            y0 = 0.05 - below,
+            nx = cells(0.6),
+            ny = ((0.15 + below + pad) / 0.01_f64).round() as usize,
+            gx = G * s,
+            gy = -G * c,
+        );
+    }
     format!(
         r#"
 [grid]
@@ -59,26 +102,25 @@ friction = {mu}
         floor = match floor {
             Floor::Rigid => "",
             Floor::Held => "[[boundaries]]\nedge = \"bottom\"\ncondition = \"fixed\"",
+            Floor::Wall => unreachable!("written above"),
         },
         rigid = match floor {
             Floor::Rigid => "rigid = [\"floor\"]".to_string(),
             // The ramp's surface gives the normal: the block's corners would turn the average.
             Floor::Held => format!("[[contact.pairs]]\nbodies = [\"{body}\", \"floor\"]\nnormal = \"floor\""),
-        },
-        geometry = if body == "disk" {
-            "{ disk = { center = [0.1, 0.1], radius = 0.05 } }"
-        } else {
-            "{ rectangle = { min = [0.05, 0.05], max = [0.15, 0.1] } }"
+            Floor::Wall => unreachable!("written above"),
         },
     )
 }
 
-/// The floor: a rigid body, or an elastic slab (E = 10 MPa) held at its base whose surface gives
-/// the contact normal.
+/// The floor: a rigid body, an elastic slab (E = 10 MPa) held at its base whose surface gives
+/// the contact normal, or a slip wall with friction.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Floor {
     Rigid,
     Held,
+    /// No floor body: the grid's bottom edge a slip wall with friction.
+    Wall,
 }
 
 /// The body's centre-of-mass displacement along the slope at each step, with the times.
@@ -131,7 +173,8 @@ fn main() -> sparse_mpm::error::Result<()> {
     let runs = cases
         .iter()
         .map(|&c| (Floor::Rigid, c))
-        .chain(cases[..4].iter().map(|&c| (Floor::Held, c)));
+        .chain(cases[..4].iter().map(|&c| (Floor::Held, c)))
+        .chain(cases.iter().map(|&c| (Floor::Wall, c)));
     for shape in ["linear", "quadratic_bspline"] {
         for (floor, (body, theta, mu, a, ramp)) in runs.clone() {
             let scene = slope_scene(theta, mu, shape, body, f64::max(ramp, 1e-9), floor);

@@ -57,6 +57,12 @@
 //! overlap, at a gap of up to two cells with linear shape functions: the multi-velocity
 //! method's known contact gap, documented in docs/simulation.md with its measured effect.
 //!
+//! **Walls with friction** (a slip edge with [`BoundaryCondition::friction`]) are met the same
+//! way, as a rigid half-space at rest beyond the wall line with the wall's normal, at every node
+//! whose kernel support crosses the line.
+//!
+//! [`BoundaryCondition::friction`]: crate::boundary::BoundaryCondition::friction
+//!
 //! **Rigid bodies** ([`RigidBody`]) move at a prescribed velocity: their grid field is that
 //! velocity wherever they have mass, they take part in contact with an infinite mass, and their
 //! particles move with them (no stress).
@@ -75,8 +81,7 @@ pub const DEFAULT_MIN_MASS_FRACTION: f64 = 1e-5;
 /// Contact between bodies ([module docs](self)).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Contact {
-    /// Coulomb's coefficient `μ` between every pair of bodies (0: frictionless; infinite: no
-    /// slip once in contact).
+    /// Coulomb's coefficient `μ` between every pair of bodies (0: frictionless), finite.
     pub friction: f64,
     /// Pairs of bodies with a coefficient or a normal of their own.
     pub pairs: Vec<Pair>,
@@ -151,16 +156,16 @@ impl Contact {
     /// Checks the coefficients and the body indices against `bodies` bodies.
     ///
     /// # Errors
-    /// [`MpmError::InvalidOption`] naming the key: a negative or NaN friction coefficient, a
+    /// [`MpmError::InvalidOption`] naming the key: a negative or non-finite friction coefficient, a
     /// body index out of range, a pair of a body with itself, a pair or rigid body given twice,
     /// a non-finite velocity, a mass fraction outside `[0, 1)`.
     pub fn validate(&self, bodies: usize) -> Result<()> {
         let bad = |option: &'static str, reason: String| Err(MpmError::InvalidOption { option, reason });
-        let coefficient = |mu: f64| mu >= 0.0; // NaN fails
+        let coefficient = |mu: f64| mu.is_finite() && mu >= 0.0;
         if !coefficient(self.friction) {
             return bad(
                 "contact.friction",
-                format!("{} is not a friction coefficient (μ ≥ 0)", self.friction),
+                format!("{} is not a friction coefficient (finite, μ ≥ 0)", self.friction),
             );
         }
         if !(0.0..1.0).contains(&self.min_mass_fraction) {
@@ -195,7 +200,10 @@ impl Contact {
             if !coefficient(pair.friction) {
                 return bad(
                     "contact.pairs",
-                    format!("pair {k}: {} is not a friction coefficient (μ ≥ 0)", pair.friction),
+                    format!(
+                        "pair {k}: {} is not a friction coefficient (finite, μ ≥ 0)",
+                        pair.friction
+                    ),
                 );
             }
             if self.pairs[..k].iter().any(|q| sorted(q.bodies) == sorted(pair.bodies)) {

@@ -131,6 +131,78 @@ fn a_block_slides_on_an_elastic_ramp_through_body_to_body_contact() {
     assert!(most < 1e-4, "the block that should stick moved {most:.3e} m");
 }
 
+/// The block on the grid's bottom edge, a slip wall with friction (no floor body, no
+/// `[contact]`): the wall on the innermost of the edge's node lines.
+fn on_a_wall(theta: f64, mu: f64, ramp: f64, end: f64) -> String {
+    let (s, c) = theta.to_radians().sin_cos();
+    format!(
+        r#"
+[grid]
+origin = [-0.02, 0.04]
+cell_size = [0.01, 0.01]
+cells = [64, 18]
+[schemes]
+shape = "quadratic_bspline"
+[time]
+end = {end}
+cfl = 0.4
+[loads]
+gravity = [{gx}, {gy}]
+gravity_ramp = {ramp}
+[[bodies]]
+name = "block"
+material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
+density = 1000.0
+geometry = {{ rectangle = {{ min = [0.05, 0.05], max = [0.15, 0.1] }} }}
+[[boundaries]]
+edge = "bottom"
+condition = "slip"
+friction = {mu}
+"#,
+        gx = G * s,
+        gy = -G * c,
+    )
+}
+
+#[test]
+fn a_block_slides_on_a_slip_wall_with_friction_as_the_closed_form_and_sticks_inside_the_friction_angle() {
+    for (theta, mu) in [(30.0, 0.3), (45.0, 0.5)] {
+        let path = slide(&on_a_wall(theta, mu, 1e-9, 0.25));
+        let err = slide_error(&path, sliding(theta, mu));
+        assert!(
+            err < 0.02,
+            "θ = {theta}, μ = {mu}: {err:.3e} from ½ g (sin θ − μ cos θ) t²"
+        );
+    }
+    let path = slide(&on_a_wall(30.0, 0.7, 0.05, 0.25));
+    let most = path.iter().map(|(_, x)| x.abs()).fold(0.0, f64::max);
+    assert!(most < 1e-4, "the block that should stick moved {most:.3e} m");
+    // The wall's normal force and friction's work are reported, and the balance closes.
+    let scene = Scene::from_toml_str(&on_a_wall(30.0, 0.3, 1e-9, 0.25)).unwrap();
+    let mut sim = scene.build().unwrap();
+    let mut rows = Vec::new();
+    sim.run_until(0.25, |_, r| {
+        rows.push((r.contact_force, r.total_energy, r.friction_dissipation));
+        Ok(())
+    })
+    .unwrap();
+    let half = &rows[rows.len() / 2..];
+    let force = half.iter().map(|r| r.0).sum::<f64>() / half.len() as f64;
+    let weight = 0.1 * 0.05 * 1000.0 * G * f64::to_radians(30.0).cos();
+    assert!(
+        (force - weight).abs() < 0.03 * weight,
+        "normal force {force} against {weight}"
+    );
+    // (From the second row: the first reports gravity at its start, zero on the ramp.)
+    let (first, last) = (rows[1], rows[rows.len() - 1]);
+    let released = first.1 - last.1;
+    assert!(
+        last.2 > 0.0 && (released - last.2).abs() < 0.05 * released.abs(),
+        "{released} {}",
+        last.2
+    );
+}
+
 fn two_disks(contact: &str, end: f64, threads: usize) -> Scene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/two_disks.toml");
     let text = std::fs::read_to_string(path).unwrap();
@@ -277,4 +349,15 @@ fn contact_keys_and_the_schemes_it_works_with_are_checked_by_name() {
         let message = error(&format!("{}[contact]\n", base.replace(from, to)));
         assert!(message.contains("contact") && message.contains(what), "{to}: {message}");
     }
+    // Friction on a fixed wall, a negative coefficient, a frictional wall between two bodies
+    // without contact.
+    let wall = on_a_wall(30.0, 0.3, 1e-9, 0.1);
+    let message = error(&wall.replace("condition = \"slip\"", "condition = \"fixed\""));
+    assert!(message.contains("boundaries[0].friction"), "{message}");
+    let message = error(&wall.replace("friction = 0.3", "friction = -1"));
+    assert!(message.contains("boundaries[0].friction"), "{message}");
+    let second = "[[bodies]]\nname = \"second\"\nmaterial = { model = \"linear_elastic\", youngs_modulus = 1e6, \
+                  poisson_ratio = 0.3 }\ndensity = 1000.0\ngeometry = { rectangle = { min = [0.3, 0.05], max = [0.4, 0.1] } }\n";
+    let message = error(&wall.replace("[[boundaries]]", &format!("{second}[[boundaries]]")));
+    assert!(message.contains("[contact]"), "{message}");
 }

@@ -151,6 +151,28 @@ pub struct BoundaryCondition {
     /// The wall rule of an edge condition (default: [`WallRule::default_for`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wall: Option<WallRule>,
+    /// Coulomb's coefficient of a slip edge: the wall then meets the bodies as a rigid body
+    /// beyond its innermost node line, through contact ([`crate::contact`], [`FrictionWall`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
+}
+
+/// A slip wall with friction ([`BoundaryCondition::friction`]): not prescribed on the grid, but
+/// met by each body as a rigid half-space at rest beyond the wall line, through the contact
+/// correction ([`crate::contact`]) at every node whose kernel support crosses the line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrictionWall {
+    /// The boundary condition it comes from (its index).
+    pub condition: usize,
+    /// The axis of the wall's normal (0: x, a left or right wall; 1: y).
+    pub axis: usize,
+    /// The wall line's coordinate along `axis` (the innermost of the edge's node lines).
+    pub at: f64,
+    /// The normal pointing out of the domain (from a body toward the wall): −1 or +1 along
+    /// `axis`.
+    pub outward: f64,
+    /// Coulomb's coefficient.
+    pub friction: f64,
 }
 
 impl BoundaryCondition {
@@ -165,6 +187,7 @@ impl BoundaryCondition {
             vx: None,
             vy: None,
             wall: None,
+            friction: None,
         }
     }
 
@@ -197,6 +220,12 @@ impl BoundaryCondition {
     /// Sets the number of node layers of an edge condition.
     pub fn with_layers(mut self, layers: usize) -> BoundaryCondition {
         self.layers = Some(layers);
+        self
+    }
+
+    /// Sets the friction coefficient of a slip edge ([`BoundaryCondition::friction`]).
+    pub fn with_friction(mut self, friction: f64) -> BoundaryCondition {
+        self.friction = Some(friction);
         self
     }
 
@@ -233,6 +262,8 @@ pub struct Prescribed {
     /// The slip walls under [`WallRule::Mirror`], folded on the grid component by component
     /// ([`MirrorWalls::component`]: the normal component odd, the tangential even).
     pub slip: MirrorWalls,
+    /// The slip walls with friction, met through contact instead of prescribed.
+    pub friction: Vec<FrictionWall>,
 }
 
 impl Prescribed {
@@ -327,6 +358,24 @@ impl BoundaryCondition {
             ));
         }
         self.validate_wall(k)?;
+        if let Some(mu) = self.friction {
+            if self.condition != Condition::Slip || self.edge.is_none() {
+                return Err(err(
+                    "friction",
+                    format!(
+                        "{}: friction goes with a slip edge (condition = \"slip\" and an `edge`); a fixed wall \
+                         already holds the tangential velocity",
+                        exact(mu)
+                    ),
+                ));
+            }
+            if !mu.is_finite() || mu < 0.0 {
+                return Err(err(
+                    "friction",
+                    format!("{} is not a friction coefficient (finite, μ ≥ 0)", exact(mu)),
+                ));
+            }
+        }
         match self.condition {
             Condition::Slip if self.edge.is_none() => {
                 return Err(err(
@@ -513,6 +562,28 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
             Condition::Velocity => (bc.vx, bc.vy),
         };
         nodes.clear();
+        if let (Some(edge), Some(friction)) = (bc.edge, bc.friction) {
+            // A frictional wall prescribes nothing: contact meets the bodies there.
+            let layers = bc.layers.unwrap_or_else(|| shape.boundary_layers());
+            out.mirror.set(k, edge, layers, [nx, ny], WallRule::Held);
+            out.slip.set(k, edge, layers, [nx, ny], WallRule::Held);
+            let line = (layers - 1) as f64;
+            let ([ox, oy], [hx, hy]) = (grid.origin(), grid.cell_size());
+            let (axis, at, outward) = match edge {
+                Edge::Left => (0, ox + line * hx, -1.0),
+                Edge::Right => (0, ox + ((nx - 1) as f64 - line) * hx, 1.0),
+                Edge::Bottom => (1, oy + line * hy, -1.0),
+                Edge::Top => (1, oy + ((ny - 1) as f64 - line) * hy, 1.0),
+            };
+            out.friction.push(FrictionWall {
+                condition: k,
+                axis,
+                at,
+                outward,
+                friction,
+            });
+            continue;
+        }
         if let Some(edge) = bc.edge {
             let layers = bc.layers.unwrap_or_else(|| shape.boundary_layers());
             // The later condition on an edge decides: the other kind's wall there is cleared.

@@ -72,6 +72,7 @@ impl Simulation {
     ) -> Result<Simulation> {
         validate_parts(&particles, &bodies, &options)?;
         let prescribed = boundary::resolve(&grid, options.shape, &options.boundaries)?;
+        let contact = effective_contact(&options, &prescribed, bodies.len())?;
         let workers = Workers::new(options.threads)?;
         let mut ops = Operators::default();
         ops.reassemble_with(&grid, options.shape, &particles.x, &particles.y, &workers)?;
@@ -103,7 +104,12 @@ impl Simulation {
         // Not saved in a checkpoint: they follow from the options and the particles.
         state.speeds.load = super::stability::largest_load(options.gravity, &state.particles);
         state.speeds.wall = super::stability::prescribed_speed(&prescribed);
+        let wall_nodes = (prescribed.friction.iter())
+            .map(|wall| super::contact::wall_nodes(&grid, options.shape, wall))
+            .collect();
         let setup = Setup {
+            contact,
+            wall_nodes,
             materials: bodies.iter().map(|b| b.material.prepared()).collect(),
             prescribed_velocity: std::sync::OnceLock::new(),
             grid,
@@ -146,6 +152,36 @@ impl State {
             stability: None,
         }
     }
+}
+
+/// The contact the step makes: the options', or, for slip walls with friction, contact with no
+/// pair of bodies (one body; the walls meet it through the contact correction).
+///
+/// # Errors
+/// [`MpmError::InvalidOption`] (`boundaries`) for walls with friction in a simulation of several
+/// bodies without contact (each body needs a field of its own), and the errors of
+/// [`Options::validate`] for contact's schemes.
+fn effective_contact(
+    options: &Options,
+    prescribed: &boundary::Prescribed,
+    bodies: usize,
+) -> Result<Option<crate::contact::Contact>> {
+    if options.contact.is_some() || prescribed.friction.is_empty() {
+        return Ok(options.contact.clone());
+    }
+    if bodies > 1 {
+        let k = prescribed.friction[0].condition;
+        return Err(MpmError::InvalidOption {
+            option: "boundaries",
+            reason: format!(
+                "boundaries[{k}].friction with {bodies} bodies and no contact: a wall with friction meets each body \
+                 in a velocity field of its own; add a [contact] table (friction = 0 between the bodies, say)"
+            ),
+        });
+    }
+    let contact = crate::contact::Contact::default();
+    options.validate_contact_schemes()?;
+    Ok(Some(contact))
 }
 
 /// The checks of every part before anything is built from them.

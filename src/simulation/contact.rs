@@ -10,8 +10,10 @@
 
 use super::phases::{extend, project_velocity, solve_acceleration, update_grid_velocity, update_stress};
 use super::plan::StepPlan;
+use super::stability::{estimate_by, Estimator, Stability, Tracking};
 use super::walls;
 use super::{Cache, Options, Scratch, Setup, State};
+use crate::boundary::FrictionWall;
 use crate::contact::{contact_normal, pair_correction, pair_correction_in_contact, Contact, NodeBody};
 use crate::error::Result;
 use crate::fields::VectorField;
@@ -57,6 +59,22 @@ pub(super) struct Layers {
 /// every product with `N`, `Gx`, `Gy` is one with `N_b`, `G_b`; the particles are as they were
 /// afterwards.
 fn with_body<T>(p: &mut Particles, b: usize, masks: &mut [Vec<f64>; 2], f: impl FnOnce(&Particles) -> T) -> T {
+    mask(p, b, masks);
+    let out = f(p);
+    unmask(p, masks);
+    out
+}
+
+/// [`with_body`] on the whole state.
+fn with_body_mut<T>(state: &mut State, b: usize, masks: &mut [Vec<f64>; 2], f: impl FnOnce(&State) -> T) -> T {
+    mask(&mut state.particles, b, masks);
+    let out = f(state);
+    unmask(&mut state.particles, masks);
+    out
+}
+
+/// `m ← 1_b ∘ m`, `V ← 1_b ∘ V`, the particles' own arrays kept in `masks`.
+fn mask(p: &mut Particles, b: usize, masks: &mut [Vec<f64>; 2]) {
     let [m, v] = masks;
     let own = |k: usize, x: f64| if p.body[k] == b { x } else { 0.0 };
     m.clear();
@@ -65,10 +83,13 @@ fn with_body<T>(p: &mut Particles, b: usize, masks: &mut [Vec<f64>; 2], f: impl 
     v.extend(p.volume.iter().enumerate().map(|(k, &x)| own(k, x)));
     std::mem::swap(&mut p.mass, m);
     std::mem::swap(&mut p.volume, v);
-    let out = f(p);
+}
+
+/// The particles' own mass and volume back from `masks` ([`mask`]).
+fn unmask(p: &mut Particles, masks: &mut [Vec<f64>; 2]) {
+    let [m, v] = masks;
     std::mem::swap(&mut p.mass, m);
     std::mem::swap(&mut p.volume, v);
-    out
 }
 
 /// (2)–(5) and the grid mass of every body, after the operators' assembly.
@@ -117,6 +138,50 @@ pub(super) fn prepare_layers(
     Ok(())
 }
 
+/// The share of a body's own stable step below which it replaces the shared field's
+/// ([`bound_by_bodies`]).
+const OWN_STEP_SHARE: f64 = 0.9;
+
+/// The stable step of the shared field's estimate `shared`, or of one body's own grid where
+/// that is below [`OWN_STEP_SHARE`] of it: a body much lighter or stiffer than the bodies it
+/// shares nodes with, whose mass the shared field's hides (one disk with a density of 1e-9
+/// inverted in its first step). Each body's estimate is the shared one's, made with its own
+/// grid mass and its particles alone; the shared estimate is kept otherwise, so that bodies
+/// apart run as without contact.
+pub(super) fn bound_by_bodies(
+    setup: &Setup,
+    options: &Options,
+    state: &mut State,
+    cache: &mut Cache,
+    tracking: &mut Tracking,
+    shared: Stability,
+) -> Result<Stability> {
+    let contact = setup.contact.as_ref().expect("contact phases run with contact");
+    let mut out = shared;
+    let mut layers = std::mem::take(&mut cache.layers);
+    let mut result = Ok(());
+    for (b, layer) in layers.bodies.iter_mut().enumerate() {
+        if contact.rigid_velocity(b).is_some() {
+            continue;
+        }
+        std::mem::swap(&mut cache.mass, &mut layer.mass);
+        let own = with_body_mut(state, b, &mut layers.masks, |state| {
+            estimate_by(setup, options, state, cache, Estimator::Cheapest, tracking)
+        });
+        std::mem::swap(&mut cache.mass, &mut layer.mass);
+        match own {
+            Ok(own) if own.wave_step < OWN_STEP_SHARE * out.wave_step => out = own,
+            Ok(_) => {}
+            Err(e) => {
+                result = Err(e);
+                break;
+            }
+        }
+    }
+    cache.layers = layers;
+    result.map(|()| out)
+}
+
 /// (6)–(8b) of every body, with the contact corrections of the momentum stage (after (6)) and
 /// of the force stage (after (8)); USF's stress update between. The centre-of-mass velocities
 /// go into the shared fields (what the report and [`Simulation::grid_velocity`] read).
@@ -130,10 +195,7 @@ pub(super) fn grid_phases(
     scratch: &mut Scratch,
     dt: f64,
 ) -> Result<[SolveReport; 2]> {
-    let contact = options
-        .contact
-        .as_ref()
-        .expect("contact phases run with contact options");
+    let contact = setup.contact.as_ref().expect("contact phases run with contact");
     let (grid, prescribed) = (&setup.grid, &setup.prescribed);
     let Cache { ops, layers, nodes, .. } = cache;
     let Layers {
@@ -201,7 +263,6 @@ pub(super) fn grid_phases(
 #[allow(clippy::too_many_arguments)]
 pub(super) fn reproject_and_update_stress(
     setup: &Setup,
-    options: &Options,
     plan: &StepPlan,
     state: &mut State,
     ops: &Operators,
@@ -209,10 +270,7 @@ pub(super) fn reproject_and_update_stress(
     scratch: &mut Scratch,
     dt: f64,
 ) -> Result<()> {
-    let contact = options
-        .contact
-        .as_ref()
-        .expect("contact phases run with contact options");
+    let contact = setup.contact.as_ref().expect("contact phases run with contact");
     let (grid, prescribed, workers) = (&setup.grid, &setup.prescribed, &setup.workers);
     let Layers {
         bodies,
@@ -307,6 +365,35 @@ impl Tally {
     }
 }
 
+/// The second index of a [`Touching`] pair that is a wall with friction (`WALL + w`, `w` its
+/// place in [`Prescribed::friction`](crate::boundary::Prescribed::friction)).
+const WALL: usize = usize::MAX / 2;
+
+/// The nodes whose kernel support crosses the line of `wall` (those a body there meets it at),
+/// the wall's own line and the lines beyond it included, line by line.
+pub(super) fn wall_nodes(grid: &Grid, shape: crate::shape::ShapeFunction, wall: &FrictionWall) -> Vec<usize> {
+    let counts = grid.nodes_per_axis();
+    let (h, origin) = (grid.cell_size()[wall.axis], grid.origin()[wall.axis]);
+    let reach = shape.support() as f64 / 2.0;
+    // Node lines within `reach` cells of the wall, on both sides (strictly inside the reach).
+    let centre = (wall.at - origin) / h;
+    let first = (centre - reach).floor().max(0.0) as usize;
+    let last = ((centre + reach).ceil() as usize).min(counts[wall.axis] - 1);
+    let lines = (first..=last).filter(move |&j| ((j as f64) - centre).abs() < reach);
+    let across = counts[1 - wall.axis];
+    lines
+        .flat_map(move |j| {
+            (0..across).map(move |k| {
+                if wall.axis == 0 {
+                    grid.node_index(j, k)
+                } else {
+                    grid.node_index(k, j)
+                }
+            })
+        })
+        .collect()
+}
+
 /// A pair of bodies the force stage found in contact at a node.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Touching {
@@ -345,6 +432,8 @@ fn correct(
         }
     }
     let mut tally = Tally::default();
+    let walls = &setup.prescribed.friction;
+    // `b` a body, or the wall `b − WALL` (a rigid half-space at rest).
     let mut pair = |bodies: &mut [Layer], i: usize, [a, b]: [usize; 2], known: bool| {
         let mut at = |k: usize| {
             let l = &mut bodies[k];
@@ -358,17 +447,31 @@ fn correct(
                 rigid: rigid[k].is_some(),
             }
         };
-        let (na, nb) = (at(a), at(b));
-        let mu = contact.friction_between(a, b);
-        let Some(n) = contact_normal(&na, &nb, contact.normal_between(a, b)) else {
-            return false;
+        let na = at(a);
+        let (nb, mu, n) = if b >= WALL {
+            let wall = &walls[b - WALL];
+            let mut n = [0.0; 2];
+            n[wall.axis] = wall.outward;
+            let at_rest = NodeBody {
+                velocity: [0.0; 2],
+                volume_gradient: [0.0; 2],
+                rigid: true,
+                ..na
+            };
+            (at_rest, wall.friction, n)
+        } else {
+            let nb = at(b);
+            let Some(n) = contact_normal(&na, &nb, contact.normal_between(a, b)) else {
+                return false;
+            };
+            (nb, contact.friction_between(a, b), n)
         };
         let c = if known {
             pair_correction_in_contact(&na, &nb, n, mu)
         } else {
             let total = na.mass + nb.mass;
             let floor = contact.min_mass_fraction * total;
-            if na.mass < floor || nb.mass < floor {
+            if b < WALL && (na.mass < floor || nb.mass < floor) {
                 return false;
             }
             pair_correction(&na, &nb, n, mu)
@@ -394,6 +497,7 @@ fn correct(
         tally.normal_impulse += c.normal_impulse;
         true
     };
+    let present = |l: &Layer, i: usize| l.mass.is_active()[i] && l.mass.lumped()[i] > 0.0;
     match decide {
         Decide::Known(touching) => {
             for t in touching {
@@ -404,16 +508,27 @@ fn correct(
             touching.clear();
             let nb = bodies.len();
             for i in span {
-                let present = |l: &Layer| l.mass.is_active()[i] && l.mass.lumped()[i] > 0.0;
-                if bodies.iter().filter(|l| present(l)).count() < 2 {
+                if bodies.iter().filter(|l| present(l, i)).count() < 2 {
                     continue;
                 }
                 for a in 0..nb {
                     for b in a + 1..nb {
-                        if present(&bodies[a]) && present(&bodies[b]) && pair(bodies, i, [a, b], false) {
+                        if present(&bodies[a], i) && present(&bodies[b], i) && pair(bodies, i, [a, b], false) {
                             touching.push(Touching {
                                 node: i,
                                 bodies: [a, b],
+                            });
+                        }
+                    }
+                }
+            }
+            for (w, nodes) in setup.wall_nodes.iter().enumerate() {
+                for &i in nodes {
+                    for a in (0..nb).filter(|&a| rigid[a].is_none()) {
+                        if present(&bodies[a], i) && pair(bodies, i, [a, WALL + w], false) {
+                            touching.push(Touching {
+                                node: i,
+                                bodies: [a, WALL + w],
                             });
                         }
                     }

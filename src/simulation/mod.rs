@@ -100,6 +100,11 @@ struct Setup {
     density: Vec<f64>,
     /// The resolved boundary conditions.
     prescribed: Prescribed,
+    /// The contact the step makes ([`crate::contact`]): [`Options::contact`], or contact with
+    /// no pair for slip walls with friction.
+    contact: Option<crate::contact::Contact>,
+    /// The nodes each slip wall with friction meets the bodies at (`contact::wall_nodes`).
+    wall_nodes: Vec<Vec<usize>>,
     /// The prescribed velocities as a grid field (0 where free).
     prescribed_velocity: std::sync::OnceLock<VectorField>,
     /// The worker threads ([`Options::threads`]).

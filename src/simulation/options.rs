@@ -91,8 +91,9 @@ impl Default for Options {
 }
 
 impl Options {
-    /// The schemes contact works with: the explicit integrator, and not a series transfer.
-    fn validate_contact(&self) -> Result<()> {
+    /// The schemes contact (and a wall with friction) works with: the explicit integrator, the
+    /// lumped mass, USL or MUSL, and not a series transfer.
+    pub(super) fn validate_contact_schemes(&self) -> Result<()> {
         let refuse = |reason: &str| {
             Err(MpmError::InvalidOption {
                 option: "contact",
@@ -228,7 +229,7 @@ impl Options {
             });
         }
         if self.contact.is_some() {
-            self.validate_contact()?;
+            self.validate_contact_schemes()?;
         }
         if let Some(damping) = self.damping {
             damping.validate()?;

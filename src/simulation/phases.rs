@@ -36,7 +36,7 @@ impl Simulation {
             stability::stable_time_step(&setup.grid, state)
         });
         let dt = stability::next_time_step(input.options, out.state.steps, stable)?.min(max_dt);
-        let solves = if input.options.contact.is_some() {
+        let solves = if input.setup.contact.is_some() {
             let (state, cache, scratch, _) = out.reborrow().into_parts();
             super::contact::grid_phases(input.setup, input.options, state, cache, scratch, dt)?
         } else {
@@ -158,7 +158,7 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
         }
         prepare_mass(setup, options, plan, ops, each, p, mass)
     })?;
-    if options.contact.is_some() {
+    if setup.contact.is_some() {
         timed(profile, Phase::Mass, || {
             super::contact::prepare_layers(setup, options, plan, state, cache)
         })?;
@@ -179,6 +179,11 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
                 stability::estimate(setup, options, state, cache, stability::Due::Estimate, tracking)
             })?;
             tracking.nearly_singular = None;
+        }
+        if setup.contact.is_some() && due == stability::Due::Estimate {
+            estimate = timed(profile, Phase::StableStep, || {
+                super::contact::bound_by_bodies(setup, options, state, cache, tracking, estimate)
+            })?;
         }
         state.stability = Some(estimate);
     }
@@ -321,7 +326,7 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
         // The lumped grid pass left [w, v] in p2g's accumulator; otherwise pack them.
         let velocities = if by_grid_pass {
             nodes.lumped_velocities()
-        } else if options.contact.is_some() {
+        } else if setup.contact.is_some() {
             let layer = super::contact::pack(ops, layers, &rule, &mut packed);
             kernels::Packed {
                 values: &packed,
@@ -358,9 +363,9 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
     } else {
         scratch.g2p_blocks = blocks;
     }
-    if stress_last == Some(StressFrom::Reprojected) && options.contact.is_some() {
+    if stress_last == Some(StressFrom::Reprojected) && setup.contact.is_some() {
         timed(profile, Phase::Stress, || {
-            super::contact::reproject_and_update_stress(setup, options, plan, state, ops, layers, scratch, dt)
+            super::contact::reproject_and_update_stress(setup, plan, state, ops, layers, scratch, dt)
         })?; // (11)–(13)
         timed(profile, Phase::Move, || {
             move_particles(&scratch.particle.displacement, &mut state.particles)

@@ -59,7 +59,7 @@ impl StepPlan {
                 && setup.prescribed.mirror.is_empty()
                 && setup.prescribed.slip.is_empty()
                 && options.damping.is_none()
-                && options.contact.is_none()
+                && setup.contact.is_none()
                 && explicit,
             stress_first: schedule.stress_first && explicit,
             // The implicit step strains the particles in its grid-to-particle pass.

@@ -57,6 +57,7 @@ pub(super) struct BoundaryRecord {
     vx: Option<f64>,
     vy: Option<f64>,
     wall: Option<WallRule>,
+    friction: Option<f64>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -186,6 +187,7 @@ impl BoundaryRecord {
             vx,
             vy,
             wall,
+            friction,
         } = bc;
         BoundaryRecord {
             edge: *edge,
@@ -196,6 +198,7 @@ impl BoundaryRecord {
             vx: *vx,
             vy: *vy,
             wall: *wall,
+            friction: *friction,
         }
     }
 
@@ -209,6 +212,7 @@ impl BoundaryRecord {
             vx,
             vy,
             wall,
+            friction,
         } = self;
         BoundaryCondition {
             edge,
@@ -219,6 +223,7 @@ impl BoundaryRecord {
             vx,
             vy,
             wall,
+            friction,
         }
     }
 }
