@@ -305,6 +305,20 @@ pub struct ContactSpec {
     /// Nodes where a body's share of a pair's mass is below this are not corrected.
     #[serde(default = "default_min_mass_fraction")]
     pub min_mass_fraction: f64,
+    /// The separation test ([`crate::contact::Separation`]): `"kernel"` (the default), a cutoff
+    /// in cells, or `"off"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub separation: Option<SeparationSpec>,
+}
+
+/// `[contact] separation`: `"kernel"`, `"off"`, or a cutoff in cells.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum SeparationSpec {
+    /// `"kernel"` or `"off"`.
+    Named(String),
+    /// A cutoff in cells.
+    Cutoff(f64),
 }
 
 fn default_min_mass_fraction() -> f64 {
@@ -654,6 +668,11 @@ impl Scene {
                 })
                 .collect(),
             min_mass_fraction: c.min_mass_fraction,
+            separation: match &c.separation {
+                Some(SeparationSpec::Named(n)) if n == "off" => crate::contact::Separation::Off,
+                Some(SeparationSpec::Cutoff(v)) => crate::contact::Separation::Cutoff(*v),
+                _ => crate::contact::Separation::Kernel,
+            },
         }
     }
 
@@ -688,6 +707,14 @@ impl Scene {
         }
         for (k, name) in c.rigid.iter().enumerate() {
             known(format!("contact.rigid[{k}]"), name)?;
+        }
+        if let Some(SeparationSpec::Named(name)) = &c.separation {
+            if name != "kernel" && name != "off" {
+                return Err(invalid(
+                    "contact.separation",
+                    format!("{name:?}: give \"kernel\", \"off\" or a cutoff in cells"),
+                ));
+            }
         }
         self.contact_options(c)
             .validate(self.bodies.len())

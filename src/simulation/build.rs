@@ -107,9 +107,13 @@ impl Simulation {
         let wall_nodes = (prescribed.friction.iter())
             .map(|wall| super::contact::wall_nodes(&grid, options.shape, wall))
             .collect();
+        let separation = contact
+            .as_ref()
+            .map_or(f64::INFINITY, |c| super::contact::separation_cutoff(c, options.shape));
         let setup = Setup {
             contact,
             wall_nodes,
+            separation,
             materials: bodies.iter().map(|b| b.material.prepared()).collect(),
             prescribed_velocity: std::sync::OnceLock::new(),
             grid,

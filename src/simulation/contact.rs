@@ -14,7 +14,7 @@ use super::stability::{estimate_by, Estimator, Stability, Tracking};
 use super::walls;
 use super::{Cache, Options, Scratch, Setup, State};
 use crate::boundary::FrictionWall;
-use crate::contact::{contact_normal, pair_correction, pair_correction_in_contact, Contact, NodeBody};
+use crate::contact::{contact_normal, pair_correction, pair_correction_in_contact, Contact, NodeBody, Separation};
 use crate::error::Result;
 use crate::fields::VectorField;
 use crate::grid::Grid;
@@ -22,6 +22,7 @@ use crate::kernels::{self, GridState, P2gTerms, Stress};
 use crate::mass::{GridMass, SolveOutcome, SolveReport};
 use crate::operators::{Operator, Operators};
 use crate::particles::Particles;
+use crate::shape::ShapeFunction;
 
 /// One body's grid: its mass (lumped, and the scheme's), its fields, and its volume gradient
 /// `g_b = G_b V`.
@@ -30,6 +31,11 @@ pub(super) struct Layer {
     pub(super) mass: GridMass,
     pub(super) nodes: GridState,
     gradient: VectorField,
+    /// `x̄_b = N_b (m ∘ x) / N_b m`, the mass centre of the body's particles as each node sees
+    /// them (the separation test).
+    centre: VectorField,
+    /// `N_b m` unfolded (the centre's weights).
+    weight: Vec<f64>,
 }
 
 impl Layer {
@@ -38,6 +44,8 @@ impl Layer {
             mass: GridMass::default(),
             nodes: GridState::new(grid),
             gradient: VectorField::zeros(grid.num_nodes()),
+            centre: VectorField::zeros(grid.num_nodes()),
+            weight: vec![0.0; grid.num_nodes()],
         }
     }
 }
@@ -122,7 +130,11 @@ pub(super) fn prepare_layers(
     for (b, layer) in bodies.iter_mut().enumerate() {
         with_body(&mut state.particles, b, masks, |p| {
             let Layer {
-                mass, nodes, gradient, ..
+                mass,
+                nodes,
+                gradient,
+                centre,
+                weight,
             } = layer;
             mass.lumped_mut().resize(ops.num_nodes(), 0.0);
             kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, true);
@@ -132,6 +144,14 @@ pub(super) fn prepare_layers(
             walls::fold(slip, grid, &mut nodes.force);
             ops.scatter(Operator::Gx, [&p.volume], [&mut gradient.x]);
             ops.scatter(Operator::Gy, [&p.volume], [&mut gradient.y]);
+            ops.scatter(Operator::N, [&p.mass], [&mut weight[..]]);
+            ops.scatter_scaled(Operator::N, Some(&p.mass), [&p.x, &p.y], [&mut centre.x, &mut centre.y]);
+            for i in ops.node_span() {
+                if weight[i] > 0.0 {
+                    centre.x[i] /= weight[i];
+                    centre.y[i] /= weight[i];
+                }
+            }
             super::phases::prepare_mass(setup, options, plan, ops, component_ops, p, mass)
         })?;
     }
@@ -370,8 +390,10 @@ impl Tally {
 const WALL: usize = usize::MAX / 2;
 
 /// The nodes whose kernel support crosses the line of `wall` (those a body there meets it at),
-/// the wall's own line and the lines beyond it included, line by line.
-pub(super) fn wall_nodes(grid: &Grid, shape: crate::shape::ShapeFunction, wall: &FrictionWall) -> Vec<usize> {
+/// the wall's own line and the lines beyond it included, line by line; with each, the
+/// coordinate along the wall's axis of the mass centre of the half-space beyond the wall as the
+/// node sees it (the wall's `x̄` in the separation test, [`crate::contact::Separation`]).
+pub(super) fn wall_nodes(grid: &Grid, shape: ShapeFunction, wall: &FrictionWall) -> Vec<(usize, f64)> {
     let counts = grid.nodes_per_axis();
     let (h, origin) = (grid.cell_size()[wall.axis], grid.origin()[wall.axis]);
     let reach = shape.support() as f64 / 2.0;
@@ -379,19 +401,63 @@ pub(super) fn wall_nodes(grid: &Grid, shape: crate::shape::ShapeFunction, wall: 
     let centre = (wall.at - origin) / h;
     let first = (centre - reach).floor().max(0.0) as usize;
     let last = ((centre + reach).ceil() as usize).min(counts[wall.axis] - 1);
-    let lines = (first..=last).filter(move |&j| ((j as f64) - centre).abs() < reach);
-    let across = counts[1 - wall.axis];
-    lines
-        .flat_map(move |j| {
-            (0..across).map(move |k| {
-                if wall.axis == 0 {
-                    grid.node_index(j, k)
-                } else {
-                    grid.node_index(k, j)
-                }
-            })
-        })
-        .collect()
+    let mut out = Vec::new();
+    for j in (first..=last).filter(|&j| ((j as f64) - centre).abs() < reach) {
+        // The node's offset from the wall into the domain, in cells; the half-space beyond the
+        // wall is the kernel's part from `−reach` to `−inside` (inward coordinate).
+        let inside = (centre - j as f64) * wall.outward;
+        let (weight, moment) = kernel_moments(shape, -reach, -inside);
+        let node_at = origin + j as f64 * h;
+        // Inward coordinate `s` is `−outward` along the axis.
+        let wall_centre = node_at - wall.outward * h * moment / weight.max(f64::MIN_POSITIVE);
+        for k in 0..counts[1 - wall.axis] {
+            let node = if wall.axis == 0 {
+                grid.node_index(j, k)
+            } else {
+                grid.node_index(k, j)
+            };
+            out.push((node, wall_centre));
+        }
+    }
+    out
+}
+
+/// `(∫ N(s) ds, ∫ s N(s) ds)` over `s` in `[from, to]` (in cells from the node), `N` the 1D
+/// kernel of `shape`, by the midpoint rule on 4096 points per cell.
+pub(super) fn kernel_moments(shape: ShapeFunction, from: f64, to: f64) -> (f64, f64) {
+    const CELLS: usize = 16;
+    let Ok(grid) = Grid::new([0.0, 0.0], [1.0, 1.0], [CELLS, CELLS]) else {
+        return (0.0, 0.0);
+    };
+    let node = CELLS / 2;
+    let steps = ((to - from).max(0.0) * 4096.0).ceil() as usize;
+    let ds = (to - from) / steps.max(1) as f64;
+    let (mut w, mut m) = (0.0, 0.0);
+    for k in 0..steps {
+        let s = from + (k as f64 + 0.5) * ds;
+        let Some(a) = shape.axis_weights(&grid, 0, node as f64 + s) else {
+            continue;
+        };
+        if let Some(value) = (node.checked_sub(a.first)).filter(|&i| i < a.len).map(|i| a.value[i]) {
+            w += value * ds;
+            m += s * value * ds;
+        }
+    }
+    (w, m)
+}
+
+/// The separation cutoff `c` of `contact` with `shape` ([`crate::contact::Separation`]), in
+/// cells (infinite without the test).
+pub(super) fn separation_cutoff(contact: &Contact, shape: ShapeFunction) -> f64 {
+    match contact.separation {
+        Separation::Off => f64::INFINITY,
+        Separation::Cutoff(c) => c,
+        Separation::Kernel => {
+            let reach = shape.support() as f64 / 2.0;
+            let (w, m) = kernel_moments(shape, 0.0, reach);
+            1.2 * 2.0 * m / w
+        }
+    }
 }
 
 /// A pair of bodies the force stage found in contact at a node.
@@ -433,8 +499,10 @@ fn correct(
     }
     let mut tally = Tally::default();
     let walls = &setup.prescribed.friction;
-    // `b` a body, or the wall `b − WALL` (a rigid half-space at rest).
-    let mut pair = |bodies: &mut [Layer], i: usize, [a, b]: [usize; 2], known: bool| {
+    let [hx, hy] = setup.grid.cell_size();
+    // `b` a body, or the wall `b − WALL` (a rigid half-space at rest, its mass centre at
+    // `wall_centre` along its axis).
+    let mut pair = |bodies: &mut [Layer], i: usize, [a, b]: [usize; 2], known: bool, wall_centre: f64| {
         let mut at = |k: usize| {
             let l = &mut bodies[k];
             let mass = l.mass.lumped()[i];
@@ -474,6 +542,20 @@ fn correct(
             if b < WALL && (na.mass < floor || nb.mass < floor) {
                 return false;
             }
+            // The separation test: the mass centres no further apart along n than the cutoff.
+            let centre = |l: &Layer| [l.centre.x[i], l.centre.y[i]];
+            let xa = centre(&bodies[a]);
+            let xb = if b >= WALL {
+                let mut x = xa;
+                x[walls[b - WALL].axis] = wall_centre;
+                x
+            } else {
+                centre(&bodies[b])
+            };
+            let gap = (xb[0] - xa[0]) * n[0] + (xb[1] - xa[1]) * n[1];
+            if gap > setup.separation * (hx * n[0]).abs().max((hy * n[1]).abs()) {
+                return false;
+            }
             pair_correction(&na, &nb, n, mu)
         };
         let Some(c) = c else {
@@ -501,7 +583,7 @@ fn correct(
     match decide {
         Decide::Known(touching) => {
             for t in touching {
-                pair(bodies, t.node, t.bodies, true);
+                pair(bodies, t.node, t.bodies, true, 0.0);
             }
         }
         Decide::Approach(touching) => {
@@ -513,7 +595,7 @@ fn correct(
                 }
                 for a in 0..nb {
                     for b in a + 1..nb {
-                        if present(&bodies[a], i) && present(&bodies[b], i) && pair(bodies, i, [a, b], false) {
+                        if present(&bodies[a], i) && present(&bodies[b], i) && pair(bodies, i, [a, b], false, 0.0) {
                             touching.push(Touching {
                                 node: i,
                                 bodies: [a, b],
@@ -523,9 +605,9 @@ fn correct(
                 }
             }
             for (w, nodes) in setup.wall_nodes.iter().enumerate() {
-                for &i in nodes {
+                for &(i, wall_centre) in nodes {
                     for a in (0..nb).filter(|&a| rigid[a].is_none()) {
-                        if present(&bodies[a], i) && pair(bodies, i, [a, WALL + w], false) {
+                        if present(&bodies[a], i) && pair(bodies, i, [a, WALL + w], false, wall_centre) {
                             touching.push(Touching {
                                 node: i,
                                 bodies: [a, WALL + w],

@@ -103,8 +103,11 @@ struct Setup {
     /// The contact the step makes ([`crate::contact`]): [`Options::contact`], or contact with
     /// no pair for slip walls with friction.
     contact: Option<crate::contact::Contact>,
-    /// The nodes each slip wall with friction meets the bodies at (`contact::wall_nodes`).
-    wall_nodes: Vec<Vec<usize>>,
+    /// The nodes each slip wall with friction meets the bodies at, with the wall's mass centre
+    /// there (`contact::wall_nodes`).
+    wall_nodes: Vec<Vec<(usize, f64)>>,
+    /// The separation test's cutoff in cells (`crate::contact::Separation`).
+    separation: f64,
     /// The prescribed velocities as a grid field (0 where free).
     prescribed_velocity: std::sync::OnceLock<VectorField>,
     /// The worker threads ([`Options::threads`]).
