@@ -4,7 +4,7 @@
 //! prescribed, zero velocity, each meeting it through its own grid field). The block's centre
 //! of mass follows `x(t) = ½ g (sin θ − μ cos θ) t²` when `tan θ > μ` and stays put otherwise;
 //! a solid disk rolls at `⅔ g sin θ` when `μ ≥ tan θ / 3` and slides at `g (sin θ − μ cos θ)`
-//! below. (The disk that should roll slides: see docs/verification.md.)
+//! below. (The disk that should roll does, 6% slow: see docs/verification.md.)
 //!
 //! `cargo run --release --example verify_contact`
 

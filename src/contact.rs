@@ -52,10 +52,9 @@
 //!
 //! [`Options::validate`]: crate::simulation::Options::validate
 //!
-//! **Separation.** Contact is declared where the bodies share a node and approach; nothing
-//! checks that their particles touch. Bodies therefore meet once their kernels' supports
-//! overlap, at a gap of up to two cells with linear shape functions: the multi-velocity
-//! method's known contact gap, documented in docs/simulation.md with its measured effect.
+//! **Separation.** Sharing a node is not touching: a pair is in contact at a node only where
+//! the mass centres of their particles as the node sees them are close enough along the normal
+//! ([`Separation`], Nairn's position test).
 //!
 //! **Walls with friction** (a slip edge with [`BoundaryCondition::friction`]) are met the same
 //! way, as a rigid half-space at rest beyond the wall line with the wall's normal, at every node
