@@ -26,6 +26,7 @@
 mod columns;
 mod extend;
 mod g2p;
+mod gradient;
 mod grid;
 mod p2g;
 mod particle;
@@ -33,8 +34,9 @@ mod stiffness;
 
 pub use crate::lanes::{kernel_lanes, set_kernel_lanes, set_scalar_kernels};
 pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
-pub use g2p::{g2p, velocity_gradient_into, velocity_gradient_layered, G2pRule};
+pub use g2p::{g2p, G2pRule};
 pub(crate) use g2p::{g2p_packed, pack_layers, pack_velocities, Fused, G2pBlock, Packed};
+pub use gradient::{velocity_gradient_into, velocity_gradient_layered};
 pub(crate) use grid::update_lumped_grid;
 pub(crate) use p2g::p2g_with;
 pub(crate) use p2g::subtract_particle_force;
