@@ -264,15 +264,8 @@ pub(super) fn grid_phases(
     *force = stage.normal_impulse / dt;
     for layer in bodies.iter_mut() {
         layer.mass.set_velocity_warm_start(&layer.nodes.updated);
-        let active = layer.mass.is_active();
-        extend(
-            ops,
-            prescribed,
-            active,
-            &mut layer.nodes.updated,
-            &mut scratch.extension,
-        );
     }
+    extend_each(ops, prescribed, bodies, |n| &mut n.updated, scratch);
     centre_of_mass(bodies, nodes);
     Ok(solves.map(|s| combined(&s)))
 }
@@ -311,18 +304,23 @@ pub(super) fn reproject_and_update_stress(
     // particles' velocities are not changed here, so what this removes is not counted.
     let decide = Decide::Known(&touching[1]);
     correct(contact, setup, bodies, ops.node_span(), Stage::Strain, decide);
-    for layer in bodies.iter_mut() {
-        let active = layer.mass.is_active();
-        extend(
-            ops,
-            prescribed,
-            active,
-            &mut layer.nodes.projected,
-            &mut scratch.extension,
-        );
-    }
+    extend_each(ops, prescribed, bodies, |n| &mut n.projected, scratch);
     layered_gradient(setup, ops, bodies, &state.particles, |n| &n.projected, scratch);
     update_stress(setup, state, scratch, dt)
+}
+
+/// (8b) in the field `field` of every body, each with its own active set.
+fn extend_each(
+    ops: &Operators,
+    prescribed: &crate::boundary::Prescribed,
+    bodies: &mut [Layer],
+    field: impl Fn(&mut GridState) -> &mut VectorField,
+    scratch: &mut Scratch,
+) {
+    for layer in bodies.iter_mut() {
+        let active = layer.mass.is_active();
+        extend(ops, prescribed, active, field(&mut layer.nodes), &mut scratch.extension);
+    }
 }
 
 /// The packed velocities of every body for the grid-to-particle pass, and the values per body.
