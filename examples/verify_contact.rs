@@ -14,8 +14,7 @@ const G: f64 = 9.81;
 const END: f64 = 0.4;
 
 /// The block (0.1 × 0.05 m on 1 cm cells, E = 1 MPa, ρ = 1000), or a disk of radius 0.05 m, on a
-/// rigid floor under gravity tilted by `theta` degrees (reaching its full value over `ramp`
-/// seconds).
+/// floor under gravity tilted by `theta` degrees (reaching its full value over `ramp` seconds).
 fn slope_scene(theta: f64, mu: f64, shape: &str, body: &str, ramp: f64, floor: Floor) -> String {
     let (s, c) = theta.to_radians().sin_cos();
     let pad = if shape == "linear" { 0.0 } else { 0.02 };
@@ -25,91 +24,64 @@ fn slope_scene(theta: f64, mu: f64, shape: &str, body: &str, ramp: f64, floor: F
     } else {
         "{ rectangle = { min = [0.05, 0.05], max = [0.15, 0.1] } }"
     };
-    if floor == Floor::Wall {
-        // The grid's bottom edge a slip wall with friction at y = 0.05: its innermost node line
-        // (the second with quadratic B-splines, whose line beyond it the kernel reaches).
-        let below = if shape == "linear" { 0.0 } else { 0.01 };
-        return format!(
-            r#"
-[grid]
-origin = [{o}, {y0}]
-cell_size = [0.01, 0.01]
-cells = [{nx}, {ny}]
-[schemes]
-shape = "{shape}"
-update = "musl"
-transfer = "flip"
-[time]
-end = {END}
-cfl = 0.4
-[loads]
-gravity = [{gx}, {gy}]
-gravity_ramp = {ramp}
-[[bodies]]
-name = "{body}"
-material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
-density = 1000.0
-geometry = {geometry}
-[[boundaries]]
-edge = "bottom"
-condition = "slip"
-friction = {mu}
-"#,
-            o = -pad,
-            y0 = 0.05 - below,
-            nx = cells(0.6),
-            ny = ((0.15 + below + pad) / 0.01_f64).round() as usize,
-            gx = G * s,
-            gy = -G * c,
-        );
-    }
-    format!(
-        r#"
-[grid]
-origin = [{o}, {o}]
-cell_size = [0.01, 0.01]
-cells = [{nx}, {ny}]
-[schemes]
-shape = "{shape}"
-update = "musl"
-transfer = "flip"
-[time]
-end = {END}
-cfl = 0.4
-[loads]
-gravity = [{gx}, {gy}]
-gravity_ramp = {ramp}
-[[bodies]]
-name = "{body}"
-material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
-density = 1000.0
-geometry = {geometry}
-[[bodies]]
+    // On a wall, the grid's bottom edge is a slip wall with friction at y = 0.05: its innermost
+    // node line (the second with quadratic B-splines, whose line beyond it the kernel reaches).
+    let below = if shape == "linear" { 0.0 } else { 0.01 };
+    let (origin_y, ny) = match floor {
+        Floor::Wall => (0.05 - below, ((0.15 + below + pad) / 0.01_f64).round() as usize),
+        Floor::Rigid | Floor::Held => (-pad, cells(0.2)),
+    };
+    let rest = match floor {
+        Floor::Wall => format!("[[boundaries]]\nedge = \"bottom\"\ncondition = \"slip\"\nfriction = {mu}\n"),
+        Floor::Rigid | Floor::Held => {
+            let (held, pair) = match floor {
+                Floor::Held => (
+                    "[[boundaries]]\nedge = \"bottom\"\ncondition = \"fixed\"\n".to_string(),
+                    // The ramp's surface gives the normal: the block's corners would turn the
+                    // average.
+                    format!("[[contact.pairs]]\nbodies = [\"{body}\", \"floor\"]\nnormal = \"floor\""),
+                ),
+                _ => (String::new(), "rigid = [\"floor\"]".to_string()),
+            };
+            format!(
+                r#"[[bodies]]
 name = "floor"
 material = {{ model = "linear_elastic", youngs_modulus = 1e7, poisson_ratio = 0.3, plane = "strain" }}
 density = 1000.0
 geometry = {{ rectangle = {{ min = [0.0, 0.0], max = [0.6, 0.05] }} }}
-{floor}
-[contact]
+{held}[contact]
 friction = {mu}
-{rigid}
-"#,
+{pair}
+"#
+            )
+        }
+    };
+    format!(
+        r#"
+[grid]
+origin = [{o}, {origin_y}]
+cell_size = [0.01, 0.01]
+cells = [{nx}, {ny}]
+[schemes]
+shape = "{shape}"
+update = "musl"
+transfer = "flip"
+[time]
+end = {END}
+cfl = 0.4
+[loads]
+gravity = [{gx}, {gy}]
+gravity_ramp = {ramp}
+[[bodies]]
+name = "{body}"
+material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
+density = 1000.0
+geometry = {geometry}
+{rest}"#,
         o = -pad,
         nx = cells(0.6),
-        ny = cells(0.2),
         gx = G * s,
         gy = -G * c,
-        floor = match floor {
-            Floor::Rigid => "",
-            Floor::Held => "[[boundaries]]\nedge = \"bottom\"\ncondition = \"fixed\"",
-            Floor::Wall => unreachable!("written above"),
-        },
-        rigid = match floor {
-            Floor::Rigid => "rigid = [\"floor\"]".to_string(),
-            // The ramp's surface gives the normal: the block's corners would turn the average.
-            Floor::Held => format!("[[contact.pairs]]\nbodies = [\"{body}\", \"floor\"]\nnormal = \"floor\""),
-            Floor::Wall => unreachable!("written above"),
-        },
     )
 }
 

@@ -6,26 +6,15 @@ use sparse_mpm::simulation::Simulation;
 
 const G: f64 = 9.81;
 
-/// A block (0.1 × 0.05 m, 1 cm cells, E = 1 MPa) on a floor under gravity tilted by `theta`
-/// degrees: the floor rigid, or an elastic slab held at its base whose surface gives the normal.
-fn slope(theta: f64, mu: f64, shape: &str, rigid: bool, ramp: f64, end: f64) -> String {
+/// The grid (1 cm cells from `origin`), the schemes, the time and the gravity tilted by
+/// `theta` degrees (reaching its full value over `ramp` seconds), and the block
+/// (0.1 × 0.05 m, E = 1 MPa): what every slope scene here shares.
+fn block_on_tilted_grid(theta: f64, shape: &str, origin: [f64; 2], cells: [usize; 2], ramp: f64, end: f64) -> String {
     let (s, c) = theta.to_radians().sin_cos();
-    let pad = if shape == "linear" { 0.0 } else { 0.02 };
-    let cells = |l: f64| ((l + 2.0 * pad) / 0.01_f64).round() as usize;
-    let floor = if rigid {
-        "rigid = [\"floor\"]".to_string()
-    } else {
-        "[[contact.pairs]]\nbodies = [\"block\", \"floor\"]\nnormal = \"floor\"".to_string()
-    };
-    let held = if rigid {
-        ""
-    } else {
-        "[[boundaries]]\nedge = \"bottom\"\ncondition = \"fixed\""
-    };
     format!(
         r#"
 [grid]
-origin = [{o}, {o}]
+origin = [{ox}, {oy}]
 cell_size = [0.01, 0.01]
 cells = [{nx}, {ny}]
 [schemes]
@@ -43,6 +32,32 @@ name = "block"
 material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
 density = 1000.0
 geometry = {{ rectangle = {{ min = [0.05, 0.05], max = [0.15, 0.1] }} }}
+"#,
+        ox = origin[0],
+        oy = origin[1],
+        nx = cells[0],
+        ny = cells[1],
+        gx = G * s,
+        gy = -G * c,
+    )
+}
+
+/// The block on a floor under gravity tilted by `theta` degrees: the floor rigid, or an
+/// elastic slab held at its base whose surface gives the normal.
+fn slope(theta: f64, mu: f64, shape: &str, rigid: bool, ramp: f64, end: f64) -> String {
+    let pad = if shape == "linear" { 0.0 } else { 0.02 };
+    let cells = |l: f64| ((l + 2.0 * pad) / 0.01_f64).round() as usize;
+    let head = block_on_tilted_grid(theta, shape, [-pad, -pad], [cells(0.6), cells(0.2)], ramp, end);
+    let (held, floor) = if rigid {
+        ("", "rigid = [\"floor\"]")
+    } else {
+        (
+            "[[boundaries]]\nedge = \"bottom\"\ncondition = \"fixed\"",
+            "[[contact.pairs]]\nbodies = [\"block\", \"floor\"]\nnormal = \"floor\"",
+        )
+    };
+    format!(
+        r#"{head}
 [[bodies]]
 name = "floor"
 material = {{ model = "linear_elastic", youngs_modulus = 1e7, poisson_ratio = 0.3, plane = "strain" }}
@@ -52,12 +67,7 @@ geometry = {{ rectangle = {{ min = [0.0, 0.0], max = [0.6, 0.05] }} }}
 [contact]
 friction = {mu}
 {floor}
-"#,
-        o = -pad,
-        nx = cells(0.6),
-        ny = cells(0.2),
-        gx = G * s,
-        gy = -G * c,
+"#
     )
 }
 
@@ -132,36 +142,11 @@ fn a_block_slides_on_an_elastic_ramp_through_body_to_body_contact() {
 }
 
 /// The block on the grid's bottom edge, a slip wall with friction (no floor body, no
-/// `[contact]`): the wall on the innermost of the edge's node lines.
+/// `[contact]`): the wall on the innermost of the edge's node lines (quadratic B-splines: the
+/// second, at y = 0.05).
 fn on_a_wall(theta: f64, mu: f64, ramp: f64, end: f64) -> String {
-    let (s, c) = theta.to_radians().sin_cos();
-    format!(
-        r#"
-[grid]
-origin = [-0.02, 0.04]
-cell_size = [0.01, 0.01]
-cells = [64, 18]
-[schemes]
-shape = "quadratic_bspline"
-[time]
-end = {end}
-cfl = 0.4
-[loads]
-gravity = [{gx}, {gy}]
-gravity_ramp = {ramp}
-[[bodies]]
-name = "block"
-material = {{ model = "linear_elastic", youngs_modulus = 1e6, poisson_ratio = 0.3, plane = "strain" }}
-density = 1000.0
-geometry = {{ rectangle = {{ min = [0.05, 0.05], max = [0.15, 0.1] }} }}
-[[boundaries]]
-edge = "bottom"
-condition = "slip"
-friction = {mu}
-"#,
-        gx = G * s,
-        gy = -G * c,
-    )
+    let head = block_on_tilted_grid(theta, "quadratic_bspline", [-0.02, 0.04], [64, 18], ramp, end);
+    format!("{head}\n[[boundaries]]\nedge = \"bottom\"\ncondition = \"slip\"\nfriction = {mu}\n")
 }
 
 #[test]
