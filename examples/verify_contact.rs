@@ -15,7 +15,7 @@ const END: f64 = 0.4;
 
 /// The block (0.1 × 0.05 m on 1 cm cells, E = 1 MPa, ρ = 1000), or a disk of radius 0.05 m, on a
 /// floor under gravity tilted by `theta` degrees (reaching its full value over `ramp` seconds).
-fn slope_scene(theta: f64, mu: f64, shape: &str, body: &str, ramp: f64, floor: Floor) -> String {
+fn slope_scene(theta: f64, mu: f64, shape: &str, mass: &str, body: &str, ramp: f64, floor: Floor) -> String {
     let (s, c) = theta.to_radians().sin_cos();
     let pad = if shape == "linear" { 0.0 } else { 0.02 };
     let cells = |l: f64| ((l + 2.0 * pad) / 0.01_f64).round() as usize;
@@ -66,6 +66,7 @@ cells = [{nx}, {ny}]
 shape = "{shape}"
 update = "musl"
 transfer = "flip"
+mass = {{ velocity = "{mass}", acceleration = "{mass}" }}
 [time]
 end = {END}
 cfl = 0.4
@@ -122,8 +123,8 @@ fn slide_path(scene: &str) -> sparse_mpm::error::Result<Vec<(f64, f64)>> {
 fn main() -> sparse_mpm::error::Result<()> {
     println!("on a floor under tilted gravity, to t = {END} s (1 cm cells, 2 × 2 particles per cell, MUSL, FLIP, lumped mass)");
     println!(
-        "{:>6} {:>6} {:>5} {:>5} {:>18} {:>10} {:>10} {:>10} {:>9}",
-        "body", "floor", "θ", "μ", "shape", "a exact", "a fitted", "x(T) err", "max err"
+        "{:>6} {:>6} {:>5} {:>5} {:>18} {:>11} {:>10} {:>10} {:>10} {:>9}",
+        "body", "floor", "θ", "μ", "shape", "mass", "a exact", "a fitted", "x(T) err", "max err"
     );
     // (body, θ, μ, exact acceleration, gravity ramp): the block slides at g (sin θ − μ cos θ)
     // or sticks (its load set down over 0.1 s: applied at once, the block bounces, and where
@@ -147,9 +148,18 @@ fn main() -> sparse_mpm::error::Result<()> {
         .map(|&c| (Floor::Rigid, c))
         .chain(cases[..4].iter().map(|&c| (Floor::Held, c)))
         .chain(cases.iter().map(|&c| (Floor::Wall, c)));
-    for shape in ["linear", "quadratic_bspline"] {
+    let masses: Vec<String> = std::env::args().skip(1).collect();
+    let masses = if masses.is_empty() {
+        vec!["lumped".to_string(), "consistent".to_string()]
+    } else {
+        masses
+    };
+    for (mass, shape) in masses
+        .iter()
+        .flat_map(|m| ["linear", "quadratic_bspline"].map(|s| (m, s)))
+    {
         for (floor, (body, theta, mu, a, ramp)) in runs.clone() {
-            let scene = slope_scene(theta, mu, shape, body, f64::max(ramp, 1e-9), floor);
+            let scene = slope_scene(theta, mu, shape, mass, body, f64::max(ramp, 1e-9), floor);
             let path = slide_path(&scene)?;
             let (t_end, x_end) = *path.last().unwrap();
             let exact = |t: f64| if ramp > 0.0 { 0.0 } else { 0.5 * a * t * t };
@@ -164,7 +174,7 @@ fn main() -> sparse_mpm::error::Result<()> {
             // The acceleration of a parabola through the second half: x = x0 + v0 t + ½ a t².
             let fitted = fit_acceleration(&path);
             println!(
-                "{body:>6} {:>6} {theta:>5} {mu:>5} {shape:>18} {a:>10.4} {fitted:>10.4} {:>10.2e} {err:>9.2e}",
+                "{body:>6} {:>6} {theta:>5} {mu:>5} {shape:>18} {mass:>11} {a:>10.4} {fitted:>10.4} {:>10.2e} {err:>9.2e}",
                 format!("{floor:?}").to_lowercase(),
                 (x_end - exact(t_end)) / scale
             );

@@ -57,6 +57,16 @@ pub const MAX_SERIES_TERMS: usize = 1000;
 pub const MAX_CG_ITERATIONS: usize = 100_000;
 
 impl MassScheme {
+    /// Whether the scheme solves with the lumped mass alone (`M⁻¹ = M_L⁻¹`): lumped, blended
+    /// with γ = 0, and the series of one term.
+    pub fn is_lumped(&self) -> bool {
+        match *self {
+            MassScheme::Lumped | MassScheme::TruncatedSeries { k: 1 } => true,
+            MassScheme::Blended { gamma } => gamma == 0.0,
+            MassScheme::Consistent | MassScheme::TruncatedSeries { .. } | MassScheme::Iterative { .. } => false,
+        }
+    }
+
     /// Whether the scheme needs the assembled consistent mass matrix.
     pub fn needs_consistent_matrix(&self) -> bool {
         match self {

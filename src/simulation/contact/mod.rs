@@ -8,13 +8,16 @@
 //! and the internal force `G_b (V σ)`, each with the same operations as without contact. The
 //! grid-to-particle pass and the velocity gradient read each particle's own body's field.
 
+mod correct;
+mod solve;
+
 use super::phases::{extend, project_velocity, solve_acceleration, update_grid_velocity, update_stress};
 use super::plan::StepPlan;
 use super::stability::{estimate_by, Estimator, Stability, Tracking};
 use super::walls;
 use super::{Cache, Options, Scratch, Setup, State};
 use crate::boundary::FrictionWall;
-use crate::contact::{contact_normal, pair_correction, pair_correction_in_contact, Contact, NodeBody, Separation};
+use crate::contact::{Contact, Separation};
 use crate::error::Result;
 use crate::fields::VectorField;
 use crate::grid::Grid;
@@ -23,6 +26,7 @@ use crate::mass::{GridMass, SolveOutcome, SolveReport};
 use crate::operators::{Operator, Operators};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
+use correct::{Context, Decide, Stage, Tally, Touching};
 
 /// One body's grid: its mass (lumped, and the scheme's), its fields, and its volume gradient
 /// `g_b = G_b V`.
@@ -240,7 +244,7 @@ pub(super) fn grid_phases(
     // the force stage's correction; the momentum stage's reaches the positions and the strain.
     let [momentum_stage, force_stage] = touching;
     let decide = Decide::Approach(momentum_stage);
-    correct(contact, setup, bodies, ops.node_span(), Stage::Momentum, decide).add_to(state);
+    correct_stage(contact, setup, ops, bodies, Stage::Momentum, decide)?.add_to(state);
     for layer in bodies.iter_mut() {
         let (mass, fields) = (&mut layer.mass, &mut layer.nodes);
         if let Some(damping) = options.damping {
@@ -259,7 +263,7 @@ pub(super) fn grid_phases(
         update_grid_velocity(prescribed, mass.is_active(), v, a, dt, &mut fields.updated);
     }
     let decide = Decide::Approach(force_stage);
-    let stage = correct(contact, setup, bodies, ops.node_span(), Stage::Force, decide);
+    let stage = correct_stage(contact, setup, ops, bodies, Stage::Force, decide)?;
     stage.add_to(state);
     *force = stage.normal_impulse / dt;
     for layer in bodies.iter_mut() {
@@ -303,7 +307,7 @@ pub(super) fn reproject_and_update_stress(
     // Where the force stage found contact (the particles moved with those corrections); the
     // particles' velocities are not changed here, so what this removes is not counted.
     let decide = Decide::Known(&touching[1]);
-    correct(contact, setup, bodies, ops.node_span(), Stage::Strain, decide);
+    correct_stage(contact, setup, ops, bodies, Stage::Strain, decide)?;
     extend_each(ops, prescribed, bodies, |n| &mut n.projected, scratch);
     layered_gradient(setup, ops, bodies, &state.particles, |n| &n.projected, scratch);
     update_stress(setup, state, scratch, dt)
@@ -343,49 +347,6 @@ fn layered_gradient(
     let l = &mut scratch.particle.velocity_gradient;
     kernels::velocity_gradient_layered(ops, &fields, &p.body, l, &setup.workers);
 }
-
-/// The three times a step corrects the bodies' velocities.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Stage {
-    /// The projected velocities `v_b` (6).
-    Momentum,
-    /// The updated velocities `w_b = v_b + Δt a_b` (8).
-    Force,
-    /// MUSL's re-projected velocities, which strain the particles (11).
-    Strain,
-}
-
-impl Stage {
-    /// The field the stage corrects.
-    fn field(self, n: &mut GridState) -> &mut VectorField {
-        match self {
-            Stage::Momentum | Stage::Strain => &mut n.projected,
-            Stage::Force => &mut n.updated,
-        }
-    }
-}
-
-/// What one stage of corrections did: its normal impulses, and (the force stage) the work of
-/// friction over the step, its tangential impulse against the slip that remains,
-///
-/// ```text
-/// W_f = −Σ Δp'_t · (w'_a − w'_b)      (≥ 0: friction opposes the slip; 0 where the pair sticks)
-/// ```
-#[derive(Debug, Default, Clone, Copy)]
-struct Tally {
-    normal_impulse: f64,
-    friction: f64,
-}
-
-impl Tally {
-    fn add_to(self, state: &mut State) {
-        state.relaxation.friction_dissipation += self.friction;
-    }
-}
-
-/// The second index of a [`Touching`] pair that is a wall with friction (`WALL + w`, `w` its
-/// place in [`Prescribed::friction`](crate::boundary::Prescribed::friction)).
-const WALL: usize = usize::MAX / 2;
 
 /// The nodes whose kernel support crosses the line of `wall` (those a body there meets it at),
 /// the wall's own line and the lines beyond it included, line by line; with each, the
@@ -458,169 +419,29 @@ pub(super) fn separation_cutoff(contact: &Contact, shape: ShapeFunction) -> f64 
     }
 }
 
-/// A pair of bodies the force stage found in contact at a node.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Touching {
-    node: usize,
-    bodies: [usize; 2],
-}
-
-/// How [`correct`] decides where the bodies are in contact.
-enum Decide<'a> {
-    /// Where they share a node and approach, each such pair recorded.
-    Approach(&'a mut Vec<Touching>),
-    /// Where the force stage found them (the strain update's velocities): MUSL's re-projected
-    /// velocities are corrected where the step's motion was, whatever their own approach.
-    Known(&'a [Touching]),
-}
-
-/// The contact corrections of the field `field` of the pairs of bodies `decide` selects
-/// ([`pair_correction`]), pairs at a node in the order of their indices; rigid bodies' fields
-/// set to their velocities first, and the prescribed components of boundary conditions kept.
-fn correct(
+/// The contact corrections of `stage` of the pairs `decide` selects: node by node where every
+/// body's mass of the stage's solve is lumped ([`correct::correct`]), through the bodies'
+/// masses otherwise ([`solve::correct_through_mass`]).
+fn correct_stage(
     contact: &Contact,
     setup: &Setup,
+    ops: &Operators,
     bodies: &mut [Layer],
-    span: std::ops::Range<usize>,
     stage: Stage,
     decide: Decide,
-) -> Tally {
-    let rigid: Vec<Option<[f64; 2]>> = (0..bodies.len()).map(|b| contact.rigid_velocity(b)).collect();
-    for (layer, v) in bodies.iter_mut().zip(&rigid) {
-        if let Some([vx, vy]) = *v {
-            let Layer { mass, nodes, .. } = layer;
-            let u = stage.field(nodes);
-            for i in span.clone().filter(|&i| mass.is_active()[i]) {
-                (u.x[i], u.y[i]) = (vx, vy);
-            }
-        }
-    }
-    let mut tally = Tally::default();
-    let walls = &setup.prescribed.friction;
-    let [hx, hy] = setup.grid.cell_size();
-    // `b` a body, or the wall `b − WALL` (a rigid half-space at rest, its mass centre at
-    // `wall_centre` along its axis).
-    let mut pair = |bodies: &mut [Layer], i: usize, [a, b]: [usize; 2], known: bool, wall_centre: f64| {
-        let mut at = |k: usize| {
-            let l = &mut bodies[k];
-            let mass = l.mass.lumped()[i];
-            let gradient = [l.gradient.x[i], l.gradient.y[i]];
-            let u = stage.field(&mut l.nodes);
-            NodeBody {
-                mass,
-                velocity: [u.x[i], u.y[i]],
-                volume_gradient: gradient,
-                rigid: rigid[k].is_some(),
-            }
-        };
-        let na = at(a);
-        let (nb, mu, n) = if b >= WALL {
-            let wall = &walls[b - WALL];
-            let mut n = [0.0; 2];
-            n[wall.axis] = wall.outward;
-            let at_rest = NodeBody {
-                velocity: [0.0; 2],
-                volume_gradient: [0.0; 2],
-                rigid: true,
-                ..na
-            };
-            (at_rest, wall.friction, n)
-        } else {
-            let nb = at(b);
-            let Some(n) = contact_normal(&na, &nb, contact.normal_between(a, b)) else {
-                return false;
-            };
-            (nb, contact.friction_between(a, b), n)
-        };
-        let c = if known {
-            pair_correction_in_contact(&na, &nb, n, mu)
-        } else {
-            let total = na.mass + nb.mass;
-            let floor = contact.min_mass_fraction * total;
-            if b < WALL && (na.mass < floor || nb.mass < floor) {
-                return false;
-            }
-            // The separation test: the mass centres no further apart along n than the cutoff.
-            let centre = |l: &Layer| [l.centre.x[i], l.centre.y[i]];
-            let xa = centre(&bodies[a]);
-            let xb = if b >= WALL {
-                let mut x = xa;
-                x[walls[b - WALL].axis] = wall_centre;
-                x
-            } else {
-                centre(&bodies[b])
-            };
-            let gap = (xb[0] - xa[0]) * n[0] + (xb[1] - xa[1]) * n[1];
-            if gap > setup.separation * (hx * n[0]).abs().max((hy * n[1]).abs()) {
-                return false;
-            }
-            pair_correction(&na, &nb, n, mu)
-        };
-        let Some(c) = c else {
-            return false;
-        };
-        let mut after = [na.velocity, nb.velocity];
-        for (slot, (k, body, sign)) in [(a, na, 1.0), (b, nb, -1.0)].into_iter().enumerate() {
-            if body.rigid {
-                continue;
-            }
-            let u = stage.field(&mut bodies[k].nodes);
-            u.x[i] += sign * c.impulse[0] / body.mass;
-            u.y[i] += sign * c.impulse[1] / body.mass;
-            after[slot] = [u.x[i], u.y[i]];
-        }
-        if stage == Stage::Force {
-            // Friction's work over the step: its impulse against the slip that remains.
-            let slip = [after[0][0] - after[1][0], after[0][1] - after[1][1]];
-            tally.friction -= c.tangential[0] * slip[0] + c.tangential[1] * slip[1];
-        }
-        tally.normal_impulse += c.normal_impulse;
-        true
+) -> Result<Tally> {
+    let rigid = (0..bodies.len()).map(|b| contact.rigid_velocity(b)).collect();
+    let cx = Context {
+        contact,
+        setup,
+        rigid,
+        stage,
     };
-    let present = |l: &Layer, i: usize| l.mass.is_active()[i] && l.mass.lumped()[i] > 0.0;
-    match decide {
-        Decide::Known(touching) => {
-            for t in touching {
-                pair(bodies, t.node, t.bodies, true, 0.0);
-            }
-        }
-        Decide::Approach(touching) => {
-            touching.clear();
-            let nb = bodies.len();
-            for i in span {
-                if bodies.iter().filter(|l| present(l, i)).count() < 2 {
-                    continue;
-                }
-                for a in 0..nb {
-                    for b in a + 1..nb {
-                        if present(&bodies[a], i) && present(&bodies[b], i) && pair(bodies, i, [a, b], false, 0.0) {
-                            touching.push(Touching {
-                                node: i,
-                                bodies: [a, b],
-                            });
-                        }
-                    }
-                }
-            }
-            for (w, nodes) in setup.wall_nodes.iter().enumerate() {
-                for &(i, wall_centre) in nodes {
-                    for a in (0..nb).filter(|&a| rigid[a].is_none()) {
-                        if present(&bodies[a], i) && pair(bodies, i, [a, WALL + w], false, wall_centre) {
-                            touching.push(Touching {
-                                node: i,
-                                bodies: [a, WALL + w],
-                            });
-                        }
-                    }
-                }
-            }
-        }
+    if bodies.iter().all(|l| l.mass.scheme(stage.role()).is_lumped()) {
+        Ok(correct::correct(&cx, bodies, ops.node_span(), decide))
+    } else {
+        solve::correct_through_mass(&cx, ops, bodies, ops.node_span(), decide)
     }
-    for layer in bodies.iter_mut() {
-        let u = stage.field(&mut layer.nodes);
-        setup.prescribed.apply_velocity(&mut u.x, &mut u.y);
-    }
-    tally
 }
 
 /// The centre-of-mass velocities `Σ_b m_b u_b / Σ_b m_b` of the bodies' projected and updated
