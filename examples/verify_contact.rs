@@ -121,7 +121,7 @@ fn slide_path(scene: &str) -> sparse_mpm::error::Result<Vec<(f64, f64)>> {
 }
 
 fn main() -> sparse_mpm::error::Result<()> {
-    println!("on a floor under tilted gravity, to t = {END} s (1 cm cells, 2 × 2 particles per cell, MUSL, FLIP, lumped mass)");
+    println!("on a floor under tilted gravity, to t = {END} s (1 cm cells, 2 × 2 particles per cell, MUSL, FLIP)");
     println!(
         "{:>6} {:>6} {:>5} {:>5} {:>18} {:>11} {:>10} {:>10} {:>10} {:>9}",
         "body", "floor", "θ", "μ", "shape", "mass", "a exact", "a fitted", "x(T) err", "max err"

@@ -73,6 +73,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{MpmError, Result};
+use crate::mass::Stabilization;
 
 /// The default [`Contact::min_mass_fraction`].
 pub const DEFAULT_MIN_MASS_FRACTION: f64 = 1e-5;
@@ -90,6 +91,13 @@ pub struct Contact {
     pub min_mass_fraction: f64,
     /// The separation test ([`Separation`]).
     pub separation: Separation,
+    /// The stabilisation of each body's own consistent (cg, blended) mass, `M_b` (the ghost
+    /// penalty by default): where two bodies press together, each one's surface there is a
+    /// fringe of its grid that changes every step of the impact, and the default
+    /// linear-extension penalty of [`crate::mass::MassOptions`] let two disks in impact part
+    /// with 102.8% of their energy against 100.3% with the ghost penalty (docs/simulation.md).
+    /// The shared field's mass keeps the schemes' own.
+    pub stabilization: Stabilization,
 }
 
 impl Default for Contact {
@@ -100,9 +108,16 @@ impl Default for Contact {
             rigid: Vec::new(),
             min_mass_fraction: DEFAULT_MIN_MASS_FRACTION,
             separation: Separation::default(),
+            stabilization: DEFAULT_STABILIZATION,
         }
     }
 }
+
+/// The default [`Contact::stabilization`]: the ghost penalty of weight
+/// [`DEFAULT_GHOST_PENALTY`](crate::mass::stabilization::DEFAULT_GHOST_PENALTY).
+pub const DEFAULT_STABILIZATION: Stabilization = Stabilization::GhostPenalty {
+    gamma: crate::mass::stabilization::DEFAULT_GHOST_PENALTY,
+};
 
 /// Whether two bodies that share a node are close enough there to be in contact, from the
 /// positions of their material at the node (Nairn's position test): with `x̄_b = N_b (m ∘ x) / m_b`
@@ -201,6 +216,9 @@ impl Contact {
                     format!("{c} is not a cutoff (finite, positive, in cells)"),
                 );
             }
+        }
+        if let Err(e) = self.stabilization.validate() {
+            return bad("contact.stabilization", e.to_string());
         }
         if !(0.0..1.0).contains(&self.min_mass_fraction) {
             return bad(

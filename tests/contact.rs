@@ -345,13 +345,13 @@ fn parting(scene: &Scene) -> (f64, f64) {
 
 #[test]
 fn with_the_consistent_mass_frictionless_disks_part_with_their_energy_and_keep_their_momentum() {
-    // The pairs' impulses through each disk's mass. (The default linear-extension stabilisation
-    // parts them with 102.8%: docs/simulation.md.)
-    for stabilization in ["ghost_penalty", "partial_lumping"] {
-        let mut scene = two_disks("[contact]\nfriction = 0.0", 3.5, 1);
+    // The pairs' impulses through each disk's mass, stabilised by the ghost penalty (the
+    // default of [contact]) or partial lumping. (The schemes' default linear extension parts
+    // them with 102.8%: docs/simulation.md.)
+    for stabilization in ["", "\nstabilization = \"partial_lumping\""] {
+        let mut scene = two_disks(&format!("[contact]\nfriction = 0.0{stabilization}"), 3.5, 1);
         let mass = &mut scene.schemes.mass;
         (mass.velocity, mass.acceleration) = (MassScheme::Consistent, MassScheme::Consistent);
-        mass.stabilization = stabilization.parse().unwrap();
         let (energy, momentum) = parting(&scene);
         assert!(
             (energy - 1.0).abs() < 0.02,
@@ -397,40 +397,49 @@ fn contact_runs_resume_from_a_checkpoint_bit_for_bit_and_threads_do_not_change_t
     let dir = std::env::temp_dir().join(format!("sparse-mpm-contact-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("contact.ckpt");
-    // The disks in contact from t ≈ 1.2: run to 1.5, checkpoint, go on to 1.8.
-    let straight = {
-        let scene = two_disks("[contact]\nfriction = 0.2", 1.8, 1);
-        let mut sim = scene.build().unwrap();
-        // (Stopping at 1.5 shortens a step, as the checkpointed run does.)
-        sim.run_until(1.5, |_, _| Ok(())).unwrap();
-        sim.run_until(1.8, |_, _| Ok(())).unwrap();
-        sim
-    };
-    let scene = two_disks("[contact]\nfriction = 0.2", 1.8, 2);
-    let mut two = scene.build().unwrap();
-    two.run_until(1.5, |_, _| Ok(())).unwrap();
-    two.run_until(1.8, |_, _| Ok(())).unwrap();
-    assert!(particle_bits(&two) == particle_bits(&straight), "two threads");
-    let mut sim = scene.build().unwrap();
-    sim.run_until(1.5, |_, _| Ok(())).unwrap();
-    sim.write_checkpoint(&file).unwrap();
-    let mut resumed = Simulation::read_checkpoint(&file).unwrap();
-    let mut last = None;
-    resumed
-        .run_until(1.8, |_, r| {
-            last = Some((r.contact_force, r.friction_dissipation));
-            Ok(())
-        })
-        .unwrap();
-    assert!(
-        particle_bits(&resumed) == particle_bits(&straight),
-        "resumed on two threads"
-    );
-    let (force, friction) = last.unwrap();
-    assert!(
-        force > 0.0 && friction > 0.0,
-        "the disks press and rub: {force}, {friction}"
-    );
+    // The lumped and the consistent mass (the impulses solved through each disk's mass).
+    for consistent in [false, true] {
+        let scene = |threads: usize| {
+            let mut scene = two_disks("[contact]\nfriction = 0.2", 1.8, threads);
+            if consistent {
+                let mass = &mut scene.schemes.mass;
+                (mass.velocity, mass.acceleration) = (MassScheme::Consistent, MassScheme::Consistent);
+            }
+            scene
+        };
+        // The disks in contact from t ≈ 1.6: run to 1.7, checkpoint, go on to 1.8.
+        let straight = {
+            let mut sim = scene(1).build().unwrap();
+            // (Stopping at 1.7 shortens a step, as the checkpointed run does.)
+            sim.run_until(1.7, |_, _| Ok(())).unwrap();
+            sim.run_until(1.8, |_, _| Ok(())).unwrap();
+            sim
+        };
+        let mut two = scene(2).build().unwrap();
+        two.run_until(1.7, |_, _| Ok(())).unwrap();
+        two.run_until(1.8, |_, _| Ok(())).unwrap();
+        assert!(particle_bits(&two) == particle_bits(&straight), "two threads");
+        let mut sim = scene(2).build().unwrap();
+        sim.run_until(1.7, |_, _| Ok(())).unwrap();
+        sim.write_checkpoint(&file).unwrap();
+        let mut resumed = Simulation::read_checkpoint(&file).unwrap();
+        let mut last = None;
+        resumed
+            .run_until(1.8, |_, r| {
+                last = Some((r.contact_force, r.friction_dissipation));
+                Ok(())
+            })
+            .unwrap();
+        assert!(
+            particle_bits(&resumed) == particle_bits(&straight),
+            "consistent {consistent}: resumed on two threads"
+        );
+        let (force, friction) = last.unwrap();
+        assert!(
+            force > 0.0 && friction > 0.0,
+            "consistent {consistent}: the disks press and rub: {force}, {friction}"
+        );
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -450,6 +459,11 @@ fn contact_keys_and_the_schemes_it_works_with_are_checked_by_name() {
             "contact.pairs[0].bodies[1]",
         ),
         ("[contact]\nrigid = [\"ramp\"]", "contact.rigid[0]"),
+        ("[contact]\nstabilization = \"ghost\"", "stabilization"),
+        (
+            "[contact]\nstabilization = { ghost_penalty = { gamma = -1.0 } }",
+            "contact.stabilization",
+        ),
         (
             "[contact]\n[[contact.pairs]]\nbodies = [\"block\", \"floor\"]\nnormal = \"wall\"",
             "contact.pairs[0].normal",

@@ -27,6 +27,10 @@ pub struct ContactSpec {
     /// in cells, or `"off"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub separation: Option<SeparationSpec>,
+    /// The stabilisation of each body's own consistent mass (`"ghost_penalty"` by default;
+    /// [`crate::contact::Contact::stabilization`]), as `schemes.mass.stabilization` is written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stabilization: Option<crate::mass::Stabilization>,
 }
 
 /// `[contact] separation`: `"kernel"`, `"off"`, or a cutoff in cells.
@@ -113,6 +117,7 @@ impl Scene {
                 Some(SeparationSpec::Cutoff(v)) => crate::contact::Separation::Cutoff(*v),
                 _ => crate::contact::Separation::Kernel,
             },
+            stabilization: c.stabilization.unwrap_or(crate::contact::DEFAULT_STABILIZATION),
         }
     }
 

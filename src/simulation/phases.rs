@@ -14,7 +14,7 @@ use crate::kernels::{
     self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState, P2gTerms,
     ParticleSums, Stress, StressInput, StressOutput, StressPartials, StressSums,
 };
-use crate::mass::{series_velocity_into, GridMass, MassScheme, Role, SolveReport};
+use crate::mass::{series_velocity_into, GridMass, MassOptions, MassScheme, Role, SolveReport};
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::schemes::StressFrom;
@@ -207,6 +207,21 @@ pub(super) fn prepare_mass(
     p: &Particles,
     mass: &mut GridMass,
 ) -> Result<()> {
+    prepare_mass_with(setup, options, plan, &plan.mass, ops, each, p, mass)
+}
+
+/// [`prepare_mass`] with the mass options `choice` (a body's own mass under contact).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn prepare_mass_with(
+    setup: &Setup,
+    options: &Options,
+    plan: &StepPlan,
+    choice: &MassOptions,
+    ops: &Operators,
+    each: &[Operators; 2],
+    p: &Particles,
+    mass: &mut GridMass,
+) -> Result<()> {
     let (mirror, slip, workers) = (&setup.prescribed.mirror, &setup.prescribed.slip, &setup.workers);
     let constraints = &setup.prescribed.constraints;
     let span = if mirror.is_empty() && slip.is_empty() {
@@ -216,10 +231,10 @@ pub(super) fn prepare_mass(
     };
     let _ = options;
     if slip.is_empty() || lumped_only(plan) {
-        return mass.prepare_with(ops, &p.mass, &plan.mass, constraints, span, workers);
+        return mass.prepare_with(ops, &p.mass, choice, constraints, span, workers);
     }
     let [x, y] = each;
-    mass.prepare_components([x, y], &p.mass, &plan.mass, constraints, span, workers)
+    mass.prepare_components([x, y], &p.mass, choice, constraints, span, workers)
 }
 
 /// (6)–(8b) and XPIC/FMPM's series velocity (USF: the stress update after (6)); the

@@ -22,7 +22,7 @@ use crate::error::Result;
 use crate::fields::VectorField;
 use crate::grid::Grid;
 use crate::kernels::{self, GridState, P2gTerms, Stress};
-use crate::mass::{GridMass, SolveOutcome, SolveReport};
+use crate::mass::{GridMass, MassOptions, SolveOutcome, SolveReport};
 use crate::operators::{Operator, Operators};
 use crate::particles::Particles;
 use crate::shape::ShapeFunction;
@@ -122,6 +122,12 @@ pub(super) fn prepare_layers(
     } = cache;
     let Layers { bodies, masks, .. } = layers;
     bodies.resize_with(setup.bodies.len(), || Layer::new(grid));
+    // Each body's own mass, stabilised as the contact options say.
+    let contact = setup.contact.as_ref().expect("contact phases run with contact");
+    let own = MassOptions {
+        stabilization: contact.stabilization,
+        ..plan.mass
+    };
     let terms = P2gTerms {
         apic: plan.apic,
         gravity: plan.gravity,
@@ -156,7 +162,7 @@ pub(super) fn prepare_layers(
                     centre.y[i] /= weight[i];
                 }
             }
-            super::phases::prepare_mass(setup, options, plan, ops, component_ops, p, mass)
+            super::phases::prepare_mass_with(setup, options, plan, &own, ops, component_ops, p, mass)
         })?;
     }
     Ok(())
