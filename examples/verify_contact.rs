@@ -6,19 +6,23 @@
 //! a solid disk rolls at `⅔ g sin θ` when `μ ≥ tan θ / 3` and slides at `g (sin θ − μ cos θ)`
 //! below. (The disk that should roll does, 6% slow: see docs/verification.md.)
 //!
-//! `cargo run --release --example verify_contact`
+//! `cargo run --release --example verify_contact` (both masses; `-- lumped` or `-- consistent`
+//! for one), `cargo run --release --example verify_contact -- rolling` (the rolling disk with 5,
+//! 10 and 20 cells across its radius).
 
 use sparse_mpm::scene::Scene;
 
 const G: f64 = 9.81;
 const END: f64 = 0.4;
 
-/// The block (0.1 × 0.05 m on 1 cm cells, E = 1 MPa, ρ = 1000), or a disk of radius 0.05 m, on a
-/// floor under gravity tilted by `theta` degrees (reaching its full value over `ramp` seconds).
-fn slope_scene(theta: f64, mu: f64, shape: &str, mass: &str, body: &str, ramp: f64, floor: Floor) -> String {
+/// The block (0.1 × 0.05 m, E = 1 MPa, ρ = 1000), or a disk of radius 0.05 m, on a floor under
+/// gravity tilted by `theta` degrees (reaching its full value over `ramp` seconds), on square
+/// cells of side `cell`.
+#[allow(clippy::too_many_arguments)]
+fn slope_scene(theta: f64, mu: f64, shape: &str, mass: &str, body: &str, ramp: f64, floor: Floor, cell: f64) -> String {
     let (s, c) = theta.to_radians().sin_cos();
-    let pad = if shape == "linear" { 0.0 } else { 0.02 };
-    let cells = |l: f64| ((l + 2.0 * pad) / 0.01_f64).round() as usize;
+    let pad = if shape == "linear" { 0.0 } else { 2.0 * cell };
+    let cells = |l: f64| ((l + 2.0 * pad) / cell).round() as usize;
     let geometry = if body == "disk" {
         "{ disk = { center = [0.1, 0.1], radius = 0.05 } }"
     } else {
@@ -26,9 +30,9 @@ fn slope_scene(theta: f64, mu: f64, shape: &str, mass: &str, body: &str, ramp: f
     };
     // On a wall, the grid's bottom edge is a slip wall with friction at y = 0.05: its innermost
     // node line (the second with quadratic B-splines, whose line beyond it the kernel reaches).
-    let below = if shape == "linear" { 0.0 } else { 0.01 };
+    let below = if shape == "linear" { 0.0 } else { cell };
     let (origin_y, ny) = match floor {
-        Floor::Wall => (0.05 - below, ((0.15 + below + pad) / 0.01_f64).round() as usize),
+        Floor::Wall => (0.05 - below, ((0.15 + below + pad) / cell).round() as usize),
         Floor::Rigid | Floor::Held => (-pad, cells(0.2)),
     };
     let rest = match floor {
@@ -60,7 +64,7 @@ friction = {mu}
         r#"
 [grid]
 origin = [{o}, {origin_y}]
-cell_size = [0.01, 0.01]
+cell_size = [{cell}, {cell}]
 cells = [{nx}, {ny}]
 [schemes]
 shape = "{shape}"
@@ -120,7 +124,41 @@ fn slide_path(scene: &str) -> sparse_mpm::error::Result<Vec<(f64, f64)>> {
     Ok(out)
 }
 
+/// The disk of [`slope_scene`] on a rigid floor (θ = 30°, μ = 0.3: it rolls) with 5, 10 and 20
+/// cells across its radius, lumped mass.
+fn rolling_against_resolution() -> sparse_mpm::error::Result<()> {
+    let exact = 2.0 / 3.0 * G * 30f64.to_radians().sin();
+    println!("a disk rolling (θ = 30°, μ = 0.3, rigid floor, lumped, to t = {END} s): ⅔ g sin θ = {exact:.4}");
+    println!(
+        "{:>18} {:>14} {:>10} {:>9}",
+        "shape", "cells/radius", "a fitted", "error"
+    );
+    for shape in ["linear", "quadratic_bspline"] {
+        for per_radius in [5.0, 10.0, 20.0] {
+            let scene = slope_scene(
+                30.0,
+                0.3,
+                shape,
+                "lumped",
+                "disk",
+                1e-9,
+                Floor::Rigid,
+                0.05 / per_radius,
+            );
+            let fitted = fit_acceleration(&slide_path(&scene)?);
+            println!(
+                "{shape:>18} {per_radius:>14} {fitted:>10.4} {:>8.1}%",
+                100.0 * (fitted / exact - 1.0)
+            );
+        }
+    }
+    Ok(())
+}
+
 fn main() -> sparse_mpm::error::Result<()> {
+    if std::env::args().nth(1).as_deref() == Some("rolling") {
+        return rolling_against_resolution();
+    }
     println!("on a floor under tilted gravity, to t = {END} s (1 cm cells, 2 × 2 particles per cell, MUSL, FLIP)");
     println!(
         "{:>6} {:>6} {:>5} {:>5} {:>18} {:>11} {:>10} {:>10} {:>10} {:>9}",
@@ -159,7 +197,7 @@ fn main() -> sparse_mpm::error::Result<()> {
         .flat_map(|m| ["linear", "quadratic_bspline"].map(|s| (m, s)))
     {
         for (floor, (body, theta, mu, a, ramp)) in runs.clone() {
-            let scene = slope_scene(theta, mu, shape, mass, body, f64::max(ramp, 1e-9), floor);
+            let scene = slope_scene(theta, mu, shape, mass, body, f64::max(ramp, 1e-9), floor, 0.01);
             let path = slide_path(&scene)?;
             let (t_end, x_end) = *path.last().unwrap();
             let exact = |t: f64| if ramp > 0.0 { 0.0 } else { 0.5 * a * t * t };

@@ -156,11 +156,11 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
         if !slip.is_empty() && !lumped_only(plan) {
             walls::component_operators(slip, grid, options.shape, p, ops, each);
         }
-        prepare_mass(setup, options, plan, ops, each, p, mass)
+        prepare_mass(setup, plan, &plan.mass, ops, each, p, mass)
     })?;
     if setup.contact.is_some() {
         timed(profile, Phase::Mass, || {
-            super::contact::prepare_layers(setup, options, plan, state, cache)
+            super::contact::prepare_layers(setup, plan, state, cache)
         })?;
     }
     // (The implicit integrator has no stable step to estimate.)
@@ -195,26 +195,12 @@ fn lumped_only(plan: &StepPlan) -> bool {
     plan.mass.velocity == MassScheme::Lumped && plan.mass.acceleration == MassScheme::Lumped
 }
 
-/// The grid mass of the particles `p` (whose `m_L` p2g left in `mass`) for the step's scheme:
-/// one matrix per component from the folded operators `each` when slip walls are mirrored
-/// (simulation/walls.rs), one matrix otherwise.
+/// The grid mass of the particles `p` (whose `m_L` p2g left in `mass`) with the mass options
+/// `choice` (the step's, or a body's own under contact): one matrix per component from the
+/// folded operators `each` when slip walls are mirrored (simulation/walls.rs), one matrix
+/// otherwise.
 pub(super) fn prepare_mass(
     setup: &Setup,
-    options: &Options,
-    plan: &StepPlan,
-    ops: &Operators,
-    each: &[Operators; 2],
-    p: &Particles,
-    mass: &mut GridMass,
-) -> Result<()> {
-    prepare_mass_with(setup, options, plan, &plan.mass, ops, each, p, mass)
-}
-
-/// [`prepare_mass`] with the mass options `choice` (a body's own mass under contact).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn prepare_mass_with(
-    setup: &Setup,
-    options: &Options,
     plan: &StepPlan,
     choice: &MassOptions,
     ops: &Operators,
@@ -229,7 +215,6 @@ pub(super) fn prepare_mass_with(
     } else {
         0..ops.num_nodes()
     };
-    let _ = options;
     if slip.is_empty() || lumped_only(plan) {
         return mass.prepare_with(ops, &p.mass, choice, constraints, span, workers);
     }

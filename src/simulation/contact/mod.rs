@@ -105,13 +105,7 @@ fn unmask(p: &mut Particles, masks: &mut [Vec<f64>; 2]) {
 }
 
 /// (2)–(5) and the grid mass of every body, after the operators' assembly.
-pub(super) fn prepare_layers(
-    setup: &Setup,
-    options: &Options,
-    plan: &StepPlan,
-    state: &mut State,
-    cache: &mut Cache,
-) -> Result<()> {
+pub(super) fn prepare_layers(setup: &Setup, plan: &StepPlan, state: &mut State, cache: &mut Cache) -> Result<()> {
     let (grid, workers) = (&setup.grid, &setup.workers);
     let (mirror, slip) = (&setup.prescribed.mirror, &setup.prescribed.slip);
     let Cache {
@@ -162,7 +156,7 @@ pub(super) fn prepare_layers(
                     centre.y[i] /= weight[i];
                 }
             }
-            super::phases::prepare_mass_with(setup, options, plan, &own, ops, component_ops, p, mass)
+            super::phases::prepare_mass(setup, plan, &own, ops, component_ops, p, mass)
         })?;
     }
     Ok(())
