@@ -5,9 +5,6 @@
 
 use std::borrow::Cow;
 
-use nalgebra::{DMatrix, DMatrixView};
-use nalgebra_sparse::ops::serial::spmm_csc_dense;
-use nalgebra_sparse::ops::Op;
 use nalgebra_sparse::CscMatrix;
 
 use super::options::{MassOptions, MassScheme, SingularityPolicy};
@@ -68,17 +65,19 @@ impl<'a> MassOperator<'a> {
     }
 }
 
-/// `y = M x` by nalgebra-sparse's product of a compressed-column matrix and a dense vector.
+/// `y = M x` for a compressed-column matrix, column by column (`y_i += M_ik x_k` over the
+/// stored entries of column `k`, in their order: the order of nalgebra-sparse's product of a
+/// compressed-column matrix and a dense vector, so the same bits, without its per-entry views).
 pub(crate) fn csc_times(m: &CscMatrix<f64>, x: &[f64]) -> Vec<f64> {
-    let mut y = DMatrix::zeros(m.nrows(), 1);
-    spmm_csc_dense(
-        0.0,
-        &mut y,
-        1.0,
-        Op::NoOp(m),
-        Op::NoOp(DMatrixView::from_slice(x, x.len(), 1)),
-    );
-    y.data.into()
+    assert_eq!(x.len(), m.ncols(), "vector length must equal the matrix's column count");
+    let mut y = vec![0.0; m.nrows()];
+    let (offsets, rows, values) = (m.col_offsets(), m.row_indices(), m.values());
+    for (k, &xk) in x.iter().enumerate() {
+        for e in offsets[k]..offsets[k + 1] {
+            y[rows[e]] += values[e] * xk;
+        }
+    }
+    y
 }
 
 /// `d_I = max(m_L,I, M_II)`: the lumped mass where it bounds the diagonal (the consistent
