@@ -8,7 +8,8 @@
 //!
 //! `cargo run --release --example verify_contact` (both masses; `-- lumped` or `-- consistent`
 //! for one), `cargo run --release --example verify_contact -- rolling` (the rolling disk with 5,
-//! 10 and 20 cells across its radius).
+//! 10 and 20 cells across its radius), `-- disks` (the two disks of
+//! `scenes/two_disks_contact.toml` with each mass).
 
 use sparse_mpm::scene::Scene;
 
@@ -155,9 +156,57 @@ fn rolling_against_resolution() -> sparse_mpm::error::Result<()> {
     Ok(())
 }
 
+/// The two disks of `scenes/two_disks_contact.toml` (frictionless) with each mass and each
+/// body's own stabilisation: their energy when they part, its least value, at the end, and the
+/// largest momentum component of the pair.
+fn disks_with_each_mass() -> sparse_mpm::error::Result<()> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/two_disks_contact.toml");
+    let text = std::fs::read_to_string(path).expect("the shipped scene");
+    println!("the two disks in frictionless contact: energy against the start");
+    println!(
+        "{:>12} {:>16} {:>9} {:>9} {:>9} {:>10}",
+        "mass", "stabilization", "parting", "least", "end", "momentum"
+    );
+    for (mass, stabilization) in [
+        ("lumped", "ghost_penalty"),
+        ("consistent", "ghost_penalty"),
+        ("consistent", "partial_lumping"),
+        ("consistent", "linear_extension"),
+        ("cg", "ghost_penalty"),
+        ("blended:0.5", "ghost_penalty"),
+        ("series:8", "ghost_penalty"),
+    ] {
+        let scene = text
+            .replace(
+                "mass = { velocity = \"lumped\", acceleration = \"lumped\" }",
+                &format!("mass = {{ velocity = \"{mass}\", acceleration = \"{mass}\" }}"),
+            )
+            .replace("friction = 0.0", &format!("friction = 0.0\nstabilization = \"{stabilization}\""));
+        let mut scene = Scene::from_toml_str(&scene)?;
+        scene.output = Default::default();
+        let mut sim = scene.build()?;
+        let (mut history, mut momentum) = (Vec::new(), 0.0_f64);
+        sim.run_until(scene.time.end, |_, r| {
+            history.push((r.contact_force, r.total_energy));
+            momentum = momentum.max(r.momentum[0].abs()).max(r.momentum[1].abs());
+            Ok(())
+        })?;
+        // Parting: the first report after the last one with a contact force.
+        let e0 = history[0].1;
+        let after = history.iter().rposition(|(f, _)| *f > 0.0).map_or(history.len(), |k| k + 1);
+        let parted = history.get(after).map_or(f64::NAN, |(_, e)| e / e0);
+        let least = history.iter().map(|(_, e)| e / e0).fold(f64::INFINITY, f64::min);
+        let last = history.last().map_or(f64::NAN, |(_, e)| e / e0);
+        println!("{mass:>12} {stabilization:>16} {parted:>9.4} {least:>9.4} {last:>9.4} {momentum:>10.1e}");
+    }
+    Ok(())
+}
+
 fn main() -> sparse_mpm::error::Result<()> {
-    if std::env::args().nth(1).as_deref() == Some("rolling") {
-        return rolling_against_resolution();
+    match std::env::args().nth(1).as_deref() {
+        Some("rolling") => return rolling_against_resolution(),
+        Some("disks") => return disks_with_each_mass(),
+        _ => {}
     }
     println!("on a floor under tilted gravity, to t = {END} s (1 cm cells, 2 × 2 particles per cell, MUSL, FLIP)");
     println!(

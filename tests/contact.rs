@@ -325,22 +325,20 @@ fn with_the_consistent_mass_a_block_slides_at_the_closed_form_and_sticks_inside_
     assert!(most < 1e-4, "the block that should stick moved {most:.3e} m");
 }
 
-/// The total energy when the disks of `scene` part (the first report without a contact force
-/// after one with), against the start, and the largest momentum component of the pair.
+/// The total energy when the disks of `scene` part (the first report after the last one with a
+/// contact force), against the start, and the largest momentum component of the pair.
 fn parting(scene: &Scene) -> (f64, f64) {
     let mut sim = scene.build().unwrap();
-    let (mut first, mut parted, mut touched, mut momentum) = (None, None, false, 0.0_f64);
+    let (mut history, mut momentum) = (Vec::new(), 0.0_f64);
     sim.run_until(scene.time.end, |_, r| {
-        first.get_or_insert(r.total_energy);
-        touched |= r.contact_force > 0.0;
-        if touched && r.contact_force == 0.0 {
-            parted.get_or_insert(r.total_energy);
-        }
+        history.push((r.contact_force, r.total_energy));
         momentum = momentum.max(r.momentum[0].abs()).max(r.momentum[1].abs());
         Ok(())
     })
     .unwrap();
-    (parted.expect("the disks part") / first.unwrap(), momentum)
+    let last_contact = history.iter().rposition(|(f, _)| *f > 0.0).expect("the disks meet");
+    let (_, parted) = history.get(last_contact + 1).expect("the disks part");
+    (parted / history[0].1, momentum)
 }
 
 #[test]
