@@ -181,7 +181,10 @@ fn disks_with_each_mass() -> sparse_mpm::error::Result<()> {
                 "mass = { velocity = \"lumped\", acceleration = \"lumped\" }",
                 &format!("mass = {{ velocity = \"{mass}\", acceleration = \"{mass}\" }}"),
             )
-            .replace("friction = 0.0", &format!("friction = 0.0\nstabilization = \"{stabilization}\""));
+            .replace(
+                "friction = 0.0",
+                &format!("friction = 0.0\nstabilization = \"{stabilization}\""),
+            );
         let mut scene = Scene::from_toml_str(&scene)?;
         scene.output = Default::default();
         let mut sim = scene.build()?;
@@ -193,7 +196,10 @@ fn disks_with_each_mass() -> sparse_mpm::error::Result<()> {
         })?;
         // Parting: the first report after the last one with a contact force.
         let e0 = history[0].1;
-        let after = history.iter().rposition(|(f, _)| *f > 0.0).map_or(history.len(), |k| k + 1);
+        let after = history
+            .iter()
+            .rposition(|(f, _)| *f > 0.0)
+            .map_or(history.len(), |k| k + 1);
         let parted = history.get(after).map_or(f64::NAN, |(_, e)| e / e0);
         let least = history.iter().map(|(_, e)| e / e0).fold(f64::INFINITY, f64::min);
         let last = history.last().map_or(f64::NAN, |(_, e)| e / e0);

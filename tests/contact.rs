@@ -222,6 +222,31 @@ fn frictionless_disks_part_with_their_energy_and_the_pair_keeps_its_momentum() {
     }
 }
 
+#[test]
+fn a_rigid_floor_moving_under_a_block_drags_it_up_to_its_own_speed_with_either_mass() {
+    // The floor at V = 0.1 m/s under a block at rest, μ = 0.5: kinetic friction accelerates the
+    // block at μ g until it moves with the floor (t* = V / μ g ≈ 0.02 s), so at T = 0.1 s it has
+    // gone V T − V² / (2 μ g). Through the consistent mass, a moving rigid body enters the
+    // pairs' coupling as no response of its own.
+    let (v, mu, end) = (0.1, 0.5, 0.1);
+    let exact = v * end - v * v / (2.0 * mu * G);
+    for consistent in [false, true] {
+        let mut scene = slope(0.0, mu, "linear", true, 1e-9, end).replace(
+            "geometry = { rectangle = { min = [0.0, 0.0], max = [0.6, 0.05] } }",
+            "geometry = { rectangle = { min = [0.0, 0.0], max = [0.5, 0.05] } }\nvelocity = [0.1, 0.0]",
+        );
+        if consistent {
+            scene = with_consistent_mass(&scene, "");
+        }
+        let path = slide(&scene);
+        let (_, x) = *path.last().unwrap();
+        assert!(
+            (x - exact).abs() < 0.02 * exact,
+            "consistent {consistent}: the block went {x} against {exact}"
+        );
+    }
+}
+
 /// A solid disk of radius 0.05 m on 0.5 cm cells (10 across its radius; linear, lumped, FLIP,
 /// MUSL) on a rigid floor under gravity tilted by 30°, set down over 0.05 s.
 fn disk_on_a_slope(mu: f64, end: f64) -> String {

@@ -108,7 +108,7 @@ pub(super) fn correct_through_mass(
             if cx.stage == Stage::Force {
                 // Friction's work over the step: its impulse against the slip that remains.
                 let t = [lambda[0] - normal * n[0], lambda[1] - normal * n[1]];
-                let [ua, ub] = solver.pair_velocities(&velocities, e);
+                let [ua, ub] = solver.pair_velocities(&velocities, e, false);
                 tally.friction -= t[0] * (ua[0] - ub[0]) + t[1] * (ua[1] - ub[1]);
             }
             if let Some(touching) = record.as_deref_mut() {
@@ -223,12 +223,14 @@ impl<'a> Solver<'a> {
         self.respond(impulses, true)
     }
 
-    /// The velocities of the pair `e` at its node from the involved bodies' `fields` (a rigid
-    /// body's from its own field, a wall at rest).
-    fn pair_velocities(&self, fields: &[VectorField], e: &Entry) -> [[f64; 2]; 2] {
+    /// The velocities of the pair `e` at its node, the involved bodies' from `fields` (a rigid
+    /// body's its own, a wall at rest); or, for `response` fields (`M_b⁻¹ J_b` alone), the
+    /// involved bodies' responses and 0 for the others.
+    fn pair_velocities(&self, fields: &[VectorField], e: &Entry, response: bool) -> [[f64; 2]; 2] {
         let i = e.c.node;
         let of = |k: usize, own: [f64; 2]| match self.involved.binary_search(&k) {
             Ok(slot) => [fields[slot].x[i], fields[slot].y[i]],
+            Err(_) if response => [0.0; 2],
             Err(_) => own,
         };
         let [a, b] = e.c.bodies;
@@ -237,13 +239,13 @@ impl<'a> Solver<'a> {
         [ua, ub]
     }
 
-    /// `m̃_e (u_b − u_a)(i_e)` of every pair: the lumped correction the velocities `fields`
-    /// still ask for.
-    fn wanted(&self, fields: &[VectorField]) -> Vec<[f64; 2]> {
+    /// `m̃_e (u_b − u_a)(i_e)` of every pair ([`Solver::pair_velocities`]): the lumped
+    /// correction the velocities `fields` still ask for.
+    fn wanted(&self, fields: &[VectorField], response: bool) -> Vec<[f64; 2]> {
         self.entries
             .iter()
             .map(|e| {
-                let [ua, ub] = self.pair_velocities(fields, e);
+                let [ua, ub] = self.pair_velocities(fields, e, response);
                 [e.reduced * (ub[0] - ua[0]), e.reduced * (ub[1] - ua[1])]
             })
             .collect()
@@ -261,7 +263,7 @@ impl<'a> Solver<'a> {
             }
             let du = self.respond(&x, false)?;
             // `m̃ W x`: the relative velocity `u_a − u_b` the impulses `x` give, times `m̃`.
-            let y: Vec<[f64; 2]> = self.wanted(&du).into_iter().map(|w| [-w[0], -w[1]]).collect();
+            let y: Vec<[f64; 2]> = self.wanted(&du, true).into_iter().map(|w| [-w[0], -w[1]]).collect();
             let ny = norm(&y);
             lambda = ny / nx;
             if ny == 0.0 || !ny.is_finite() {
@@ -288,7 +290,7 @@ impl<'a> Solver<'a> {
                 .zip(&previous)
                 .map(|(l, p)| [l[0] + beta * (l[0] - p[0]), l[1] + beta * (l[1] - p[1])])
                 .collect();
-            let wanted = self.wanted(&self.velocities(&y)?);
+            let wanted = self.wanted(&self.velocities(&y)?, false);
             let next: Vec<[f64; 2]> = self
                 .entries
                 .iter()
@@ -340,7 +342,7 @@ impl<'a> Solver<'a> {
             let du = self.respond(&x, false)?;
             x[col / 2] = [0.0; 2];
             for (f, e) in self.entries.iter().enumerate() {
-                let [ua, ub] = self.pair_velocities(&du, e);
+                let [ua, ub] = self.pair_velocities(&du, e, true);
                 let rel = [ua[0] - ub[0], ua[1] - ub[1]];
                 w[col * size + 2 * f] = dot(rel, dirs[f][0]);
                 w[col * size + 2 * f + 1] = dot(rel, dirs[f][1]);
@@ -349,7 +351,7 @@ impl<'a> Solver<'a> {
         // r = (u_b − u_a) along each direction, at Λ = 0.
         let mut r = vec![0.0; size];
         for (f, e) in self.entries.iter().enumerate() {
-            let [ua, ub] = self.pair_velocities(&self.start, e);
+            let [ua, ub] = self.pair_velocities(&self.start, e, false);
             let rel = [ub[0] - ua[0], ub[1] - ua[1]];
             r[2 * f] = dot(rel, dirs[f][0]);
             r[2 * f + 1] = dot(rel, dirs[f][1]);
