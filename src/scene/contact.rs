@@ -27,7 +27,7 @@ pub struct ContactSpec {
     /// in cells, or `"off"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub separation: Option<SeparationSpec>,
-    /// The stabilisation of each body's own consistent mass (`"ghost_penalty"` by default;
+    /// The stabilisation of each body's own consistent mass (`"partial_lumping"` by default;
     /// [`crate::contact::Contact::stabilization`]), as `schemes.mass.stabilization` is written.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stabilization: Option<crate::mass::Stabilization>,
