@@ -1,15 +1,16 @@
 //! Contact against closed forms ([`sparse_mpm::contact`]).
 //!
-//! A block, and a disk, on a rigid floor under gravity tilted by θ (the floor a body of
-//! prescribed, zero velocity, each meeting it through its own grid field). The block's centre
-//! of mass follows `x(t) = ½ g (sin θ − μ cos θ) t²` when `tan θ > μ` and stays put otherwise;
-//! a solid disk rolls at `⅔ g sin θ` when `μ ≥ tan θ / 3` and slides at `g (sin θ − μ cos θ)`
-//! below. (The disk that should roll does, 6% slow: see docs/verification.md.)
+//! A block, and a disk, on a floor under gravity tilted by θ: a rigid body at rest, an elastic
+//! slab held at its base, or the grid's bottom edge as a slip wall with friction, each meeting
+//! the body through its own grid field. The block's centre of mass follows
+//! `x(t) = ½ g (sin θ − μ cos θ) t²` when `tan θ > μ` and stays put otherwise; a solid disk
+//! rolls at `⅔ g sin θ` when `μ ≥ tan θ / 3` and slides at `g (sin θ − μ cos θ)` below. (With 5
+//! cells across its radius, as in the table, the rolling disk is 4 to 7% slow; with 10 or more
+//! it is within 2%: `-- rolling`, docs/verification.md.)
 //!
 //! `cargo run --release --example verify_contact` (both masses and shapes; `-- consistent
-//! linear` for one of each), `cargo run --release --example verify_contact -- rolling` (the rolling disk with 5,
-//! 10 and 20 cells across its radius), `-- disks` (the two disks of
-//! `scenes/two_disks_contact.toml` with each mass).
+//! linear` for one of each), `-- rolling` (the rolling disk with 5, 10 and 20 cells across its
+//! radius), `-- disks` (the two disks of `scenes/two_disks_contact.toml` with each mass).
 
 use sparse_mpm::scene::Scene;
 
