@@ -30,45 +30,17 @@ def test_run_equals_mpm_run_report(name, root, run_mpm, tmp_path):
     assert sim.time == expected["time"][-1]
 
 
-def test_contact_from_a_dict(root):
-    """A block on a rigid ramp under tilted gravity slides at g (sin θ − μ cos θ)."""
+@pytest.mark.parametrize("mass, end", [("lumped", 0.3), ("consistent", 0.15)])
+def test_contact_from_a_dict(mass, end):
+    """A block on a rigid ramp under tilted gravity slides at g (sin θ − μ cos θ), with the
+    lumped mass and with the consistent one (the contact impulses solved through the block's
+    mass, its own stabilised as [contact] says)."""
     theta, mu, g = np.radians(30.0), 0.3, 9.81
     elastic = {"model": "linear_elastic", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "plane": "strain"}
     scene = {
         "grid": {"origin": [0.0, 0.0], "cell_size": [0.01, 0.01], "cells": [60, 20]},
-        "time": {"end": 0.3, "cfl": 0.4},
-        "loads": {"gravity": [g * np.sin(theta), -g * np.cos(theta)]},
-        "bodies": [
-            {"name": "block", "material": elastic, "density": 1000.0,
-             "geometry": {"rectangle": {"min": [0.05, 0.05], "max": [0.15, 0.1]}}},
-            {"name": "ramp", "material": elastic, "density": 1000.0,
-             "geometry": {"rectangle": {"min": [0.0, 0.0], "max": [0.6, 0.05]}}},
-        ],
-        "contact": {"friction": mu, "rigid": ["ramp"]},
-    }
-    sim = mpm.Simulation.from_dict(scene)
-    p = sim.particles()
-    block = p["body"] == 0
-    x0 = (p["mass"] * p["x"])[block].sum() / p["mass"][block].sum()
-    report = sim.run()
-    p = sim.particles()
-    x1 = (p["mass"] * p["x"])[block].sum() / p["mass"][block].sum()
-    exact = 0.5 * g * (np.sin(theta) - mu * np.cos(theta)) * sim.time**2
-    assert abs((x1 - x0) - exact) < 0.02 * exact
-    assert report["contact_force"][-1] > 0 and report["friction_dissipation"][-1] > 0
-    with pytest.raises(mpm.MpmError, match="contact.rigid"):
-        mpm.Simulation.from_dict({**scene, "contact": {"rigid": ["floor"]}})
-
-
-def test_contact_with_the_consistent_mass_from_a_dict():
-    """The block on its rigid ramp with the consistent mass: the contact impulses solved through
-    its mass (its own stabilised as [contact] says) keep g (sin θ − μ cos θ)."""
-    theta, mu, g = np.radians(30.0), 0.3, 9.81
-    elastic = {"model": "linear_elastic", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "plane": "strain"}
-    scene = {
-        "grid": {"origin": [0.0, 0.0], "cell_size": [0.01, 0.01], "cells": [60, 20]},
-        "schemes": {"mass": {"velocity": "consistent", "acceleration": "consistent"}},
-        "time": {"end": 0.15, "cfl": 0.4},
+        "schemes": {"mass": {"velocity": mass, "acceleration": mass}},
+        "time": {"end": end, "cfl": 0.4},
         "loads": {"gravity": [g * np.sin(theta), -g * np.cos(theta)]},
         "bodies": [
             {"name": "block", "material": elastic, "density": 1000.0,
@@ -87,7 +59,9 @@ def test_contact_with_the_consistent_mass_from_a_dict():
     x1 = (p["mass"] * p["x"])[block].sum() / p["mass"][block].sum()
     exact = 0.5 * g * (np.sin(theta) - mu * np.cos(theta)) * sim.time**2
     assert abs((x1 - x0) - exact) < 0.02 * exact
-    assert report["contact_force"][-1] > 0
+    assert report["contact_force"][-1] > 0 and report["friction_dissipation"][-1] > 0
+    with pytest.raises(mpm.MpmError, match="contact.rigid"):
+        mpm.Simulation.from_dict({**scene, "contact": {"rigid": ["floor"]}})
     with pytest.raises(mpm.MpmError, match="stabilization"):
         mpm.Simulation.from_dict({**scene, "contact": {"rigid": ["ramp"], "stabilization": "ghost"}})
 
