@@ -26,27 +26,36 @@ pub const MAX_SPEED: f64 = 1e12;
 /// particle) and, from the same list, the views the sort's permutation, `append`, the checks and
 /// the checkpoint record take: a new particle field is one line here.
 macro_rules! particle_fields {
-    (real { $($(#[$doc:meta])* $real:ident,)* } index { $($(#[$idoc:meta])* $index:ident,)* }) => {
+    (
+        real { $($(#[$doc:meta])* $real:ident,)* }
+        state { $($(#[$sdoc:meta])* $state:ident,)* }
+        index { $($(#[$idoc:meta])* $index:ident,)* }
+    ) => {
         /// The state of all particles. Fields are public so a program can read and set them
         /// directly; [`Particles::validate`] checks a state built by hand.
         #[derive(Debug, Clone, PartialEq, Default)]
         pub struct Particles {
             $($(#[$doc])* pub $real: Vec<f64>,)*
+            $($(#[$sdoc])* pub $state: Vec<f64>,)*
             $($(#[$idoc])* pub $index: Vec<usize>,)*
         }
 
-        /// The number of real-valued particle fields.
-        pub(crate) const REAL_FIELDS: usize = [$(stringify!($real)),*].len();
+        /// The number of real-valued particle fields (the plastic state's among them).
+        pub(crate) const REAL_FIELDS: usize = [$(stringify!($real)),* $(, stringify!($state))*].len();
+
+        /// The names of the plastic state's fields: empty vectors unless a body is plastic.
+        pub(crate) const STATE_FIELDS: [&str; [$(stringify!($state)),*].len()] = [$(stringify!($state)),*];
 
         impl Particles {
-            /// Each real-valued field with its name, in the list's order.
+            /// Each real-valued field with its name, in the list's order (the plastic state's
+            /// last).
             pub(crate) fn fields(&self) -> [(&'static str, &Vec<f64>); REAL_FIELDS] {
-                [$((stringify!($real), &self.$real)),*]
+                [$((stringify!($real), &self.$real),)* $((stringify!($state), &self.$state)),*]
             }
 
             /// [`Particles::fields`], to write.
             pub(crate) fn fields_mut(&mut self) -> [(&'static str, &mut Vec<f64>); REAL_FIELDS] {
-                [$((stringify!($real), &mut self.$real)),*]
+                [$((stringify!($real), &mut self.$real),)* $((stringify!($state), &mut self.$state)),*]
             }
 
             /// Each index field (body, id), in the list's order.
@@ -105,6 +114,21 @@ particle_fields! {
         /// APIC moment `B_yy`.
         affine_yy,
     }
+    state {
+        /// The equivalent plastic strain `ε̄ᵖ` of an elastoplastic body's particle
+        /// ([`crate::material::hencky`]); this and the four fields after it are empty unless
+        /// a body is elastoplastic (then every particle has them, zero for the others).
+        plastic_strain,
+        /// The elastic logarithmic strain `ε_e = ½ ln(F_e F_eᵀ)`, `xx` (the elastic part of the
+        /// deformation, up to its rotation).
+        elastic_xx,
+        /// `ε_e,yy`.
+        elastic_yy,
+        /// `ε_e,xy` (tensor shear).
+        elastic_xy,
+        /// `ε_e,zz`, out of the plane.
+        elastic_zz,
+    }
     index {
         /// Index of the body (material) the particle belongs to.
         body,
@@ -115,6 +139,49 @@ particle_fields! {
 }
 
 impl Particles {
+    /// Gives every particle a plastic state (zero: no plastic strain, no elastic strain) if
+    /// it has none.
+    pub fn with_plastic_state(&mut self) {
+        let n = self.len();
+        for field in self.plastic_state_mut() {
+            if field.is_empty() {
+                field.resize(n, 0.0);
+            }
+        }
+    }
+
+    /// Whether the particles carry a plastic state.
+    pub fn has_plastic_state(&self) -> bool {
+        !self.plastic_strain.is_empty()
+    }
+
+    /// The plastic state's fields `[ε̄ᵖ, ε_e,xx, ε_e,yy, ε_e,xy, ε_e,zz]`, to write.
+    pub(crate) fn plastic_state_mut(&mut self) -> [&mut Vec<f64>; 5] {
+        [
+            &mut self.plastic_strain,
+            &mut self.elastic_xx,
+            &mut self.elastic_yy,
+            &mut self.elastic_xy,
+            &mut self.elastic_zz,
+        ]
+    }
+
+    /// The plastic state of particle `p` (zero when the particles carry none).
+    pub fn plastic_state(&self, p: usize) -> crate::material::PlasticState {
+        if !self.has_plastic_state() {
+            return crate::material::PlasticState::default();
+        }
+        crate::material::PlasticState {
+            elastic_strain: [
+                self.elastic_xx[p],
+                self.elastic_yy[p],
+                self.elastic_xy[p],
+                self.elastic_zz[p],
+            ],
+            plastic_strain: self.plastic_strain[p],
+        }
+    }
+
     /// Particles at `(x[p], y[p])` with mass `mass[p]` and volume `volume[p]`, at rest,
     /// stress-free and without body force.
     ///
@@ -138,8 +205,10 @@ impl Particles {
             ..Particles::default()
         };
         // The rest start at zero: at rest, stress-free, no body force or APIC moment.
-        for (_, field) in particles.fields_mut() {
-            field.resize(n, 0.0);
+        for (name, field) in particles.fields_mut() {
+            if !STATE_FIELDS.contains(&name) {
+                field.resize(n, 0.0);
+            }
         }
         particles.validate()?;
         Ok(particles)
@@ -236,6 +305,9 @@ impl Particles {
     pub fn validate(&self) -> Result<()> {
         let n = self.len();
         for (name, field) in self.fields() {
+            if field.is_empty() && STATE_FIELDS.contains(&name) {
+                continue;
+            }
             check_len(name, n, field.len())?;
             if let Some(p) = field.iter().position(|v| !v.is_finite()) {
                 return Err(MpmError::InvalidParticleValue {
@@ -311,7 +383,13 @@ impl Particles {
     pub(crate) fn append_from(&mut self, mut other: Particles, next: usize) -> Result<()> {
         other.validate()?;
         other.id.iter_mut().for_each(|i| *i += next);
+        let (n, m) = (self.len(), other.len());
         for ((_, a), (_, b)) in self.fields_mut().into_iter().zip(other.fields_mut()) {
+            // A plastic state on one side only: the other side's particles start at zero.
+            if a.is_empty() != b.is_empty() {
+                a.resize(n, 0.0);
+                b.resize(m, 0.0);
+            }
             a.append(b);
         }
         for (a, b) in self.index_fields_mut().into_iter().zip(other.index_fields_mut()) {
@@ -344,6 +422,9 @@ impl Particles {
         assert_eq!(len, n, "the order must list every particle once");
         scratch.resize(n, 0.0);
         for (_, field) in self.fields_mut() {
+            if field.is_empty() {
+                continue;
+            }
             for (k, s) in scratch.iter_mut().enumerate() {
                 *s = field[from(k)];
             }

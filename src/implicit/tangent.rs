@@ -26,9 +26,11 @@
 //! neo-Hookean:     F = F_inc F_n,  P(F) = μ F + (λ ln J − μ) F^{-T},   P̃ = P F_nᵀ / J_n
 //!                  𝔸_abce = (1/J_n) Σ_{B,D} A_aBcD (F_n)_bB (F_n)_eD,
 //!                  A_aBcD = ∂P_aB/∂F_cD = μ δ_ac δ_BD + λ F⁻¹_Ba F⁻¹_Dc + (μ − λ ln J) F⁻¹_Bc F⁻¹_Da
+//! elastoplastic:   P̃ = τ F_inc^{-T} / J_n,  τ the Kirchhoff stress of the return map from the
+//!                  step-start state (crate::material::hencky, with its exact derivative)
 //! ```
 //!
-//! Both tangents are exact derivatives of their forces (`tests/implicit.rs` compares them with
+//! All tangents are exact derivatives of their forces (`tests/implicit.rs` compares them with
 //! central differences for every kernel) and symmetric: the hyperelastic `A` has major symmetry.
 
 use nalgebra_sparse::{CooMatrix, CscMatrix};
@@ -141,6 +143,11 @@ pub fn particle_stress(
                 }
             }
             Ok((stress, tangent))
+        }
+        Material::VonMises(_) | Material::DruckerPrager(_) => {
+            let cone = material.cone().expect("an elastoplastic model has a cone");
+            let j_n = particles.fxx[p] * particles.fyy[p] - particles.fxy[p] * particles.fyx[p];
+            Ok(cone.relative_stress(&particles.plastic_state(p), h, j_n))
         }
     }
 }

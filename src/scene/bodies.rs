@@ -80,11 +80,17 @@ impl Scene {
         let mass = mass.unwrap_or_else(|| columns.volume.iter().map(|v| body.density * v).collect());
         let vx = or_zero(vx).iter().map(|v| v + body.velocity[0]).collect();
         let vy = or_zero(vy).iter().map(|v| v + body.velocity[1]).collect();
-        Particles::new(columns.x, columns.y, mass, columns.volume)
+        let mut p = Particles::new(columns.x, columns.y, mass, columns.volume)
             .and_then(|p| p.with_velocity(vx, vy))
             .and_then(|p| p.with_stress(or_zero(sxx), or_zero(syy), or_zero(sxy)))
             .and_then(|p| p.with_body_force(vec![body.body_force[0]; count], vec![body.body_force[1]; count]))
-            .map_err(|e| invalid(key("geometry"), e.to_string()))
+            .map_err(|e| invalid(key("geometry"), e.to_string()))?;
+        let g = [
+            self.loads.gravity[0] + body.body_force[0],
+            self.loads.gravity[1] + body.body_force[1],
+        ];
+        super::initial::apply(k, body, g, &mut p)?;
+        Ok(p)
     }
 }
 

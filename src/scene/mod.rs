@@ -73,12 +73,14 @@
 
 mod bodies;
 mod contact;
+pub mod initial;
 mod locate;
 mod overlap;
 mod particle_file;
 mod validate;
 
 pub use contact::{ContactSpec, NormalSpec, PairSpec, SeparationSpec};
+pub use initial::InitialStress;
 pub use overlap::{overlaps, Overlap, SceneWarning};
 
 use std::path::{Path, PathBuf};
@@ -337,6 +339,9 @@ pub struct BodySpec {
     #[serde(default)]
     #[serde(deserialize_with = "crate::pairs::exactly_two")]
     pub body_force: [f64; 2],
+    /// The initial stress ([`initial`]): `"geostatic"` or `{ geostatic = { k0 = … } }`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial_stress: Option<InitialStress>,
     /// Where the particles are.
     pub geometry: Geometry,
 }

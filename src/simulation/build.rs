@@ -85,7 +85,12 @@ impl Simulation {
         *mass.lumped_mut() = vec![0.0; grid.num_nodes()];
         let mut frequency_mode = Vec::new();
         let (density, mut state) = match resume {
-            None => (reference_densities(&particles, bodies.len()), State::start(particles)),
+            None => {
+                let mut particles = particles;
+                let materials: Vec<_> = bodies.iter().map(|b| b.material.prepared()).collect();
+                super::plastic::initial_state(&mut particles, &materials);
+                (reference_densities(&particles, bodies.len()), State::start(particles))
+            }
             Some(saved) => {
                 check_saved(&saved, grid.num_nodes(), bodies.len())?;
                 mass.set_lumped(saved.lumped);

@@ -60,6 +60,7 @@ mod newmark;
 mod options;
 mod phases;
 mod plan;
+mod plastic;
 mod profile;
 mod quasi_static;
 mod report;
@@ -114,6 +115,13 @@ struct Setup {
     workers: Workers,
 }
 
+impl Setup {
+    /// Whether a body is elastoplastic (its particles carry a plastic state).
+    fn is_plastic(&self) -> bool {
+        self.materials.iter().any(|m| m.plastic().is_some())
+    }
+}
+
 /// What the time loop advances, and a checkpoint holds.
 #[derive(Debug)]
 struct State {
@@ -142,6 +150,8 @@ struct Relaxation {
     damping_work: f64,
     /// The work of friction between bodies so far ([`crate::contact`]).
     friction_dissipation: f64,
+    /// The plastic dissipation so far ([`StepReport::plastic_dissipation`]).
+    plastic_dissipation: f64,
     /// The largest kinetic energy `½ Σ m_p |Nᵀw|²` of the run (the settling is measured
     /// against it).
     peak_kinetic: f64,

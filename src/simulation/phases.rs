@@ -314,8 +314,10 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
         }),
         motion: plan.motion,
     };
+    // Elastoplastic bodies take the update that carries their state, after the pass.
+    let plastic = setup.is_plastic();
     let fused = Fused {
-        stress: (stress_last == Some(StressFrom::Updated)).then_some(&setup.materials[..]),
+        stress: (stress_last == Some(StressFrom::Updated) && !plastic).then_some(&setup.materials[..]),
         moves: (stress_last != Some(StressFrom::Reprojected)).then_some(plan.gravity),
     };
     let (p, workers) = (&mut state.particles, &setup.workers);
@@ -362,6 +364,10 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
         keep_stress(&setup.bodies, state, stress)?;
     } else {
         scratch.g2p_blocks = blocks;
+    }
+    if stress_last == Some(StressFrom::Updated) && plastic {
+        timed(profile, Phase::Stress, || update_stress(setup, state, scratch, dt))?;
+        // (12)–(13)
     }
     if stress_last == Some(StressFrom::Reprojected) && setup.contact.is_some() {
         timed(profile, Phase::Stress, || {
@@ -574,6 +580,9 @@ fn move_particles(d: &VectorField, p: &mut Particles) {
 /// velocity gradient `L` of the particle scratch; the strain energy and the wave speed into
 /// `state`.
 pub(super) fn update_stress(setup: &Setup, state: &mut State, scratch: &mut Scratch, dt: f64) -> Result<()> {
+    if setup.is_plastic() {
+        return super::plastic::update_stress(setup, state, scratch, dt);
+    }
     let (l, blocks) = (&scratch.particle.velocity_gradient, &mut scratch.stress_blocks);
     let p = &mut state.particles;
     let input = StressInput {
@@ -602,7 +611,7 @@ pub(super) fn update_stress(setup: &Setup, state: &mut State, scratch: &mut Scra
 
 /// What the state keeps of a stress update: its strain energy and wave speed; the error of
 /// the first particle it inverted.
-fn keep_stress(bodies: &[Body], state: &mut State, stress: StressSums) -> Result<()> {
+pub(super) fn keep_stress(bodies: &[Body], state: &mut State, stress: StressSums) -> Result<()> {
     if let Some((k, det_increment, det_f)) = stress.inverted {
         return Err(inversion(bodies, state, k, det_increment, det_f));
     }

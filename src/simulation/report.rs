@@ -67,6 +67,12 @@ pub struct StepReport {
     /// friction_dissipation`, constant up to the transfers' share and the normal corrections'
     /// (an inelastic collision at each node where the bodies meet).
     pub friction_dissipation: f64,
+    /// The plastic dissipation so far, `Σ_steps Σ_p V₀_p τ_p : Δεᵖ_p`: the plastic work of the
+    /// return maps of elastoplastic bodies ([`crate::material::hencky`]; 0 for elastic
+    /// bodies). The energy balance of a plastic run is `total_energy +
+    /// plastic_dissipation (+ friction_dissipation + damping_work)`, constant up to the
+    /// transfers' share.
+    pub plastic_dissipation: f64,
     /// Whether a damped run has settled: the kinetic energy of the motion that moves the
     /// particles, `½ Σ_p m_p |(Nᵀ w)_p|²`, at most
     /// [`Damping::settled`](crate::damping::Damping::settled) times its largest so far (always
@@ -77,7 +83,7 @@ pub struct StepReport {
 
 impl StepReport {
     /// Column names of [`StepReport::values`], for a CSV header.
-    pub const COLUMNS: [&'static str; 29] = [
+    pub const COLUMNS: [&'static str; 30] = [
         "step",
         "time",
         "dt",
@@ -107,11 +113,12 @@ impl StepReport {
         "settled",
         "contact_force",
         "friction_dissipation",
+        "plastic_dissipation",
     ];
 
     /// The report as numbers, in the order of [`StepReport::COLUMNS`]. Outcomes are coded
     /// 0 = solved, 1 = fell back to lumped, 2 = regularized; the fallback node is −1 when none.
-    pub fn values(&self) -> [f64; 29] {
+    pub fn values(&self) -> [f64; 30] {
         let code = |r: &SolveReport| match r.outcome {
             SolveOutcome::Solved => 0.0,
             SolveOutcome::FellBackToLumped { .. } => 1.0,
@@ -153,6 +160,7 @@ impl StepReport {
             f64::from(u8::from(self.settled)),
             self.contact_force,
             self.friction_dissipation,
+            self.plastic_dissipation,
         ]
     }
 }
@@ -239,6 +247,7 @@ pub(super) fn report(
         damping_work: state.relaxation.damping_work,
         contact_force: cache.layers.force,
         friction_dissipation: state.relaxation.friction_dissipation,
+        plastic_dissipation: state.relaxation.plastic_dissipation,
         settled: false,
     })
 }

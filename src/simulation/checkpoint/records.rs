@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::boundary::{BoundaryCondition, Condition, Edge, WallRule};
 use crate::grid::{Grid, NodeOrder};
 use crate::mass::MassOptions;
-use crate::material::{LinearElastic, Material, NeoHookean};
+use crate::material::{DruckerPrager, LinearElastic, Material, NeoHookean, VonMises};
 use crate::particles::{Particles, REAL_FIELDS};
 use crate::schemes::PositionUpdate;
 use crate::shape::ShapeFunction;
@@ -72,6 +72,8 @@ pub(super) struct BodyRecord {
 pub(super) enum MaterialRecord {
     LinearElastic(LinearElastic),
     NeoHookean(NeoHookean),
+    VonMises(VonMises),
+    DruckerPrager(DruckerPrager),
 }
 
 /// The particles' fields in the order of their one list (`Particles::fields`): postcard
@@ -236,6 +238,8 @@ impl BodyRecord {
             material: match *material {
                 Material::LinearElastic(m) => MaterialRecord::LinearElastic(m),
                 Material::NeoHookean(m) => MaterialRecord::NeoHookean(m),
+                Material::VonMises(m) => MaterialRecord::VonMises(m),
+                Material::DruckerPrager(m) => MaterialRecord::DruckerPrager(m),
             },
         }
     }
@@ -246,6 +250,8 @@ impl BodyRecord {
             material: match self.material {
                 MaterialRecord::LinearElastic(m) => Material::LinearElastic(m),
                 MaterialRecord::NeoHookean(m) => Material::NeoHookean(m),
+                MaterialRecord::VonMises(m) => Material::VonMises(m),
+                MaterialRecord::DruckerPrager(m) => Material::DruckerPrager(m),
             },
         }
     }

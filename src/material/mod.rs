@@ -3,7 +3,11 @@
 //! - [`LinearElastic`]: isotropic Hooke's law in rate form on the small-strain increment,
 //!   plane stress or plane strain;
 //! - [`NeoHookean`]: compressible neo-Hookean hyperelasticity from the deformation gradient,
-//!   plane strain (`F_zz = 1`).
+//!   plane strain (`F_zz = 1`);
+//! - [`VonMises`]: J2 plasticity with linear isotropic hardening, and [`DruckerPrager`]:
+//!   pressure-dependent plasticity for soils and granular materials, both on Hencky elasticity
+//!   at finite strain ([`plastic`] for the return map and its tangent, [`hencky`] for the
+//!   update of the elastic log strain that each particle carries).
 //!
 //! [`Material`] is the choice between them that a simulation body carries: it gives the
 //! tangent, the strain energy and the wave speed that limits the time step; the time loop
@@ -13,6 +17,12 @@
 //! evaluation that the public accessors and the time loop's per-particle update share.
 
 use serde::{Deserialize, Serialize};
+
+pub mod hencky;
+pub mod plastic;
+
+pub use hencky::{PlasticState, Updated};
+pub use plastic::{Cone, DruckerPrager, Regime, Returned, VonMises};
 
 use crate::error::{MpmError, Result};
 use crate::fields::StrainRate;
@@ -419,6 +429,9 @@ pub(crate) enum Prepared {
     Linear(Hooke),
     /// Neo-Hookean: the Lamé parameters.
     NeoHookean(Lame),
+    /// An elastoplastic model: its cone and elastic constants (the update takes the particle's
+    /// plastic state, [`Cone::update`](plastic::Cone::update)).
+    Plastic(plastic::Cone),
 }
 
 impl Prepared {
@@ -428,6 +441,21 @@ impl Prepared {
         match self {
             Prepared::Linear(hooke) => hooke.tangent(),
             Prepared::NeoHookean(lame) => lame.at(f).tangent,
+            Prepared::Plastic(cone) => {
+                let j = f[0] * f[3] - f[1] * f[2];
+                let c11 = cone.c11();
+                let shear = cone.shear / j;
+                [c11 / j, c11 / j - 2.0 * shear, shear]
+            }
+        }
+    }
+
+    /// The cone of an elastoplastic model, if this is one.
+    #[inline]
+    pub(crate) fn plastic(&self) -> Option<&plastic::Cone> {
+        match self {
+            Prepared::Plastic(cone) => Some(cone),
+            _ => None,
         }
     }
 
@@ -460,6 +488,9 @@ impl Prepared {
                 let at = lame.at(f);
                 (at.stress, volume * at.inv_j * at.energy_density, at.tangent[0])
             }
+            // The step's plan sends the particles of elastoplastic bodies through the update
+            // that carries their state (`simulation::phases::update_stress`).
+            Prepared::Plastic(_) => unreachable!("an elastoplastic material's update takes its plastic state"),
         }
     }
 }
@@ -472,6 +503,10 @@ pub enum Material {
     LinearElastic(LinearElastic),
     /// Compressible neo-Hookean, plane strain.
     NeoHookean(NeoHookean),
+    /// von Mises (J2) plasticity with linear isotropic hardening.
+    VonMises(VonMises),
+    /// Drucker–Prager plasticity, plane strain.
+    DruckerPrager(DruckerPrager),
 }
 
 impl Material {
@@ -485,12 +520,32 @@ impl Material {
             Material::NeoHookean(m) => {
                 LinearElastic::new(m.youngs_modulus, m.poisson_ratio, PlaneCondition::Strain).map(|_| ())
             }
+            Material::VonMises(m) => m.validate(),
+            Material::DruckerPrager(m) => m.validate(),
+        }
+    }
+
+    /// Whether the model is elastoplastic (its particles carry a plastic state).
+    pub fn is_plastic(&self) -> bool {
+        matches!(self, Material::VonMises(_) | Material::DruckerPrager(_))
+    }
+
+    /// The cone of an elastoplastic model ([`plastic`]).
+    pub fn cone(&self) -> Option<plastic::Cone> {
+        match self {
+            Material::VonMises(m) => Some(m.cone()),
+            Material::DruckerPrager(m) => Some(m.cone()),
+            _ => None,
         }
     }
 
     /// The P-wave speed of the small-strain limit at reference density `ρ`, `c = √(C11/ρ)`
-    /// (plane strain `C11 = λ + 2μ` for neo-Hookean).
+    /// (plane strain `C11 = λ + 2μ` for neo-Hookean and the plastic models in plane strain,
+    /// `E/(1 − ν²)` in plane stress).
     pub fn wave_speed(&self, density: f64) -> f64 {
+        if let Some(cone) = self.cone() {
+            return (cone.c11() / density).sqrt();
+        }
         match self {
             Material::LinearElastic(m) => m.wave_speed(density),
             Material::NeoHookean(m) => LinearElastic {
@@ -499,6 +554,7 @@ impl Material {
                 plane: PlaneCondition::Strain,
             }
             .wave_speed(density),
+            Material::VonMises(_) | Material::DruckerPrager(_) => unreachable!("the cone's wave speed is above"),
         }
     }
 
@@ -509,6 +565,7 @@ impl Material {
     /// ```text
     /// linear elastic:  C11, C12, G of the material (independent of F)
     /// neo-Hookean:     C11 = (λ + 2μ')/J,  C12 = λ/J,  G = μ'/J,   μ' = μ − λ ln J,  J = det F
+    /// plastic:         C11 = C11ᵉ/J,  C12 = (C11ᵉ − 2μ)/J,  G = μ/J   (the elastic constants)
     /// ```
     ///
     /// (the neo-Hookean one without the initial-stress term). It sets the stiffness of the
@@ -522,6 +579,8 @@ impl Material {
         match self {
             Material::LinearElastic(m) => Prepared::Linear(m.hooke()),
             Material::NeoHookean(m) => Prepared::NeoHookean(m.constants()),
+            Material::VonMises(m) => Prepared::Plastic(m.cone()),
+            Material::DruckerPrager(m) => Prepared::Plastic(m.cone()),
         }
     }
 
@@ -531,9 +590,19 @@ impl Material {
     /// ```text
     /// linear elastic:  V · ½ σ : C⁻¹ σ
     /// neo-Hookean:     V₀ W(F),  V₀ = V / det F
+    /// plastic:         V₀ W(ε_e),  ε_e the elastic log strain of the Kirchhoff stress τ = J σ
     /// ```
+    ///
+    /// (for a plastic model `ε_e` as [`Cone::strain_of_stress`] has it, without out-of-plane
+    /// elastic strain in plane strain: a particle's [`PlasticState`] has the exact one).
     pub fn strain_energy(&self, volume: f64, sigma: [f64; 3], f: [f64; 4]) -> f64 {
         match self.prepared() {
+            Prepared::Plastic(cone) => {
+                let j = f[0] * f[3] - f[1] * f[2];
+                let [xx, yy, xy, zz] = cone.strain_of_stress(sigma.map(|s| s * j));
+                let (values, _) = hencky::principal([xx, yy, xy]);
+                volume / j * cone.energy_density([values[0], values[1], zz])
+            }
             Prepared::Linear(hooke) => volume * hooke.energy_density(sigma),
             Prepared::NeoHookean(lame) => {
                 let at = lame.at(f);
