@@ -2,7 +2,7 @@
 //! every kernel and material.
 
 use sparse_mpm::implicit::{gradient_operator, internal_force, internal_force_and_tangent};
-use sparse_mpm::material::{LinearElastic, Material, NeoHookean, PlaneCondition};
+use sparse_mpm::material::{DruckerPrager, LinearElastic, Material, NeoHookean, PlaneCondition, VonMises};
 use sparse_mpm::particles::lattice;
 use sparse_mpm::{Grid, Operators, Particles, ShapeFunction};
 
@@ -13,12 +13,27 @@ const SHAPES: [ShapeFunction; 4] = [
     ShapeFunction::CubicBSpline,
 ];
 
-fn materials() -> [Material; 2] {
+fn materials() -> [Material; 4] {
     [
         Material::LinearElastic(LinearElastic::new(1000.0, 0.3, PlaneCondition::Strain).unwrap()),
         Material::NeoHookean(NeoHookean {
             youngs_modulus: 1000.0,
             poisson_ratio: 0.3,
+        }),
+        // Yield near the states of `setup`: some particles return, some do not.
+        Material::VonMises(VonMises {
+            youngs_modulus: 1000.0,
+            poisson_ratio: 0.3,
+            yield_stress: 2.0,
+            hardening_modulus: 50.0,
+            plane: PlaneCondition::Strain,
+        }),
+        Material::DruckerPrager(DruckerPrager {
+            youngs_modulus: 1000.0,
+            poisson_ratio: 0.3,
+            friction_angle: 30.0,
+            cohesion: 1.0,
+            dilatancy_angle: 10.0,
         }),
     ]
 }
@@ -51,6 +66,22 @@ fn setup(shape: ShapeFunction, material: &Material) -> (Operators, Particles) {
         let [sxx, syy, sxy] = match material {
             Material::NeoHookean(m) => m.stress(f),
             Material::LinearElastic(_) => [10.0 * noise(7 * k), 10.0 * noise(7 * k + 1), 5.0 * noise(7 * k + 2)],
+            // An elastic strain and a plastic strain per particle, and their stress τ/J.
+            Material::VonMises(_) | Material::DruckerPrager(_) => {
+                p.with_plastic_state();
+                let e = [
+                    -4e-3 + 2e-3 * noise(11 * k),
+                    -2e-3 + 2e-3 * noise(11 * k + 1),
+                    1e-3 * noise(11 * k + 2),
+                    5e-4 * noise(11 * k + 3),
+                ];
+                [p.elastic_xx[k], p.elastic_yy[k], p.elastic_xy[k], p.elastic_zz[k]] = e;
+                p.plastic_strain[k] = 0.01 * noise(11 * k + 4).abs();
+                let cone = material.cone().unwrap();
+                let tau = cone.update(&p.plastic_state(k), [1.0, 0.0, 0.0, 1.0]).kirchhoff;
+                let j = f[0] * f[3] - f[1] * f[2];
+                tau.map(|t| t / j)
+            }
         };
         p.sxx[k] = sxx;
         p.syy[k] = syy;
@@ -101,14 +132,21 @@ fn the_tangent_is_the_central_difference_jacobian_of_the_internal_force_for_ever
                 worst <= 1e-6 * scale,
                 "{shape:?} {material:?}: |K − K_fd| = {worst:.3e} against max |K| = {scale:.3e}"
             );
-            // Symmetric (the hyperelastic tangent has major symmetry).
+            // Symmetric (the hyperelastic tangent has major symmetry, and so has the return map's
+            // with associated flow).
             let kt = k.transpose();
             let mut asym = 0.0f64;
             for (i, j, v) in k.triplet_iter() {
                 let t = kt.get_entry(i, j).map_or(0.0, |e| e.into_value());
                 asym = asym.max((v - t).abs());
             }
-            assert!(asym <= 1e-12 * scale, "{shape:?} {material:?}: asymmetry {asym:.3e}");
+            // Non-associated flow (ψ ≠ φ) has no symmetric tangent; the rest must.
+            let associated = !matches!(material, Material::DruckerPrager(m) if m.dilatancy_angle != m.friction_angle);
+            if associated {
+                assert!(asym <= 1e-12 * scale, "{shape:?} {material:?}: asymmetry {asym:.3e}");
+            } else {
+                assert!(asym > 1e-9 * scale, "{shape:?}: a non-associated tangent is not symmetric");
+            }
         }
     }
 }

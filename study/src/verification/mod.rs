@@ -27,6 +27,7 @@ use sparse_mpm::simulation::{Options, TimeStep, Transfer, UpdateScheme};
 
 pub mod bar;
 pub mod cantilever;
+pub mod collapse;
 pub mod column;
 pub mod disks;
 pub mod dispersion;
