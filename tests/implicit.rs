@@ -145,7 +145,10 @@ fn the_tangent_is_the_central_difference_jacobian_of_the_internal_force_for_ever
             if associated {
                 assert!(asym <= 1e-12 * scale, "{shape:?} {material:?}: asymmetry {asym:.3e}");
             } else {
-                assert!(asym > 1e-9 * scale, "{shape:?}: a non-associated tangent is not symmetric");
+                assert!(
+                    asym > 1e-9 * scale,
+                    "{shape:?}: a non-associated tangent is not symmetric"
+                );
             }
         }
     }

@@ -319,6 +319,18 @@ pub(crate) fn particles_dict<'py>(py: Python<'py>, p: &Particles) -> PyResult<Bo
     for (k, v) in fields {
         d.set_item(k, f64_array(py, v))?;
     }
+    // The plastic state, when a body is elastoplastic.
+    if p.has_plastic_state() {
+        for (k, v) in [
+            ("plastic_strain", &p.plastic_strain),
+            ("elastic_xx", &p.elastic_xx),
+            ("elastic_yy", &p.elastic_yy),
+            ("elastic_xy", &p.elastic_xy),
+            ("elastic_zz", &p.elastic_zz),
+        ] {
+            d.set_item(k, f64_array(py, v))?;
+        }
+    }
     d.set_item("body", index_array(py, &p.body))?;
     d.set_item("id", index_array(py, &p.id))?;
     Ok(d)

@@ -372,6 +372,7 @@ impl NewtonSystem<'_> {
             let r = dofs
                 .iter()
                 .map(|&k| load * f_ext[k] + f_int[k] - inertia * (mu[k] - mc[k]));
+            let r_now: Vec<f64> = r.clone().collect();
             let terms = dofs
                 .iter()
                 .map(|&k| load * f_ext[k].abs() + f_int[k].abs() + inertia * (mu[k].abs() + mc[k].abs()));
@@ -462,6 +463,24 @@ impl NewtonSystem<'_> {
                 }
                 step_length *= 0.5;
             }
+            // Then halved (at most ten times) until the residual decreases: the Newton direction
+            // descends |r|² with the exact tangent, and a full step that does not (a plastic
+            // zone entered at the step's start, whose tangent is soft) is not taken whole.
+            if found {
+                let now = norm(reduce(t, r_now).into_iter());
+                let mut halvings = 0;
+                while halvings < 10 {
+                    let at = self.residual_norm(&g, &f_ext, mass.as_ref(), &local, &trial)?;
+                    if at <= (1.0 - 1e-4 * step_length) * now || now == 0.0 {
+                        break;
+                    }
+                    step_length *= 0.5;
+                    for (l, &k) in dofs.iter().enumerate() {
+                        trial[k] = u[k] + step_length * delta[l];
+                    }
+                    halvings += 1;
+                }
+            }
             if !found {
                 let advice = match self.key {
                     "quasi_static" => {
@@ -482,6 +501,41 @@ impl NewtonSystem<'_> {
             small_increment = increment <= self.tolerance * norm(u.iter().copied());
             unresolved = step_length * delta.iter().fold(0.0, |m: f64, d| m.max(d.abs())) <= resolution;
         }
+    }
+
+    /// `|Tᵀ r(u)|` of the iterate `u`, the residual of [`NewtonSystem::solve`] (`f_ext` the
+    /// external force less the step start's internal force); an iterate that inverts a particle
+    /// has an infinite residual.
+    ///
+    /// # Errors
+    /// None but those of the internal force other than an inversion.
+    fn residual_norm(
+        &self,
+        g: &CscMatrix<f64>,
+        f_ext: &[f64],
+        mass: Option<&NewtonMass>,
+        local: &[usize],
+        u: &[f64],
+    ) -> Result<f64> {
+        let n = self.ops.num_nodes();
+        let f_int = match internal_force(self.ops, g, self.particles, &self.materials, u) {
+            Ok(f) => f,
+            Err(MpmError::InvalidParticleValue { .. }) => return Ok(f64::INFINITY),
+            Err(e) => return Err(e),
+        };
+        let free_u: Vec<f64> = (0..2 * n)
+            .map(|k| if local[k] != usize::MAX { u[k] } else { 0.0 })
+            .collect();
+        let (mu, mc) = match mass {
+            Some(m) => (m.times(&free_u), m.times(&self.predicted)),
+            None => (vec![0.0; 2 * n], vec![0.0; 2 * n]),
+        };
+        let r = self
+            .dofs
+            .iter()
+            .map(|&k| self.load * f_ext[k] + f_int[k] - self.inertia * (mu[k] - mc[k]))
+            .collect();
+        Ok(norm(reduce(self.reduction.as_ref(), r).into_iter()))
     }
 
     /// The mass the singularity policy puts in place of `mass` when the Newton matrix is

@@ -67,7 +67,9 @@ impl ReferencePositions {
 /// `body` (integers), `mass`, `volume`, `radius` (`√V/2`, half the side of the particle's
 /// square, for glyphs), `velocity`, `stress` (symmetric tensor), `pressure`
 /// (`p = −(σxx + σyy)/2`, with `+0` for a zero), `strain` (the Green–Lagrange strain
-/// `E = ½(FᵀF − I)`), `deformation_gradient` and `J` (`det F`). Vectors and tensors name their
+/// `E = ½(FᵀF − I)`), `deformation_gradient` and `J` (`det F`); with an elastoplastic body,
+/// `plastic_strain` (the equivalent plastic strain) and `elastic_strain` (the in-plane elastic
+/// log strain, [`sparse_mpm::material::hencky`]). Vectors and tensors name their
 /// components (`x`, `y`, `z`; `xx`, `xy`, …). [`write_snapshot_with_reference`] adds the
 /// displacement.
 ///
@@ -175,5 +177,21 @@ fn write_snapshot_fields(sim: &Simulation, reference: Option<&ReferencePositions
         },
         Field::Scalar { name: "J", values: &j },
     ]);
+    // Elastoplastic bodies: the equivalent plastic strain and the elastic log strain.
+    if p.has_plastic_state() {
+        fields.extend([
+            Field::Scalar {
+                name: "plastic_strain",
+                values: &p.plastic_strain,
+            },
+            Field::Tensor {
+                name: "elastic_strain",
+                xx: &p.elastic_xx,
+                xy: &p.elastic_xy,
+                yx: &p.elastic_xy,
+                yy: &p.elastic_yy,
+            },
+        ]);
+    }
     write_vtp(path, &p.x, &p.y, &fields)
 }

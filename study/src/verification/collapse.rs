@@ -114,7 +114,11 @@ impl Collapse {
         let (l0, h0) = (self.width, self.height());
         let across = ((l0 * (1.0 + 3.5 * self.aspect) + 0.1) / h).ceil() as usize;
         let up = (h0 / h).ceil() as usize + 2;
-        let grid = Grid::new([-(pad as f64) * h, -(pad as f64) * h], [h, h], [across + 2 * pad, up + 2 * pad])?;
+        let grid = Grid::new(
+            [-(pad as f64) * h, -(pad as f64) * h],
+            [h, h],
+            [across + 2 * pad, up + 2 * pad],
+        )?;
         let bounds = Some([[0.0, 0.0], [l0, h0]]);
         let inside = |x: f64, y: f64| (0.0..l0).contains(&x) && (0.0..h0).contains(&y);
         let (x, y, volume) = lattice_within(&grid, choices.particles_per_cell, bounds, inside);
@@ -192,10 +196,16 @@ impl Collapse {
                 ("runout".into(), (percentile_front(p) - l0) / l0),
                 ("final_height".into(), height / l0),
                 ("stop_time".into(), stop),
-                ("kinetic_end".into(), kinetic.value.last().copied().unwrap_or(0.0) / peak.max(f64::MIN_POSITIVE)),
+                (
+                    "kinetic_end".into(),
+                    kinetic.value.last().copied().unwrap_or(0.0) / peak.max(f64::MIN_POSITIVE),
+                ),
                 ("dissipated".into(), dissipation / released),
                 ("energy_error".into(), error),
-                ("stress_deviation".into(), stress_deviation(p, h, rho * g) / (rho * g * h0)),
+                (
+                    "stress_deviation".into(),
+                    stress_deviation(p, h, rho * g) / (rho * g * h0),
+                ),
                 ("law_runout_low".into(), low),
                 ("law_runout_high".into(), high),
                 ("law_height".into(), height_law(self.aspect)),
