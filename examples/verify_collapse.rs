@@ -5,19 +5,23 @@
 //! ```text
 //! cargo run --release --example verify_collapse                  # a = 0.5, 1, 2; lumped and consistent
 //! cargo run --release --example verify_collapse -- lumped 0.5 1 2 3 4
-//! cargo run --release --example verify_collapse -- blended:0.5 1 -- 40   # 40 cells across L0
+//! cargo run --release --example verify_collapse -- lumped/consistent 1 -- 40   # 40 cells across L0
+//! cargo run --release --example verify_collapse -- flip lumped consistent 0.5 1 2
 //! ```
 //!
 //! Masses: `lumped`, `consistent`, `blended:γ` (both solves). Quadratic B-splines, MUSL, APIC,
-//! 2 × 2 particles per cell, Courant number 0.4, 20 cells across `L₀` unless given after `--`.
+//! 2 × 2 particles per cell, Courant number 0.4, 30 cells across `L₀` unless given after `--`.
+//! APIC with a lumped velocity projection (`lumped`, or `lumped/consistent`: the consistent mass
+//! in the acceleration solve), FLIP with a consistent or blended one (APIC's affine momentum
+//! belongs to the lumped projection); `flip` before the masses for FLIP with every mass.
 
-use sparse_mpm::mass::{MassOptions, MassScheme};
+use sparse_mpm::mass::{MassOptions, MassScheme, SingularityPolicy};
 use sparse_mpm::shape::ShapeFunction;
 use sparse_mpm::simulation::{Transfer, UpdateScheme};
 use sparse_mpm_study::verification::collapse::{from_band, Collapse};
 use sparse_mpm_study::verification::Choices;
 
-fn mass(name: &str) -> Option<MassScheme> {
+fn scheme(name: &str) -> Option<MassScheme> {
     match name {
         "lumped" => Some(MassScheme::Lumped),
         "consistent" => Some(MassScheme::Consistent),
@@ -28,16 +32,32 @@ fn mass(name: &str) -> Option<MassScheme> {
     }
 }
 
+/// `velocity` or `velocity/acceleration` as mass options (a singular consistent mass falls back
+/// to the lumped one for the step).
+fn mass(name: &str) -> Option<MassOptions> {
+    let (v, a) = name.split_once('/').unwrap_or((name, name));
+    Some(MassOptions {
+        velocity: scheme(v)?,
+        acceleration: scheme(a)?,
+        singularity: SingularityPolicy::FallbackToLumped,
+        ..MassOptions::both(MassScheme::Lumped)
+    })
+}
+
 fn main() -> sparse_mpm::error::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (args, cells) = match args.iter().position(|a| a == "--") {
-        Some(k) => (args[..k].to_vec(), args[k + 1].parse().unwrap_or(20)),
-        None => (args, 20usize),
+        Some(k) => (
+            args[..k].to_vec(),
+            args.get(k + 1).and_then(|c| c.parse().ok()).unwrap_or(30),
+        ),
+        None => (args, 30usize),
     };
-    let mut masses: Vec<MassScheme> = args.iter().filter_map(|a| mass(a)).collect();
+    let flip = args.iter().any(|a| a == "flip");
+    let mut masses: Vec<MassOptions> = args.iter().filter_map(|a| mass(a)).collect();
     let mut aspects: Vec<f64> = args.iter().filter_map(|a| a.parse().ok()).collect();
     if masses.is_empty() {
-        masses = vec![MassScheme::Lumped, MassScheme::Consistent];
+        masses = ["lumped", "lumped/consistent"].iter().filter_map(|m| mass(m)).collect();
     }
     if aspects.is_empty() {
         aspects = vec![0.5, 1.0, 2.0];
@@ -45,21 +65,26 @@ fn main() -> sparse_mpm::error::Result<()> {
     let c = Collapse::new(1.0);
     println!(
         "Drucker-Prager phi = {} deg, c = 0, psi = 0, E = {:e}, nu = {}, rho = {}; L0 = {}, {cells} cells across L0; \
-         quadratic B-splines, MUSL, APIC, 2 x 2 particles per cell, CFL 0.4; run for {} sqrt(H0/g)",
+         quadratic B-splines, MUSL, 2 x 2 particles per cell, CFL 0.4; run for {} sqrt(H0/g)",
         c.friction_angle, c.youngs_modulus, c.poisson_ratio, c.density, c.width, c.duration
     );
     println!(
-        "| mass | a | run-out | law (Lube et al.) | off | H/L0 | law | at rest after (sqrt(H0/g)) | \
+        "| transfer, mass | a | run-out | law (Lube et al.) | off | H/L0 | law | at rest after (sqrt(H0/g)) | \
          dissipated | energy error | stress deviation | steps | seconds |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    for &scheme in &masses {
+    for &mass in &masses {
+        let transfer = if flip || mass.velocity != MassScheme::Lumped {
+            Transfer::Flip
+        } else {
+            Transfer::Apic
+        };
         for &a in &aspects {
             let choices = Choices {
                 shape: ShapeFunction::QuadraticBSpline,
                 update: UpdateScheme::Musl,
-                transfer: Transfer::Apic,
-                mass: MassOptions::both(scheme),
+                transfer,
+                mass,
                 particles_per_cell: 2,
                 cfl: 0.4,
                 implicit_step: None,
@@ -73,7 +98,8 @@ fn main() -> sparse_mpm::error::Result<()> {
                 format!("{:.2}-{:.2}", band.0, band.1)
             };
             println!(
-                "| {scheme:#} | {a} | {:.2} | {law} | {:+.0}% | {:.2} | {:.2} | {:.1} | {:.3} | {:.1e} | {:.3} | {} | {:.1} |",
+                "| {} | {a} | {:.2} | {law} | {:+.0}% | {:.2} | {:.2} | {:.1} | {:.3} | {:.1e} | {:.3} | {} | {:.1} |",
+                choices.label(),
                 m("runout"),
                 100.0 * from_band(m("runout"), band),
                 m("final_height"),

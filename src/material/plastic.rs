@@ -325,7 +325,7 @@ impl Cone {
         let f = q + self.slope * p - (self.strength + self.hardening * eqps);
         let third = 1.0 / 3.0;
         let dev = |i: usize, j: usize| f64::from(u8::from(i == j)) - third;
-        if !(f > 0.0) {
+        if f.is_nan() || f <= 0.0 {
             let mut d = [[0.0; 3]; 3];
             for (i, row) in d.iter_mut().enumerate() {
                 for (j, v) in row.iter_mut().enumerate() {
@@ -393,7 +393,7 @@ impl Cone {
         let scale = r.stress[0].abs() + r.stress[1].abs() + self.shear * 1e-300;
         for _ in 0..60 {
             let d33 = r.tangent[2][2];
-            if r.stress[2].abs() <= 1e-14 * scale || !(d33 > 0.0) {
+            if r.stress[2].abs() <= 1e-14 * scale || d33.is_nan() || d33 <= 0.0 {
                 break;
             }
             e[2] -= r.stress[2] / d33;

@@ -113,7 +113,7 @@ pub(super) fn apply(k: usize, body: &BodySpec, g: [f64; 2], p: &mut Particles) -
         ));
     }
     let magnitude = g[0].hypot(g[1]);
-    if !(magnitude > 0.0) {
+    if magnitude.is_nan() || magnitude <= 0.0 {
         return Err(invalid(
             key,
             "the geostatic stress needs gravity (loads.gravity or the body's body_force)",

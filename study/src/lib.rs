@@ -26,6 +26,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::verification::bar::{Bar, Ends};
+use crate::verification::collapse::Collapse;
 use crate::verification::column::Column;
 use crate::verification::impulse::ImpulseBar;
 use crate::verification::manufactured::{self, GeneralisedVortex};
@@ -95,11 +96,14 @@ pub enum Part {
     /// quasi-static at small and large strain, and relaxed dynamically (explicit with damping)
     /// with the lumped and the consistent mass.
     Column,
+    /// The granular column collapse: run-out, final height, time to rest, dissipation and the
+    /// stress at rest against the aspect ratio for each mass, with the experimental laws.
+    Collapse,
 }
 
 impl Part {
     /// Every part, in report order.
-    pub const ALL: [Part; 13] = [
+    pub const ALL: [Part; 14] = [
         Part::Dispersion,
         Part::Frequency,
         Part::BarEnergy,
@@ -108,6 +112,7 @@ impl Part {
         Part::TimeStep,
         Part::Cantilever,
         Part::Column,
+        Part::Collapse,
         Part::SinglePoint,
         Part::TimeOrder,
         Part::Waves,
@@ -131,6 +136,7 @@ impl Part {
             Part::TimeOrder => "time_order",
             Part::Implicit => "implicit",
             Part::Column => "column",
+            Part::Collapse => "collapse",
         }
     }
 }
@@ -180,6 +186,10 @@ pub struct StudySpec {
     pub time_steps: usize,
     /// Cells along the height of the column.
     pub column_cells: Vec<usize>,
+    /// Aspect ratios `H₀/L₀` of the granular collapse.
+    pub collapse_aspects: Vec<f64>,
+    /// Cells across the collapsing column's width `L₀`.
+    pub collapse_cells: usize,
 }
 
 impl Default for StudySpec {
@@ -213,6 +223,8 @@ impl Default for StudySpec {
             impulse_cells: vec![25, 50, 100],
             time_steps: 4,
             column_cells: vec![8, 16, 32, 64],
+            collapse_aspects: vec![0.5, 1.0, 2.0, 3.0],
+            collapse_cells: 30,
         }
     }
 }
@@ -235,6 +247,8 @@ impl StudySpec {
             impulse_cells: vec![25, 50],
             time_steps: 3,
             column_cells: vec![8, 16],
+            collapse_aspects: vec![0.5],
+            collapse_cells: 8,
             ..StudySpec::default()
         }
     }
@@ -277,6 +291,7 @@ impl StudySpec {
             Part::TimeStep => self.plan_time_step(),
             Part::Cantilever => self.plan_cantilever(),
             Part::Column => self.plan_column(),
+            Part::Collapse => self.plan_collapse(),
             Part::SinglePoint => Self::plan_single_point(),
             Part::Stabilization => self.plan_stabilization(),
             Part::Dispersion => self.plan_dispersion(),
@@ -482,6 +497,45 @@ impl StudySpec {
         runs
     }
 
+    /// The collapse part: every aspect ratio with each of the spec's mass pairs, quadratic
+    /// B-splines, MUSL, Courant number 0.4: APIC where the velocity projection is lumped (the
+    /// transfer of granular flows: they come to rest), FLIP where it is not (APIC's affine
+    /// momentum belongs to the lumped projection), and FLIP with the lumped mass beside them.
+    fn plan_collapse(&self) -> Vec<(Problem, Choices, usize)> {
+        let mut runs = Vec::new();
+        let lumped = MassOptions::both(MassScheme::Lumped);
+        let mut pairs: Vec<(MassOptions, Transfer)> = Vec::new();
+        for &mass in &self.masses {
+            let transfer = if mass.velocity == MassScheme::Lumped {
+                Transfer::Apic
+            } else {
+                Transfer::Flip
+            };
+            let mass = MassOptions {
+                singularity: SingularityPolicy::FallbackToLumped,
+                ..mass
+            };
+            pairs.push((mass, transfer));
+        }
+        if pairs.iter().any(|&(_, t)| t == Transfer::Flip) {
+            pairs.push((lumped, Transfer::Flip));
+        }
+        for &a in &self.collapse_aspects {
+            for &(mass, transfer) in &pairs {
+                let choices = Choices {
+                    shape: ShapeFunction::QuadraticBSpline,
+                    transfer,
+                    mass,
+                    cfl: 0.4,
+                    ..self.choices(mass)
+                };
+                let aspect = (a * 1000.0).round() as u32;
+                runs.push((Problem::Collapse(aspect), choices, self.collapse_cells));
+            }
+        }
+        runs
+    }
+
     /// The single-point part: the default choices under USF, USL and MUSL (the spec's update
     /// and Courant number do not apply).
     fn plan_single_point() -> Vec<(Problem, Choices, usize)> {
@@ -525,6 +579,8 @@ enum Problem {
     ColumnSmallStrain,
     ColumnLargeStrain,
     ColumnRelaxed,
+    /// The granular collapse at the aspect ratio in thousandths.
+    Collapse(u32),
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -614,6 +670,7 @@ impl Planned {
                 outcome.problem = "column_large_strain".into();
                 Ok(outcome)
             }
+            Problem::Collapse(aspect) => Collapse::new(f64::from(aspect) / 1000.0).run(self.cells, &self.choices),
             Problem::ColumnRelaxed => {
                 let damping = Damping {
                     model: DampingModel::Local,

@@ -37,6 +37,7 @@ impl StudySpec {
             ("wave_cells", self.wave_cells.len()),
             ("impulse_cells", self.impulse_cells.len()),
             ("column_cells", self.column_cells.len()),
+            ("collapse_aspects", self.collapse_aspects.len()),
         ] {
             if len > MAX_LIST_VALUES {
                 return bad(
@@ -54,6 +55,12 @@ impl StudySpec {
             if cells.iter().any(|&c| c == 0 || c > 4096) {
                 return bad(key, "cell counts must lie between 1 and 4096");
             }
+        }
+        if self.collapse_cells < 4 || self.collapse_cells > 256 {
+            return bad("collapse_cells", "must lie between 4 and 256");
+        }
+        if self.collapse_aspects.iter().any(|a| !(0.1..=10.0).contains(a)) {
+            return bad("collapse_aspects", "aspect ratios must lie between 0.1 and 10");
         }
         if self.disks_cells == 0 || self.disks_cells > 4096 {
             return bad("disks_cells", "must lie between 1 and 4096");
@@ -109,6 +116,7 @@ impl StudySpec {
             ("stabilizations", twice(&self.stabilizations, |s| format!("\"{s:#}\""))),
             ("wave_cells", twice(&self.wave_cells, number)),
             ("impulse_cells", twice(&self.impulse_cells, number)),
+            ("collapse_aspects", twice(&self.collapse_aspects, |a| a.to_string())),
         ] {
             if let Some(value) = repeated {
                 return bad(key, &format!("lists {value} twice: give each value once"));

@@ -9,6 +9,7 @@ use crate::verification::{fitted_order, Outcome};
 use sparse_mpm::error::{MpmError, Result};
 
 mod cantilever;
+mod collapse;
 mod column;
 mod convergence;
 mod energy;
@@ -61,6 +62,7 @@ pub(super) fn section(
         Part::TimeStep => time_step::write(&ok, &mut page),
         Part::Cantilever => cantilever::write(&ok, &mut page),
         Part::Column => column::write(&ok, &mut page),
+        Part::Collapse => collapse::write(&ok, &mut page),
         Part::Implicit => implicit::write(&ok, &mut page),
         Part::SinglePoint => {
             single_point::write(&ok, page.md);
