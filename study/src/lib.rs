@@ -34,13 +34,9 @@ use crate::verification::wave::Wave;
 use crate::verification::{cantilever, disks, rotation, single_point, Choices, Outcome};
 use sparse_mpm::damping::{Damping, DampingModel};
 use sparse_mpm::error::{MpmError, Result};
-use sparse_mpm::grid::Grid;
-use sparse_mpm::mass::{MassDiagnostics, MassOptions, MassScheme, SingularityPolicy, Stabilization};
-use sparse_mpm::material::{LinearElastic, Material, PlaneCondition};
-use sparse_mpm::operators::Operators;
-use sparse_mpm::particles::{lattice, Particles};
+use sparse_mpm::mass::{MassOptions, MassScheme, SingularityPolicy, Stabilization};
 use sparse_mpm::shape::ShapeFunction;
-use sparse_mpm::simulation::{Body, Options, Simulation, TimeStep, Transfer, UpdateScheme};
+use sparse_mpm::simulation::{Transfer, UpdateScheme};
 
 pub mod homework;
 pub mod plot;
@@ -59,6 +55,8 @@ pub use shard::{
 
 pub use whole::run_study;
 use whole::write_study;
+
+mod block;
 
 /// The step of the implicit part's Newmark runs, in explicit stable steps at `t = 0`.
 pub(crate) const IMPLICIT_STEP: f64 = 5.0;
@@ -606,55 +604,13 @@ fn vortex() -> GeneralisedVortex {
     GeneralisedVortex::smooth(0.05)
 }
 
-/// The time-step part's block: 8 × 8 cells filled with `n × n` particles per cell in a 12 × 12
-/// grid (h = 1, E = 1000, ν = 0.3 plane strain, ρ = 1), at rest. Metrics: `stable_step_lumped`,
-/// `stable_step_consistent` (FLIP, in units of h/c; NaN when the consistent mass is singular)
-/// and `lambda_min` (`λ_min(M_L⁻¹M)`, Lanczos).
-fn block_time_steps(n: usize) -> Result<Outcome> {
-    let grid = Grid::new([0.0, 0.0], [1.0, 1.0], [12, 12])?;
-    let (x, y, volume) = lattice(&grid, n, |px, py| {
-        (2.0..10.0).contains(&px) && (2.0..10.0).contains(&py)
-    });
-    let count = x.len();
-    let particles = Particles::new(x, y, vec![volume; count], vec![volume; count])?;
-    let material = LinearElastic::new(1000.0, 0.3, PlaneCondition::Strain)?;
-    let c = material.wave_speed(1.0);
-    let stable = |scheme| -> f64 {
-        let options = Options {
-            mass: MassOptions::both(scheme),
-            time_step: TimeStep::Cfl { number: 1.0 },
-            ..Options::default()
-        };
-        let bodies = vec![Body {
-            name: "block".into(),
-            material: Material::LinearElastic(material),
-        }];
-        Simulation::new(grid.clone(), particles.clone(), bodies, options).map_or(f64::NAN, |s| s.stable_time_step() * c)
-    };
-    let ops = Operators::assemble(&grid, ShapeFunction::Linear, &particles)?;
-    let diagnostics = MassDiagnostics::compute(&ops, &particles.mass, &MassOptions::plain(MassScheme::Consistent))?;
-    Ok(Outcome {
-        problem: "block".into(),
-        cells: 8,
-        cell_size: 1.0,
-        metrics: vec![
-            ("stable_step_lumped".into(), stable(MassScheme::Lumped)),
-            ("stable_step_consistent".into(), stable(MassScheme::Consistent)),
-            ("lambda_min".into(), diagnostics.lambda_min_estimate),
-        ],
-        histories: Vec::new(),
-        steps: 0,
-        seconds: 0.0,
-    })
-}
-
 impl Planned {
     fn run(&self) -> Result<Outcome> {
         match self.problem {
             Problem::BarFixedFixed => small_bar().run(self.cells, &self.choices),
             Problem::Vortex => manufactured::run(&vortex(), self.cells, &self.choices),
             Problem::TwoDisks => disks::run(self.cells, &self.choices),
-            Problem::Block => block_time_steps(self.choices.particles_per_cell),
+            Problem::Block => block::block_time_steps(self.choices.particles_per_cell),
             Problem::Cantilever => cantilever::run(self.cells, &self.choices),
             Problem::SinglePoint => single_point::run(0.01, &self.choices),
             Problem::SpinningDisk => rotation::spinning_disk(self.cells, &self.choices),
