@@ -7,6 +7,7 @@
 //! cargo run --release --example verify_collapse -- lumped 0.5 1 2 3 4
 //! cargo run --release --example verify_collapse -- lumped/consistent 1 -- 40   # 40 cells across L0
 //! cargo run --release --example verify_collapse -- flip lumped consistent 0.5 1 2
+//! cargo run --release --example verify_collapse -- lumped 1 2 E=1e8 -- 20     # stiffer grains
 //! ```
 //!
 //! Masses: `lumped`, `consistent`, `blended:γ` (both solves). Quadratic B-splines, MUSL, APIC,
@@ -56,13 +57,21 @@ fn main() -> sparse_mpm::error::Result<()> {
     let flip = args.iter().any(|a| a == "flip");
     let mut masses: Vec<MassOptions> = args.iter().filter_map(|a| mass(a)).collect();
     let mut aspects: Vec<f64> = args.iter().filter_map(|a| a.parse().ok()).collect();
+    // `E=…`: Young's modulus (default 10 MPa).
+    let youngs_modulus = args
+        .iter()
+        .find_map(|a| a.strip_prefix("E=").and_then(|e| e.parse().ok()))
+        .unwrap_or(Collapse::new(1.0).youngs_modulus);
     if masses.is_empty() {
         masses = ["lumped", "lumped/consistent"].iter().filter_map(|m| mass(m)).collect();
     }
     if aspects.is_empty() {
         aspects = vec![0.5, 1.0, 2.0];
     }
-    let c = Collapse::new(1.0);
+    let c = Collapse {
+        youngs_modulus,
+        ..Collapse::new(1.0)
+    };
     println!(
         "Drucker-Prager phi = {} deg, c = 0, psi = 0, E = {:e}, nu = {}, rho = {}; L0 = {}, {cells} cells across L0; \
          quadratic B-splines, MUSL, 2 x 2 particles per cell, CFL 0.4; run for {} sqrt(H0/g)",
@@ -89,7 +98,7 @@ fn main() -> sparse_mpm::error::Result<()> {
                 cfl: 0.4,
                 implicit_step: None,
             };
-            let o = Collapse::new(a).run(cells, &choices)?;
+            let o = Collapse { aspect: a, ..c }.run(cells, &choices)?;
             let m = |n: &str| o.metric(n).unwrap_or(f64::NAN);
             let band = (m("law_runout_low"), m("law_runout_high"));
             let law = if band.0 == band.1 {

@@ -349,3 +349,65 @@ fn the_models_parse_and_refuse_bad_values_by_name() {
     .to_string();
     assert!(err.contains("friction_angle"), "{err}");
 }
+
+/// Drucker–Prager's cone is fitted to Mohr–Coulomb in plane strain for its own flow rule: a
+/// plane-strain biaxial test (compressed along x, the confining stress `τ_yy = −p₀` held by
+/// Newton on `h_yy`) flows at the Mohr–Coulomb strength, `τ_max = c cos φ − σ_m sin φ`, and
+/// dilates at `ψ`, `(dε₁ + dε₂)/(dε₁ − dε₂) = sin ψ`, once the flow is steady.
+#[test]
+fn drucker_prager_in_plane_strain_flows_at_mohr_coulomb_and_dilates_at_psi() {
+    let p0 = 100.0;
+    for (phi, c, psi) in [
+        (30.0, 0.0, 0.0),
+        (30.0, 20.0, 10.0),
+        (25.0, 10.0, 25.0),
+        (40.0, 0.0, 5.0),
+    ] {
+        let m = DruckerPrager {
+            youngs_modulus: 1.0e5,
+            poisson_ratio: 0.3,
+            friction_angle: phi,
+            cohesion: c,
+            dilatancy_angle: psi,
+        };
+        let cone = m.cone();
+        let mut state = PlasticState {
+            elastic_strain: cone.strain_of_stress([-p0, -p0, 0.0]),
+            plastic_strain: 0.0,
+        };
+        let hxx = -2e-5;
+        let (mut last, mut tau) = ((0.0, 0.0), [0.0; 3]);
+        for _ in 0..4000 {
+            let mut hyy = 0.0;
+            for _ in 0..50 {
+                let (p, a) = cone.relative_stress(&state, [hxx, 0.0, 0.0, hyy], 1.0);
+                // P̃_yy = τ_yy / (1 + h_yy) = −p₀ / (1 + h_yy).
+                let r = p[3] + p0 / (1.0 + hyy);
+                if r.abs() < 1e-12 * p0 {
+                    break;
+                }
+                hyy -= r / (a[3][3] - p0 / (1.0 + hyy).powi(2));
+            }
+            let up = cone.update(&state, [1.0 + hxx, 0.0, 0.0, 1.0 + hyy]);
+            state = up.state;
+            tau = up.kirchhoff;
+            last = ((1.0 + hxx).ln(), (1.0 + hyy).ln());
+        }
+        let (s, co) = phi.to_radians().sin_cos();
+        let (txx, tyy) = (tau[0], tau[1]);
+        assert!((tyy + p0).abs() < 1e-9 * p0, "confinement {tyy}");
+        let radius = 0.5 * (tyy - txx);
+        let mean = 0.5 * (txx + tyy);
+        let strength = c * co - mean * s;
+        assert!(
+            (radius - strength).abs() <= 1e-6 * p0,
+            "φ = {phi}, c = {c}, ψ = {psi}: τ_max {radius} against Mohr–Coulomb {strength}"
+        );
+        let (dx, dy) = last;
+        let dilation = (dx + dy) / (dy - dx);
+        assert!(
+            (dilation - psi.to_radians().sin()).abs() <= 1e-6,
+            "φ = {phi}, ψ = {psi}: dilates at sin ψ = {dilation}"
+        );
+    }
+}

@@ -66,6 +66,38 @@ def test_contact_from_a_dict(mass, end):
         mpm.Simulation.from_dict({**scene, "contact": {"rigid": ["ramp"], "stabilization": "ghost"}})
 
 
+def test_a_plastic_column_from_a_dict():
+    """A Drucker-Prager column released from its geostatic stress: the particles carry their
+    plastic state, the report its plastic dissipation, and the energy balance holds; bad
+    plastic parameters are refused by name."""
+    sand = {"model": "drucker_prager", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "friction_angle": 30.0}
+    scene = {
+        "grid": {"origin": [-0.01, -0.01], "cell_size": [0.01, 0.01], "cells": [40, 14]},
+        "schemes": {"shape": "quadratic_bspline", "transfer": "apic"},
+        "time": {"end": 0.1, "cfl": 0.4},
+        "loads": {"gravity": [0.0, -9.81]},
+        "bodies": [{"name": "sand", "material": sand, "density": 1500.0, "initial_stress": "geostatic",
+                    "geometry": {"rectangle": {"min": [0.0, 0.0], "max": [0.1, 0.1]}}}],
+        "boundaries": [{"edge": "left", "condition": "slip"}, {"edge": "bottom", "condition": "fixed"}],
+    }
+    sim = mpm.Simulation.from_dict(scene)
+    p = sim.particles()
+    # The geostatic stress: the weight above each particle.
+    np.testing.assert_allclose(p["syy"], -1500.0 * 9.81 * (0.1 - p["y"]), rtol=1e-12, atol=1e-9)
+    assert np.all(p["plastic_strain"] == 0.0)
+    report = sim.run()
+    p = sim.particles()
+    assert p["plastic_strain"].max() > 0.0
+    assert report["plastic_dissipation"][-1] > 0.0
+    balance = report["total_energy"] + report["plastic_dissipation"] + report["transfer_loss"]
+    released = report["potential_energy"][0] - report["potential_energy"][-1]
+    assert released > 0.0 and abs(balance[-1] - balance[0]) < 0.05 * released
+    for key, value in [("friction_angle", 95.0), ("dilatancy_angle", 40.0), ("cohesion", -1.0)]:
+        bad = {**scene, "bodies": [{**scene["bodies"][0], "material": {**sand, key: value}}]}
+        with pytest.raises(mpm.MpmError, match=key):
+            mpm.Simulation.from_dict(bad)
+
+
 def test_step_by_step_equals_run(root):
     scene = root / "scenes" / "vibrating_bar.toml"
     whole = mpm.Simulation.from_scene(scene).run(2.0)

@@ -15,11 +15,15 @@
 //! ```text
 //! f(τ, ε̄ᵖ) = ‖s‖ + B p − (A + h ε̄ᵖ) ≤ 0,      plastic potential  g = ‖s‖ + B_ψ p
 //! von Mises:      B = B_ψ = 0,  A = √(2/3) σ_y,  h = √(2/3) H   (‖s‖ = √(2/3) σ_eq)
-//! Drucker–Prager: A = 3√2 c / √(9 + 12 tan²φ),  B = 3√2 tan φ / √(9 + 12 tan²φ),
-//!                 B_ψ = 3√2 tan ψ / √(9 + 12 tan²ψ),  h = 0
+//! Drucker–Prager: B_ψ = 3√2 tan ψ / √(9 + 12 tan²ψ),  h = 0,
+//!                 B = 2 sin φ / (√(2 − B_ψ²/3) + B_ψ sin φ/3),
+//!                 A = c cos φ (2 − B B_ψ/3) / √(2 − B_ψ²/3)
 //! ```
 //!
-//! (the Drucker–Prager cone fitted to Mohr–Coulomb in plane strain). The return from a trial
+//! (the Drucker–Prager cone fitted to Mohr–Coulomb in plane strain for its own flow rule: at
+//! plastic flow with `Δεᵖ_zz = 0` the in-plane stresses obey Mohr–Coulomb with `φ`, `c` and
+//! dilate at `ψ`; with associated flow it is the familiar `B = 3√2 tan φ / √(9 + 12 tan²φ)`,
+//! `A = 3√2 c / √(9 + 12 tan²φ)`, with `ψ = 0` it is `B = √2 sin φ`, `A = √2 c cos φ`). The return from a trial
 //! state `ε^tr` (radial in the deviatoric plane, as the flow `∂g/∂τ = n + (B_ψ/3) 1`,
 //! `n = s^tr/‖s^tr‖`, prescribes):
 //!
@@ -166,8 +170,9 @@ impl VonMises {
     }
 }
 
-/// `3√2 tan a / √(9 + 12 tan² a)` for an angle `a` in degrees (the plane-strain fit's slope).
-fn fitted_slope(degrees: f64) -> f64 {
+/// `B_ψ = 3√2 tan ψ / √(9 + 12 tan² ψ) = √6 sin ψ / √(3 + sin² ψ)` for `ψ` in degrees: the
+/// slope of the plastic potential whose plane-strain flow dilates at the angle `ψ`.
+fn dilation_slope(degrees: f64) -> f64 {
     let t = degrees.to_radians().tan();
     3.0 * std::f64::consts::SQRT_2 * t / (9.0 + 12.0 * t * t).sqrt()
 }
@@ -212,13 +217,26 @@ impl DruckerPrager {
         Ok(())
     }
 
-    /// The cone of the [module docs](self) (plane-strain fit to Mohr–Coulomb).
+    /// The cone of the [module docs](self), fitted to Mohr–Coulomb in plane strain for the
+    /// flow rule it has: with `B_ψ` of the dilatancy angle,
+    ///
+    /// ```text
+    /// B = 2 sin φ / (√(2 − B_ψ²/3) + B_ψ sin φ / 3),   A = c cos φ (2 − B B_ψ/3) / √(2 − B_ψ²/3)
+    /// ```
+    ///
+    /// so that at plastic flow in plane strain (`Δεᵖ_zz = 0`) the in-plane stresses obey
+    /// `τ_max = c cos φ − σ_m sin φ` exactly (`σ_m` the in-plane mean stress, tension positive):
+    /// `B = 3√2 tan φ / √(9 + 12 tan² φ)` for associated flow (`ψ = φ`), `√2 sin φ` for
+    /// `ψ = 0`.
     pub fn cone(&self) -> Cone {
-        let t = self.friction_angle.to_radians().tan();
+        let (sin, cos) = self.friction_angle.to_radians().sin_cos();
+        let dilation = dilation_slope(self.dilatancy_angle);
+        let root = (2.0 - dilation * dilation / 3.0).sqrt();
+        let slope = 2.0 * sin / (root + dilation * sin / 3.0);
         Cone {
-            slope: fitted_slope(self.friction_angle),
-            dilation: fitted_slope(self.dilatancy_angle),
-            strength: 3.0 * std::f64::consts::SQRT_2 * self.cohesion / (9.0 + 12.0 * t * t).sqrt(),
+            slope,
+            dilation,
+            strength: self.cohesion * cos * (2.0 - slope * dilation / 3.0) / root,
             ..Cone::elastic(self.youngs_modulus, self.poisson_ratio, PlaneCondition::Strain)
         }
     }
