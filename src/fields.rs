@@ -88,6 +88,18 @@ pub fn deformation_increment(l: [f64; 4], dt: f64) -> ([f64; 4], f64) {
     deformation_increment_of(l, dt)
 }
 
+/// The product `A B` of `2 × 2` matrices stored row-major `[xx, xy, yx, yy]` (for one particle
+/// or several side by side, [`Real`]): `F ← G F` of the deformation gradient's update.
+#[inline(always)]
+pub(crate) fn mat2_mul<R: Real>(a: [R; 4], b: [R; 4]) -> [R; 4] {
+    [
+        a[0] * b[0] + a[1] * b[2],
+        a[0] * b[1] + a[1] * b[3],
+        a[2] * b[0] + a[3] * b[2],
+        a[2] * b[1] + a[3] * b[3],
+    ]
+}
+
 /// [`deformation_increment`] for one particle or four side by side ([`Real`]).
 #[inline(always)]
 pub(crate) fn deformation_increment_of<R: Real>(l: [R; 4], dt: f64) -> ([R; 4], R) {

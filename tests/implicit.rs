@@ -108,7 +108,8 @@ fn the_tangent_is_the_central_difference_jacobian_of_the_internal_force_for_ever
             for (_, _, v) in dense.triplet_iter() {
                 scale = scale.max(v.abs());
             }
-            let eps = 1e-6;
+            // Small enough that no particle's state crosses a yield surface or the apex within it.
+            let eps = 1e-7;
             let mut worst = 0.0f64;
             for j in 0..dofs {
                 let (mut up, mut down) = (u.clone(), u.clone());

@@ -36,6 +36,7 @@
 use nalgebra_sparse::{CooMatrix, CscMatrix};
 
 use crate::error::{MpmError, Result};
+use crate::fields::mat2_mul;
 use crate::material::Material;
 use crate::operators::Operators;
 use crate::particles::Particles;
@@ -111,7 +112,7 @@ pub fn particle_stress(
             let fn_ = [particles.fxx[p], particles.fxy[p], particles.fyx[p], particles.fyy[p]];
             let j_n = fn_[0] * fn_[3] - fn_[1] * fn_[2];
             // F = F_inc F_n (row-major [xx, xy, yx, yy]).
-            let f = mul(f_inc, fn_);
+            let f = mat2_mul(f_inc, fn_);
             let j = f[0] * f[3] - f[1] * f[2];
             if !(j > 0.0 && j_n > 0.0) {
                 return Err(MpmError::InvalidParticleValue {
@@ -150,16 +151,6 @@ pub fn particle_stress(
             Ok(cone.relative_stress(&particles.plastic_state(p), h, j_n))
         }
     }
-}
-
-/// `A B` of 2 × 2 matrices stored row-major.
-fn mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
-    [
-        a[0] * b[0] + a[1] * b[2],
-        a[0] * b[1] + a[1] * b[3],
-        a[2] * b[0] + a[3] * b[2],
-        a[2] * b[1] + a[3] * b[3],
-    ]
 }
 
 /// The internal force `f_int(u) = −𝔾ᵀ s(u)` (2n values, x first) and the tangent

@@ -3,7 +3,7 @@
 //! particle or four side by side ([`Real`]), and run both inside the grid-to-particle pass
 //! (USL, [`super::g2p`]) and as a pass of its own (USF, MUSL).
 
-use crate::fields::deformation_increment_of;
+use crate::fields::{deformation_increment_of, mat2_mul};
 use crate::lanes::Real;
 use crate::material::Prepared;
 use crate::parallel::Splittable;
@@ -172,12 +172,7 @@ pub(crate) fn update_stress<R: Real>(
         R::load(out.f[2], j),
         R::load(out.f[3], j),
     ];
-    let f = [
-        g[0] * old[0] + g[1] * old[2],
-        g[0] * old[1] + g[1] * old[3],
-        g[2] * old[0] + g[3] * old[2],
-        g[2] * old[1] + g[3] * old[3],
-    ];
+    let f = mat2_mul(g, old);
     let det_f = f[0] * f[3] - f[1] * f[2];
     let volume = R::load(out.volume, j) * j_inc;
     let sigma = [

@@ -37,6 +37,7 @@
 //! limits `1/(2λ)` and `D₁₁ − D₁₂` at equal eigenvalues.
 
 use super::plastic::{Cone, Returned};
+use crate::fields::mat2_mul;
 
 /// One particle's plastic state: the elastic log strain `[xx, yy, xy, zz]` and `ε̄ᵖ`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -162,7 +163,7 @@ impl Cone {
         let f_inv_t = [f[3] / det, -f[2] / det, -f[1] / det, f[0] / det];
         let [txx, tyy, txy] = up.kirchhoff;
         let tau = [txx, txy, txy, tyy];
-        let p = mul(tau, f_inv_t).map(|v| v / j_n);
+        let p = mat2_mul(tau, f_inv_t).map(|v| v / j_n);
         let b_n = exponential(state.elastic_strain);
         let [c, s] = up.frame;
         let (l1, l2) = (up.stretch[0], up.stretch[1]);
@@ -178,7 +179,7 @@ impl Cone {
         let mut a = [[0.0; 4]; 4];
         for (col, unit) in (0..4).map(|k| (k, std::array::from_fn::<f64, 4, _>(|i| f64::from(u8::from(i == k))))) {
             // db = dh b fᵀ + f b dhᵀ, row-major, symmetric.
-            let x = mul(mul(unit, b_n_m), transpose(f));
+            let x = mat2_mul(mat2_mul(unit, b_n_m), transpose(f));
             let db = [2.0 * x[0], 2.0 * x[3], x[1] + x[2]];
             // In the frame n₁ = (c, s), n₂ = (−s, c).
             let hat11 = c * c * db[0] + s * s * db[1] + 2.0 * c * s * db[2];
@@ -196,24 +197,14 @@ impl Cone {
                 diag[2] + (c * c - s * s) * dt12,
                 diag[1] + 2.0 * c * s * dt12,
             ];
-            let first = mul(dtau, f_inv_t);
-            let second = mul(mul(mul(tau, f_inv_t), transpose(unit)), f_inv_t);
+            let first = mat2_mul(dtau, f_inv_t);
+            let second = mat2_mul(mat2_mul(mat2_mul(tau, f_inv_t), transpose(unit)), f_inv_t);
             for row in 0..4 {
                 a[row][col] = (first[row] - second[row]) / j_n;
             }
         }
         (p, a)
     }
-}
-
-/// `A B` of `2 × 2` matrices stored row-major.
-fn mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
-    [
-        a[0] * b[0] + a[1] * b[2],
-        a[0] * b[1] + a[1] * b[3],
-        a[2] * b[0] + a[3] * b[2],
-        a[2] * b[1] + a[3] * b[3],
-    ]
 }
 
 /// `Aᵀ` stored row-major.

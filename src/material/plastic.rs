@@ -120,8 +120,13 @@ fn dilatancy_angle<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Resul
     super::number_named(d, "dilatancy_angle")
 }
 
-fn invalid(name: &'static str, value: f64, reason: &'static str) -> MpmError {
-    MpmError::InvalidParameter { name, value, reason }
+/// `Ok` when `ok`, else the error naming the parameter, its value and its range.
+fn require(ok: bool, name: &'static str, value: f64, reason: &'static str) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(MpmError::InvalidParameter { name, value, reason })
+    }
 }
 
 /// Checks `E` and `ν` as [`super::LinearElastic::validate`] does.
@@ -142,21 +147,19 @@ impl VonMises {
     /// `hardening_modulus` (must be non-negative and finite).
     pub fn validate(&self) -> Result<()> {
         check_elastic(self.youngs_modulus, self.poisson_ratio)?;
-        if !(self.yield_stress > 0.0 && self.yield_stress < STRENGTH_RANGE) {
-            return Err(invalid(
-                "yield_stress",
-                self.yield_stress,
-                "must be a positive finite number (below 1e100)",
-            ));
-        }
-        if !(self.hardening_modulus >= 0.0 && self.hardening_modulus < STRENGTH_RANGE) {
-            return Err(invalid(
-                "hardening_modulus",
-                self.hardening_modulus,
-                "must be a non-negative finite number (below 1e100; softening is not modelled)",
-            ));
-        }
-        Ok(())
+        let (y, h) = (self.yield_stress, self.hardening_modulus);
+        require(
+            y > 0.0 && y < STRENGTH_RANGE,
+            "yield_stress",
+            y,
+            "must be a positive finite number (below 1e100)",
+        )?;
+        require(
+            h >= 0.0 && h < STRENGTH_RANGE,
+            "hardening_modulus",
+            h,
+            "must be a non-negative finite number (below 1e100; softening is not modelled)",
+        )
     }
 
     /// The cone of the [module docs](self): `B = B_ψ = 0`, `A = √(2/3) σ_y`, `h = √(2/3) H`.
@@ -186,35 +189,31 @@ impl DruckerPrager {
     /// when `φ = 0`) or `dilatancy_angle` (`[0, φ]`).
     pub fn validate(&self) -> Result<()> {
         check_elastic(self.youngs_modulus, self.poisson_ratio)?;
-        if !(self.friction_angle >= 0.0 && self.friction_angle < 90.0) {
-            return Err(invalid(
-                "friction_angle",
-                self.friction_angle,
-                "must lie in [0, 90) degrees",
-            ));
-        }
-        if !(self.cohesion >= 0.0 && self.cohesion < STRENGTH_RANGE) {
-            return Err(invalid(
-                "cohesion",
-                self.cohesion,
-                "must be a non-negative finite number (below 1e100)",
-            ));
-        }
-        if self.friction_angle == 0.0 && self.cohesion == 0.0 {
-            return Err(invalid(
-                "cohesion",
-                self.cohesion,
-                "must be positive when friction_angle is 0 (the material would have no strength)",
-            ));
-        }
-        if !(self.dilatancy_angle >= 0.0 && self.dilatancy_angle <= self.friction_angle) {
-            return Err(invalid(
-                "dilatancy_angle",
-                self.dilatancy_angle,
-                "must lie in [0, friction_angle] degrees",
-            ));
-        }
-        Ok(())
+        let (phi, c, psi) = (self.friction_angle, self.cohesion, self.dilatancy_angle);
+        require(
+            (0.0..90.0).contains(&phi),
+            "friction_angle",
+            phi,
+            "must lie in [0, 90) degrees",
+        )?;
+        require(
+            c >= 0.0 && c < STRENGTH_RANGE,
+            "cohesion",
+            c,
+            "must be a non-negative finite number (below 1e100)",
+        )?;
+        require(
+            phi > 0.0 || c > 0.0,
+            "cohesion",
+            c,
+            "must be positive when friction_angle is 0 (the material would have no strength)",
+        )?;
+        require(
+            psi >= 0.0 && psi <= phi,
+            "dilatancy_angle",
+            psi,
+            "must lie in [0, friction_angle] degrees",
+        )
     }
 
     /// The cone of the [module docs](self), fitted to Mohr–Coulomb in plane strain for the

@@ -6,7 +6,7 @@
 use super::phases::keep_stress;
 use super::{Scratch, Setup, State};
 use crate::error::Result;
-use crate::fields::deformation_increment_of;
+use crate::fields::{deformation_increment_of, mat2_mul};
 use crate::kernels::{Partials, StressOutput, StressPartials, StressSums};
 use crate::material::{PlasticState, Prepared};
 use crate::parallel::Splittable;
@@ -103,12 +103,7 @@ fn update_one(
     let (g, j_inc) = deformation_increment_of(l, dt);
     let s = &mut out.stress;
     let old = [s.f[0][j], s.f[1][j], s.f[2][j], s.f[3][j]];
-    let f = [
-        g[0] * old[0] + g[1] * old[2],
-        g[0] * old[1] + g[1] * old[3],
-        g[2] * old[0] + g[3] * old[2],
-        g[2] * old[1] + g[3] * old[3],
-    ];
+    let f = mat2_mul(g, old);
     let det_f = f[0] * f[3] - f[1] * f[2];
     if !(j_inc > 0.0 && det_f > 0.0 && det_f.is_finite()) {
         sums.inverted = Some((k, j_inc, det_f));
