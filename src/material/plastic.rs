@@ -155,7 +155,7 @@ impl VonMises {
             "must be a positive finite number (below 1e100)",
         )?;
         require(
-            h >= 0.0 && h < STRENGTH_RANGE,
+            (0.0..STRENGTH_RANGE).contains(&h),
             "hardening_modulus",
             h,
             "must be a non-negative finite number (below 1e100; softening is not modelled)",
@@ -197,7 +197,7 @@ impl DruckerPrager {
             "must lie in [0, 90) degrees",
         )?;
         require(
-            c >= 0.0 && c < STRENGTH_RANGE,
+            (0.0..STRENGTH_RANGE).contains(&c),
             "cohesion",
             c,
             "must be a non-negative finite number (below 1e100)",
