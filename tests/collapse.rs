@@ -1,6 +1,6 @@
 //! The granular column collapse against the experimental laws of quasi-2D collapses (Lube et
 //! al. 2005; `sparse_mpm_study::verification::collapse`, docs/verification.md): the run-out
-//! within 25% of the law at a = 0.5, 1 and 2 with 30 cells across the column, the deposit at
+//! within 25% of the law at a = 0.5 (40 cells across the column), 1 and 2 (30 cells), the deposit at
 //! rest within a few √(H₀/g), the energy balance closed within 2% of the potential energy
 //! released; the consistent mass (in the acceleration solve under APIC, and in both solves under
 //! FLIP) runs to rest too.
@@ -43,8 +43,11 @@ fn assert_at_rest(label: &str, o: &Outcome) {
 #[test]
 fn the_collapse_runs_out_as_the_experimental_law_and_comes_to_rest() {
     let lumped = choices(Transfer::Apic, MassScheme::Lumped, MassScheme::Lumped);
-    for a in [0.5, 1.0, 2.0] {
-        let o = Collapse::new(a).run(30, &lumped).unwrap();
+    // At a = 0.5 only a wedge of the column moves: 40 cells across resolve it as 30 do the
+    // taller columns' collapse (with 30 the run-out is 0.50, 17% short, and the energy balance
+    // 2.5% off: docs/verification.md).
+    for (a, cells) in [(0.5, 40), (1.0, 30), (2.0, 30)] {
+        let o = Collapse::new(a).run(cells, &lumped).unwrap();
         let runout = metric(&o, "runout");
         let off = from_band(runout, runout_law(a));
         assert!(
@@ -54,12 +57,9 @@ fn the_collapse_runs_out_as_the_experimental_law_and_comes_to_rest() {
             100.0 * off
         );
         assert_at_rest(&format!("a = {a}"), &o);
-        // Within 2% of the energy released; at a = 0.5 (the least released) 2.4% with 30 cells,
-        // 1.4% with 40: the balance's error is the discretisation's, and halves with h.
         let error = metric(&o, "energy_error");
-        let bound = if a < 1.0 { 0.03 } else { 0.02 };
         assert!(
-            error <= bound,
+            error <= 0.02,
             "a = {a}: energy balance off by {error} of the energy released"
         );
         // Most of the energy released is dissipated plastically, the rest in the transfers.
@@ -69,7 +69,7 @@ fn the_collapse_runs_out_as_the_experimental_law_and_comes_to_rest() {
         let height = metric(&o, "final_height");
         if a < 1.0 {
             assert!(
-                (height - a).abs() <= 0.2 / 30.0 / 0.2 + 1e-9,
+                (height - a).abs() <= 1.0 / cells as f64 + 1e-9,
                 "a = {a}: H∞/L₀ = {height}"
             );
         }
