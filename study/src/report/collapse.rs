@@ -110,5 +110,25 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
     page.md.push('\n');
     page.embed(&runout, "collapse_runout")?;
     page.embed(&height, "collapse_height")?;
+    // The deposits of the tallest column, one line per run.
+    if let Some(&tallest) = aspects.last() {
+        let mut profiles = empty_chart(
+            &format!("Collapse: deposits at a = {tallest}"),
+            "x/L0",
+            "height/L0",
+            false,
+        );
+        for (label, runs) in &groups {
+            for (_, o) in runs.iter().filter(|(_, o)| o.metric("aspect") == Some(tallest)) {
+                if let Some(p) = o.history("profile") {
+                    profiles.series.push(series(
+                        label.clone(),
+                        p.time.iter().copied().zip(p.value.iter().copied()).collect(),
+                    ));
+                }
+            }
+        }
+        page.embed(&profiles, "collapse_profiles")?;
+    }
     Ok(())
 }

@@ -149,7 +149,8 @@ impl Collapse {
     }
 
     /// Runs the collapse for [`Collapse::duration`] (the metrics of the [module docs](self);
-    /// histories of the kinetic energy and the front against time, both scaled).
+    /// histories of the grid's kinetic energy and the front against time, both scaled, and the
+    /// final deposit's profile, [`deposit_profile`]).
     ///
     /// # Errors
     /// Those of [`Collapse::simulation`] and [`Simulation::step`].
@@ -217,7 +218,7 @@ impl Collapse {
                 ("law_runout_high".into(), high),
                 ("law_height".into(), height_law(self.aspect)),
             ],
-            histories: vec![kinetic, front],
+            histories: vec![kinetic, front, deposit_profile(p, h, l0)],
             steps: sim.steps(),
             seconds,
         };
@@ -262,6 +263,25 @@ pub fn from_band(x: f64, (low, high): (f64, f64)) -> f64 {
     } else {
         0.0
     }
+}
+
+/// The deposit's profile: for each column of cells of width `h` from `x = 0` that holds a
+/// particle, its centre and its highest particle, both over `L₀` (the history's "time" is
+/// `x/L₀`).
+pub fn deposit_profile(p: &Particles, h: f64, l0: f64) -> History {
+    let mut top: Vec<f64> = Vec::new();
+    for k in 0..p.len() {
+        let c = (p.x[k] / h).floor().max(0.0) as usize;
+        if c >= top.len() {
+            top.resize(c + 1, f64::NAN);
+        }
+        top[c] = if top[c].is_nan() { p.y[k] } else { top[c].max(p.y[k]) };
+    }
+    let mut profile = History::new("profile");
+    for (c, &t) in top.iter().enumerate().filter(|(_, t)| !t.is_nan()) {
+        profile.push((c as f64 + 0.5) * h / l0, t / l0);
+    }
+    profile
 }
 
 /// The toe of the contiguous deposit: `k h` for the first column of cells `[k h, (k + 1) h)`
