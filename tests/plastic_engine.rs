@@ -168,6 +168,28 @@ fn the_geostatic_initial_stress_is_the_weight_above() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("k0"), "{err}");
+    // A stress at the base beyond the Young's modulus has no elastic state: refused by name.
+    let crushed = collapse_scene(0.5, 0.02).replace("density = 1500.0", "density = 1.5e9");
+    let err = Scene::from_toml_str(&crushed)
+        .and_then(|s| s.build())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("initial_stress") && err.contains("Young's modulus"),
+        "{err}"
+    );
+    // So is a particle of a plastic body given such a stress by hand.
+    let scene =
+        Scene::from_toml_str(&collapse_scene(0.5, 0.02).replace("initial_stress = \"geostatic\"\n", "")).unwrap();
+    let mut p = scene.particles().unwrap();
+    p.syy[3] = -2e7;
+    let err = Simulation::new(scene.grid().unwrap(), p, scene.bodies(), scene.options())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("particle 3") && err.contains("elastic log strain"),
+        "{err}"
+    );
     let unknown = collapse_scene(0.5, 0.02).replace("\"geostatic\"", "\"hydrostatic\"");
     let err = Scene::from_toml_str(&unknown)
         .and_then(|s| s.build())

@@ -83,13 +83,13 @@ impl From<InitialStress> for Written {
     }
 }
 
-/// The Poisson's ratio of a material.
-fn poisson_ratio(m: &Material) -> f64 {
+/// The Young's modulus and Poisson's ratio of a material.
+fn elastic_constants(m: &Material) -> (f64, f64) {
     match m {
-        Material::LinearElastic(m) => m.poisson_ratio,
-        Material::NeoHookean(m) => m.poisson_ratio,
-        Material::VonMises(m) => m.poisson_ratio,
-        Material::DruckerPrager(m) => m.poisson_ratio,
+        Material::LinearElastic(m) => (m.youngs_modulus, m.poisson_ratio),
+        Material::NeoHookean(m) => (m.youngs_modulus, m.poisson_ratio),
+        Material::VonMises(m) => (m.youngs_modulus, m.poisson_ratio),
+        Material::DruckerPrager(m) => (m.youngs_modulus, m.poisson_ratio),
     }
 }
 
@@ -98,8 +98,8 @@ fn poisson_ratio(m: &Material) -> f64 {
 ///
 /// # Errors
 /// [`crate::error::MpmError::InvalidScene`] at `bodies[k].initial_stress` for a neo-Hookean
-/// body (its stress is a function of `F`), a body without gravity, or a `k0` that is not a
-/// finite non-negative number.
+/// body (its stress is a function of `F`), a body without gravity, a `k0` that is not a
+/// finite non-negative number, or a stress at the body's base beyond its Young's modulus.
 pub(super) fn apply(k: usize, body: &BodySpec, g: [f64; 2], p: &mut Particles) -> Result<()> {
     let Some(InitialStress::Geostatic { k0 }) = body.initial_stress else {
         return Ok(());
@@ -119,7 +119,7 @@ pub(super) fn apply(k: usize, body: &BodySpec, g: [f64; 2], p: &mut Particles) -
             "the geostatic stress needs gravity (loads.gravity or the body's body_force)",
         ));
     }
-    let nu = poisson_ratio(&body.material);
+    let (youngs_modulus, nu) = elastic_constants(&body.material);
     let k0 = k0.unwrap_or(nu / (1.0 - nu));
     if !(k0.is_finite() && k0 >= 0.0) {
         return Err(invalid(
@@ -138,6 +138,21 @@ pub(super) fn apply(k: usize, body: &BodySpec, g: [f64; 2], p: &mut Particles) -
             .flat_map(|&x| [lo[1], hi[1]].map(|y| height(x, y)))
             .fold(f64::MIN, f64::max),
     };
+    // The deepest particle's vertical stress, against the material's stiffness: beyond E the
+    // elastic strain that carries it exceeds 1 (a body crushed to a third of its height).
+    let deepest = (0..p.len())
+        .map(|i| (p.mass[i] / p.volume[i]) * magnitude * (top - height(p.x[i], p.y[i])).max(0.0))
+        .fold(0.0, f64::max);
+    if deepest.max(k0 * deepest) > youngs_modulus {
+        return Err(invalid(
+            key,
+            format!(
+                "the geostatic stress reaches {deepest:.4e} (ρ |g| × depth) at the body's base, more than its \
+                 Young's modulus {youngs_modulus:.4e}: no elastic state carries it (a smaller density or gravity, \
+                 a stiffer material, or no initial stress)"
+            ),
+        ));
+    }
     for i in 0..p.len() {
         let depth = (top - height(p.x[i], p.y[i])).max(0.0);
         let rho = p.mass[i] / p.volume[i];

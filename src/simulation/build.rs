@@ -88,7 +88,7 @@ impl Simulation {
             None => {
                 let mut particles = particles;
                 let materials: Vec<_> = bodies.iter().map(|b| b.material.prepared()).collect();
-                super::plastic::initial_state(&mut particles, &materials);
+                super::plastic::initial_state(&mut particles, &materials)?;
                 (reference_densities(&particles, bodies.len()), State::start(particles))
             }
             Some(saved) => {

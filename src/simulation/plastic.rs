@@ -5,7 +5,7 @@
 
 use super::phases::keep_stress;
 use super::{Scratch, Setup, State};
-use crate::error::Result;
+use crate::error::{MpmError, Result};
 use crate::fields::{deformation_increment_of, mat2_mul};
 use crate::kernels::{Partials, StressOutput, StressPartials, StressSums};
 use crate::material::{PlasticState, Prepared};
@@ -150,9 +150,13 @@ fn update_one(
 /// elastic strain of its stress (`Cone::strain_of_stress` of `τ = det F σ`) and no plastic
 /// strain; the particles carry no state when no body is elastoplastic, and particles that
 /// carry one already (those of an earlier run) keep it.
-pub(super) fn initial_state(particles: &mut Particles, materials: &[Prepared]) {
+///
+/// # Errors
+/// [`MpmError::InvalidParticleValue`] (`stress`) for a particle of an elastoplastic body whose
+/// stress needs an elastic log strain beyond [`MAX_ELASTIC_STRAIN`].
+pub(super) fn initial_state(particles: &mut Particles, materials: &[Prepared]) -> Result<()> {
     if particles.has_plastic_state() || !materials.iter().any(|m| m.plastic().is_some()) {
-        return;
+        return Ok(());
     }
     particles.with_plastic_state();
     let p = particles;
@@ -162,7 +166,24 @@ pub(super) fn initial_state(particles: &mut Particles, materials: &[Prepared]) {
         };
         let j = p.fxx[k] * p.fyy[k] - p.fxy[k] * p.fyx[k];
         let e = cone.strain_of_stress([p.sxx[k] * j, p.syy[k] * j, p.sxy[k] * j]);
+        let largest = e.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if largest.is_nan() || largest > MAX_ELASTIC_STRAIN {
+            return Err(MpmError::InvalidParticleValue {
+                particle: k,
+                field: "stress",
+                value: [p.sxx[k], p.syy[k], p.sxy[k]]
+                    .into_iter()
+                    .fold(0.0f64, |m, v| m.max(v.abs())),
+                reason: "an elastoplastic body's stress needs an elastic log strain above 1 (beyond its Young's \
+                         modulus): no elastic state carries it",
+            });
+        }
         [p.elastic_xx[k], p.elastic_yy[k], p.elastic_xy[k], p.elastic_zz[k]] = e;
         p.plastic_strain[k] = 0.0;
     }
+    Ok(())
 }
+
+/// The largest elastic log strain a particle's initial stress may need (1: a stretch of
+/// e ≈ 2.7, or a body crushed to 37% of its length, by elasticity alone).
+pub const MAX_ELASTIC_STRAIN: f64 = 1.0;
