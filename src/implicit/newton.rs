@@ -465,8 +465,9 @@ impl NewtonSystem<'_> {
             }
             // Then halved (at most ten times) until the residual decreases: the Newton direction
             // descends |r|² with the exact tangent, and a full step that does not (a plastic
-            // zone entered at the step's start, whose tangent is soft) is not taken whole.
-            if found {
+            // zone entered at the step's start, whose tangent is soft) is not taken whole. Not
+            // within √tolerance, where Newton converges quadratically until round-off holds it.
+            if found && !within {
                 let now = norm(reduce(t, r_now).into_iter());
                 let mut halvings = 0;
                 while halvings < 10 {
