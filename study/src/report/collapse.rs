@@ -24,14 +24,16 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
          plastic dissipation + transfer loss, over the energy released; stress deviation: RMS of σ_yy \
          against the weight of the deposit above each particle, over ρ g H₀. The law: Lube et al. (2005), \
          1.2 a for a ≤ 1.8 and 1.9 a^(2/3) for a ≥ 2.8 (between them, the band they span); H∞/L₀ = a \
-         for a ≤ 1.15, a^(2/5) beyond (docs/verification.md).\n",
+         for a ≤ 1.15, a^(2/5) beyond (docs/verification.md). The cost is the number of steps; the wall \
+         times are in runs.csv (`wall_seconds`, `wall_per_step_seconds`), being measured they differ from one \
+         execution of the study to the next.\n",
         c.friction_angle, c.youngs_modulus, c.poisson_ratio, c.density, c.width, c.duration
     )
     .ok();
     writeln!(
         page.md,
         "| run | a | run-out | law | off the law | H∞/L₀ | law | at rest (√(H₀/g)) | dissipated | energy error | \
-         stress deviation | steps | seconds |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+         stress deviation | steps |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
     )
     .ok();
     let groups = by_label(ok);
@@ -63,7 +65,7 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
             };
             writeln!(
                 page.md,
-                "| {label} | {a} | {:.2} | {law} | {:+.0}% | {:.2} | {:.2} | {:.1} | {:.3} | {:.1e} | {:.3} | {} | {:.1} |",
+                "| {label} | {a} | {:.2} | {law} | {:+.0}% | {:.2} | {:.2} | {:.1} | {:.3} | {:.1e} | {:.3} | {} |",
                 m("runout"),
                 100.0 * from_band(m("runout"), band),
                 m("final_height"),
@@ -72,8 +74,7 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
                 m("dissipated"),
                 m("energy_error"),
                 m("stress_deviation"),
-                o.steps,
-                o.seconds
+                o.steps
             )
             .ok();
             points.push((a, m("runout")));
@@ -109,7 +110,9 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
     }
     page.md.push('\n');
     page.embed(&runout, "collapse_runout")?;
+    page.md.push('\n');
     page.embed(&height, "collapse_height")?;
+    page.md.push('\n');
     // The deposits of the tallest column, one line per run.
     if let Some(&tallest) = aspects.last() {
         let mut profiles = empty_chart(
@@ -129,6 +132,7 @@ pub(super) fn write(ok: &[Finished], page: &mut Page) -> Result<()> {
             }
         }
         page.embed(&profiles, "collapse_profiles")?;
+        page.md.push('\n');
     }
     Ok(())
 }
