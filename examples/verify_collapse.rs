@@ -8,6 +8,7 @@
 //! cargo run --release --example verify_collapse -- lumped/consistent 1 -- 40   # 40 cells across L0
 //! cargo run --release --example verify_collapse -- flip lumped consistent 0.5 1 2
 //! cargo run --release --example verify_collapse -- lumped 1 2 E=1e8 -- 20     # stiffer grains
+//! cargo run --release --example verify_collapse -- flip lumped 0.5 1 mu=0.6  # floor with friction
 //! ```
 //!
 //! Masses: `lumped`, `consistent`, `blended:γ` (both solves). Quadratic B-splines, MUSL, APIC,
@@ -62,6 +63,10 @@ fn main() -> sparse_mpm::error::Result<()> {
         .iter()
         .find_map(|a| a.strip_prefix("E=").and_then(|e| e.parse().ok()))
         .unwrap_or(Collapse::new(1.0).youngs_modulus);
+    // `mu=…`: a slip floor with Coulomb friction μ instead of the fixed floor.
+    let floor_friction = args
+        .iter()
+        .find_map(|a| a.strip_prefix("mu=").and_then(|m| m.parse().ok()));
     if masses.is_empty() {
         masses = ["lumped", "lumped/consistent"].iter().filter_map(|m| mass(m)).collect();
     }
@@ -70,18 +75,25 @@ fn main() -> sparse_mpm::error::Result<()> {
     }
     let c = Collapse {
         youngs_modulus,
+        floor_friction,
         ..Collapse::new(1.0)
     };
     println!(
         "Drucker-Prager phi = {} deg, c = 0, psi = 0, E = {:e}, nu = {}, rho = {}; L0 = {}, {cells} cells across L0; \
-         quadratic B-splines, MUSL, 2 x 2 particles per cell, CFL 0.4; run for {} sqrt(H0/g)",
-        c.friction_angle, c.youngs_modulus, c.poisson_ratio, c.density, c.width, c.duration
+         quadratic B-splines, MUSL, 2 x 2 particles per cell, CFL 0.4; run for {} sqrt(H0/g); floor: {}",
+        c.friction_angle,
+        c.youngs_modulus,
+        c.poisson_ratio,
+        c.density,
+        c.width,
+        c.duration,
+        floor_friction.map_or("fixed".to_string(), |mu| format!("slip with friction {mu}"))
     );
     println!(
         "| transfer, mass | a | run-out | law (Lube et al.) | off | H/L0 | law | at rest after (sqrt(H0/g)) | \
-         dissipated | energy error | stress deviation | steps | seconds |"
+         dissipated | by friction | energy error | stress deviation | steps | seconds |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for &mass in &masses {
         let transfer = if flip || mass.velocity != MassScheme::Lumped {
             Transfer::Flip
@@ -107,7 +119,7 @@ fn main() -> sparse_mpm::error::Result<()> {
                 format!("{:.2}-{:.2}", band.0, band.1)
             };
             println!(
-                "| {} | {a} | {:.2} | {law} | {:+.0}% | {:.2} | {:.2} | {:.1} | {:.3} | {:.1e} | {:.3} | {} | {:.1} |",
+                "| {} | {a} | {:.2} | {law} | {:+.0}% | {:.2} | {:.2} | {:.1} | {:.3} | {:.3} | {:.1e} | {:.3} | {} | {:.1} |",
                 choices.label(),
                 m("runout"),
                 100.0 * from_band(m("runout"), band),
@@ -115,6 +127,7 @@ fn main() -> sparse_mpm::error::Result<()> {
                 m("law_height"),
                 m("stop_time"),
                 m("dissipated"),
+                m("friction_dissipated"),
                 m("energy_error"),
                 m("stress_deviation"),
                 o.steps,

@@ -247,6 +247,11 @@ pub(super) fn grid_phases(
     correct_stage(contact, setup, ops, bodies, Stage::Momentum, decide)?.add_to(state);
     for layer in bodies.iter_mut() {
         let (mass, fields) = (&mut layer.mass, &mut layer.nodes);
+        // The mirrored node lines beyond a slip wall take the corrected interior's image, as the
+        // updated field does in (8b): a ghost left as it was gives FLIP an increment w − v there
+        // that the interior never had (at a corner of a mirrored wall and a wall with friction
+        // it fed a particle's velocity into the floor, step after step).
+        walls::unfold(&prescribed.slip, grid, &mut [&mut fields.projected]);
         if let Some(damping) = options.damping {
             let power = damping.apply(&mut fields.force, &fields.projected, mass.lumped(), mass.is_active());
             state.relaxation.damping_work -= dt * power;

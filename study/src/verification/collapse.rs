@@ -67,6 +67,10 @@ pub struct Collapse {
     pub gravity: f64,
     /// The run's length in `√(H₀/g)`.
     pub duration: f64,
+    /// The floor: fixed (`None`, the default: every node line at and below it at rest) or a
+    /// slip wall with Coulomb friction `μ` (`Some(μ)`, met through contact:
+    /// [`BoundaryCondition::with_friction`]).
+    pub floor_friction: Option<f64>,
 }
 
 impl Collapse {
@@ -83,6 +87,7 @@ impl Collapse {
             density: 1500.0,
             gravity: 9.81,
             duration: 6.0,
+            floor_friction: None,
         }
     }
 
@@ -136,10 +141,11 @@ impl Collapse {
             particles.syy[k] = sv;
             particles.sxx[k] = k0 * sv;
         }
-        let mut options = choices.options(vec![
-            BoundaryCondition::edge(Edge::Left, Condition::Slip),
-            BoundaryCondition::edge(Edge::Bottom, Condition::Fixed),
-        ]);
+        let floor = match self.floor_friction {
+            None => BoundaryCondition::edge(Edge::Bottom, Condition::Fixed),
+            Some(mu) => BoundaryCondition::edge(Edge::Bottom, Condition::Slip).with_friction(mu),
+        };
+        let mut options = choices.options(vec![BoundaryCondition::edge(Edge::Left, Condition::Slip), floor]);
         options.gravity = [0.0, -self.gravity];
         let body = Body {
             name: "column".into(),
@@ -165,10 +171,11 @@ impl Collapse {
         let started = Instant::now();
         let mut last_sample = f64::NEG_INFINITY;
         let (mut released, mut e0) = (0.0f64, None);
-        let (mut potential0, mut dissipation) = (None, 0.0);
+        let (mut potential0, mut dissipation, mut friction) = (None, 0.0, 0.0);
         while sim.time() < end {
             let r = sim.step()?;
             dissipation = r.plastic_dissipation;
+            friction = r.friction_dissipation;
             let balance = r.total_energy + r.plastic_dissipation + r.transfer_loss + r.friction_dissipation;
             let e_start = *e0.get_or_insert(balance);
             let p0 = *potential0.get_or_insert(r.potential_energy);
@@ -209,6 +216,7 @@ impl Collapse {
                     kinetic.value.last().copied().unwrap_or(0.0) / peak.max(f64::MIN_POSITIVE),
                 ),
                 ("dissipated".into(), dissipation / released),
+                ("friction_dissipated".into(), friction / released),
                 ("energy_error".into(), error),
                 (
                     "stress_deviation".into(),
