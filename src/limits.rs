@@ -233,15 +233,6 @@ pub fn estimate_scene(scene: &Scene) -> Estimate {
     for (k, body) in scene.bodies.iter().enumerate() {
         let ppc = (body.particles_per_cell as f64).powi(2);
         particles += match &body.geometry {
-            Geometry::Rectangle { min, max } => {
-                clip(min[0], max[0], bounds[0], bounds[1]) * clip(min[1], max[1], bounds[2], bounds[3]) / (hx * hy)
-                    * ppc
-            }
-            Geometry::Disk { center, radius } => {
-                let square = clip(center[0] - radius, center[0] + radius, bounds[0], bounds[1])
-                    * clip(center[1] - radius, center[1] + radius, bounds[2], bounds[3]);
-                square.min(std::f64::consts::PI * radius * radius) / (hx * hy) * ppc
-            }
             // Only a path that passes the scene's checks is looked at (the build refuses the
             // others, naming them).
             Geometry::File(_) => match scene.particle_file_path(k) {
@@ -250,6 +241,11 @@ pub fn estimate_scene(scene: &Scene) -> Estimate {
                 }
                 _ => 0.0,
             },
+            // The box clipped to the grid, or the shape's area where smaller.
+            geometry => geometry.bounding_box().map_or(0.0, |(lo, hi)| {
+                let square = clip(lo[0], hi[0], bounds[0], bounds[1]) * clip(lo[1], hi[1], bounds[2], bounds[3]);
+                square.min(geometry.area().unwrap_or(f64::INFINITY)) / (hx * hy) * ppc
+            }),
         };
     }
     let consistent = [scene.schemes.mass.velocity, scene.schemes.mass.acceleration]

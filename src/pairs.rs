@@ -51,3 +51,14 @@ where
     let [a, b]: [Pair; 2] = exactly_two(d)?;
     Ok(Some([a.0, b.0]))
 }
+
+/// A list of [`exactly_two`] pairs (`[[x0, y0], [x1, y1], …]`), each read strictly.
+pub(crate) fn list_of_pairs<'de, D>(d: D) -> std::result::Result<Vec<[f64; 2]>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    #[derive(Deserialize)]
+    struct Pair(#[serde(deserialize_with = "exactly_two")] [f64; 2]);
+    let v: Vec<Pair> = Vec::deserialize(d)?;
+    Ok(v.into_iter().map(|p| p.0).collect())
+}

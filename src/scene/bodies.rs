@@ -46,19 +46,8 @@ impl Scene {
             }
             geometry => {
                 inside_grid(k, geometry, grid)?;
-                let inside = |px: f64, py: f64| match geometry {
-                    Geometry::Rectangle { min, max } => px > min[0] && px < max[0] && py > min[1] && py < max[1],
-                    Geometry::Disk { center, radius } => (px - center[0]).hypot(py - center[1]) < *radius,
-                    Geometry::File(_) => unreachable!("handled above"),
-                };
-                let bounds = match geometry {
-                    Geometry::Rectangle { min, max } => Some([*min, *max]),
-                    Geometry::Disk { center, radius } => Some([
-                        [center[0] - radius, center[1] - radius],
-                        [center[0] + radius, center[1] + radius],
-                    ]),
-                    Geometry::File(_) => None,
-                };
+                let bounds = geometry.bounding_box().map(|(lo, hi)| [lo, hi]);
+                let inside = |px: f64, py: f64| geometry.contains(px, py);
                 let (x, y, volume) = crate::particles::lattice_within(grid, body.particles_per_cell, bounds, inside);
                 ParticleColumns {
                     volume: vec![volume; x.len()],
@@ -94,44 +83,27 @@ impl Scene {
     }
 }
 
-/// The bounding box `[lo, hi]` of a rectangle or a disk; `None` for a particle file.
-pub(super) fn bounding_box(geometry: &Geometry) -> Option<([f64; 2], [f64; 2])> {
-    match geometry {
-        Geometry::Rectangle { min, max } => Some((*min, *max)),
-        Geometry::Disk { center, radius } => Some((
-            [center[0] - radius, center[1] - radius],
-            [center[0] + radius, center[1] + radius],
-        )),
-        Geometry::File(_) => None,
-    }
-}
-
-/// The rectangle or disk of body `k` inside the grid (to a relative 10⁻⁹ of the grid's size).
+/// Every shape of body `k`'s geometry inside the grid (to a relative 10⁻⁹ of the grid's size),
+/// each part of a union, difference or transform on its own.
 ///
 /// # Errors
-/// [`MpmError::InvalidScene`] at `bodies[k].geometry.rectangle` or `.disk`, with the span of
-/// the shape and the grid's.
+/// [`MpmError::InvalidScene`] at the part outside (`bodies[k].geometry.union[1].disk`), with
+/// its span and the grid's.
 ///
 /// [`MpmError::InvalidScene`]: crate::error::MpmError::InvalidScene
 pub(super) fn inside_grid(k: usize, geometry: &Geometry, grid: &Grid) -> Result<()> {
-    let Some((lo, hi)) = bounding_box(geometry) else {
-        return Ok(());
-    };
     let [x0, x1, y0, y1] = grid.bounds();
     let tol = 1e-9 * (x1 - x0).max(y1 - y0);
-    if lo[0] < x0 - tol || lo[1] < y0 - tol || hi[0] > x1 + tol || hi[1] > y1 + tol {
-        let shape = if matches!(geometry, Geometry::Disk { .. }) {
-            "disk"
-        } else {
-            "rectangle"
-        };
-        return Err(invalid(
-            format!("bodies[{k}].geometry.{shape}"),
-            format!(
-                "spans [{}, {}] x [{}, {}], which is not inside the grid [{x0}, {x1}] x [{y0}, {y1}]",
-                lo[0], hi[0], lo[1], hi[1]
-            ),
-        ));
-    }
-    Ok(())
+    let outside =
+        |(lo, hi): ([f64; 2], [f64; 2])| lo[0] < x0 - tol || lo[1] < y0 - tol || hi[0] > x1 + tol || hi[1] > y1 + tol;
+    let Some((key, (lo, hi))) = geometry.first_outside(&format!("bodies[{k}].geometry"), &outside) else {
+        return Ok(());
+    };
+    Err(invalid(
+        key,
+        format!(
+            "spans [{}, {}] x [{}, {}], which is not inside the grid [{x0}, {x1}] x [{y0}, {y1}]",
+            lo[0], hi[0], lo[1], hi[1]
+        ),
+    ))
 }

@@ -21,8 +21,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::bodies::bounding_box;
-use super::{invalid, BodySpec, Geometry};
+use super::{invalid, BodySpec};
 use crate::error::Result;
 use crate::material::Material;
 use crate::particles::Particles;
@@ -130,14 +129,10 @@ pub(super) fn apply(k: usize, body: &BodySpec, g: [f64; 2], p: &mut Particles) -
     let u = [g[0] / magnitude, g[1] / magnitude];
     // Height against gravity: h = −ĝ · x; the top is the largest.
     let height = |x: f64, y: f64| -(u[0] * x + u[1] * y);
-    let top = match (&body.geometry, bounding_box(&body.geometry)) {
-        (Geometry::Disk { center, radius }, _) => height(center[0], center[1]) + radius,
-        (Geometry::File(_), _) | (_, None) => (0..p.len()).map(|i| height(p.x[i], p.y[i])).fold(f64::MIN, f64::max),
-        (_, Some((lo, hi))) => [lo[0], hi[0]]
-            .iter()
-            .flat_map(|&x| [lo[1], hi[1]].map(|y| height(x, y)))
-            .fold(f64::MIN, f64::max),
-    };
+    let top = body
+        .geometry
+        .highest([-u[0], -u[1]])
+        .unwrap_or_else(|| (0..p.len()).map(|i| height(p.x[i], p.y[i])).fold(f64::MIN, f64::max));
     // The deepest particle's vertical stress, against the material's stiffness: beyond E the
     // elastic strain that carries it exceeds 1 (a body crushed to a third of its height).
     let deepest = (0..p.len())

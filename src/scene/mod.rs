@@ -46,11 +46,13 @@
 //! threads = 1                    # worker threads (the results are the same bits for any count)
 //! ```
 //!
-//! Geometries: `{ rectangle = { min = [x, y], max = [x, y] } }`, `{ disk = { center = [x, y],
-//! radius = r } }`, `{ file = "particles.csv" }` (a CSV file with a header naming at least `x`,
+//! Geometries ([`Geometry`]): `{ rectangle = { min = [x, y], max = [x, y] } }`, `{ disk = { center = [x, y],
+//! radius = r } }`, `{ annulus = { center, inner_radius, outer_radius } }`, `{ polygon = {
+//! vertices = [[x, y], …] } }`, `{ union = [shape, …] }`, `{ difference = { base = shape, minus =
+//! [shape, …] } }`, `{ transformed = { shape, angle, about, translate } }`, `{ file = "particles.csv" }` (a CSV file with a header naming at least `x`,
 //! `y` and `volume`, optionally `vx`, `vy`, `mass` (default `density × volume`), `sxx`, `syy`,
 //! `sxy`; lines starting with `#` are comments; a relative path is taken from the scene file's
-//! folder). Rectangles and disks are filled with `particles_per_cell²` particles per grid cell,
+//! folder). Shapes are filled with `particles_per_cell²` particles per grid cell,
 //! at the centres of a regular sub-lattice of the grid cells, each of volume
 //! `hx hy / particles_per_cell²` and mass `density × volume`.
 //!
@@ -73,6 +75,7 @@
 
 mod bodies;
 mod contact;
+mod geometry;
 pub mod initial;
 mod locate;
 mod overlap;
@@ -80,6 +83,7 @@ mod particle_file;
 mod validate;
 
 pub use contact::{ContactSpec, NormalSpec, PairSpec, SeparationSpec};
+pub use geometry::{Affine, BoundingBox, Geometry, MAX_GEOMETRY_DEPTH};
 pub use initial::InitialStress;
 pub use overlap::{overlaps, Overlap, SceneWarning};
 
@@ -290,32 +294,6 @@ pub struct Loads {
     /// optionally `settled = 1e-6` ([`crate::damping`]).
     #[serde(default)]
     pub damping: Option<crate::damping::Damping>,
-}
-
-/// Where a body's particles are.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum Geometry {
-    /// The axis-aligned rectangle `[min, max]`.
-    Rectangle {
-        /// Lower-left corner.
-        #[serde(deserialize_with = "crate::pairs::exactly_two")]
-        min: [f64; 2],
-        /// Upper-right corner.
-        #[serde(deserialize_with = "crate::pairs::exactly_two")]
-        max: [f64; 2],
-    },
-    /// The disk `|x − center| < radius`.
-    Disk {
-        /// Centre.
-        #[serde(deserialize_with = "crate::pairs::exactly_two")]
-        center: [f64; 2],
-        /// Radius.
-        radius: f64,
-    },
-    /// Particles listed in a CSV file (columns `x`, `y`, `volume`, optionally `vx`, `vy`, `mass`,
-    /// `sxx`, `syy`, `sxy`).
-    File(PathBuf),
 }
 
 /// One body of the scene.

@@ -1,8 +1,8 @@
 //! The checks of a scene that the file format cannot express ([`Scene::validate`]).
 
 use super::{
-    invalid, BodySpec, Geometry, Scene, MAX_ACCELERATION, MAX_NODES, MAX_ORIGIN_CELLS, MAX_PARTICLES_PER_CELL,
-    MAX_SPEED,
+    invalid, BodySpec, Geometry, Scene, MAX_ACCELERATION, MAX_GEOMETRY_DEPTH, MAX_NODES, MAX_ORIGIN_CELLS,
+    MAX_PARTICLES_PER_CELL, MAX_SPEED,
 };
 use crate::error::{MpmError, Result};
 use crate::mass::{SingularityPolicy, Stabilization};
@@ -294,33 +294,7 @@ impl Scene {
         }
         self.check_vector(&key("velocity"), b.velocity, MAX_SPEED)?;
         self.check_vector(&key("body_force"), b.body_force, MAX_ACCELERATION)?;
-        match &b.geometry {
-            Geometry::Rectangle { min, max } => {
-                if !(min.iter().chain(max).all(|v| v.is_finite()) && min[0] < max[0] && min[1] < max[1]) {
-                    return Err(invalid(
-                        key("geometry.rectangle"),
-                        format!(
-                            "min = {}, max = {}: needs finite values with min < max in x and y",
-                            pair(*min),
-                            pair(*max)
-                        ),
-                    ));
-                }
-            }
-            Geometry::Disk { center, radius } => {
-                if !(center.iter().all(|v| v.is_finite()) && radius.is_finite() && *radius > 0.0) {
-                    return Err(invalid(
-                        key("geometry.disk"),
-                        format!(
-                            "center = {}, radius = {}: needs a finite centre and a positive finite radius",
-                            pair(*center),
-                            exact(*radius)
-                        ),
-                    ));
-                }
-            }
-            Geometry::File(_) => {}
-        }
+        check_geometry(&key("geometry"), &b.geometry)?;
         super::bodies::inside_grid(k, &b.geometry, &self.grid()?)
     }
 
@@ -359,4 +333,116 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+/// Every part of a body's geometry well formed: finite numbers, positive sizes, a polygon of at
+/// least three vertices enclosing an area, nesting at most [`MAX_GEOMETRY_DEPTH`] deep, a
+/// particle file only as the whole geometry.
+fn check_geometry(key: &str, geometry: &Geometry) -> Result<()> {
+    if geometry.depth() > MAX_GEOMETRY_DEPTH {
+        return Err(invalid(
+            key,
+            format!(
+                "unions, differences and transforms nest {} deep; at most {MAX_GEOMETRY_DEPTH} are read",
+                geometry.depth()
+            ),
+        ));
+    }
+    let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    for (at, part) in geometry.parts(key) {
+        match part {
+            Geometry::Rectangle { min, max } if !(finite(min) && finite(max) && min[0] < max[0] && min[1] < max[1]) => {
+                return Err(invalid(
+                    at,
+                    format!(
+                        "min = {}, max = {}: needs finite values with min < max in x and y",
+                        pair(*min),
+                        pair(*max)
+                    ),
+                ));
+            }
+            Geometry::Disk { center, radius } if !(finite(center) && radius.is_finite() && *radius > 0.0) => {
+                return Err(invalid(
+                    at,
+                    format!(
+                        "center = {}, radius = {}: needs a finite centre and a positive finite radius",
+                        pair(*center),
+                        exact(*radius)
+                    ),
+                ));
+            }
+            Geometry::Annulus {
+                center,
+                inner_radius,
+                outer_radius,
+            } if !(finite(center)
+                && inner_radius.is_finite()
+                && outer_radius.is_finite()
+                && *inner_radius >= 0.0
+                && inner_radius < outer_radius) =>
+            {
+                return Err(invalid(
+                    at,
+                    format!(
+                        "center = {}, inner_radius = {}, outer_radius = {}: needs a finite centre and \
+                         0 ≤ inner_radius < outer_radius, both finite",
+                        pair(*center),
+                        exact(*inner_radius),
+                        exact(*outer_radius)
+                    ),
+                ));
+            }
+            Geometry::Polygon { vertices } => check_polygon(&at, part, vertices)?,
+            Geometry::Union(parts) if parts.is_empty() => {
+                return Err(invalid(at, "is empty: a union needs at least one shape"));
+            }
+            Geometry::Transformed {
+                angle,
+                about,
+                translate,
+                ..
+            } if !(angle.is_finite() && about.is_none_or(|c| finite(&c)) && finite(translate)) => {
+                return Err(invalid(
+                    at,
+                    format!(
+                        "angle = {}, about = {}, translate = {}: needs finite values",
+                        exact(*angle),
+                        about.map_or("(the box's centre)".to_string(), pair),
+                        pair(*translate)
+                    ),
+                ));
+            }
+            Geometry::File(_) if at != format!("{key}.file") => {
+                return Err(invalid(
+                    at,
+                    "a particle file is a whole geometry: it cannot be part of a union, a difference or a transform",
+                ));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// A polygon of at least three finite vertices enclosing an area.
+fn check_polygon(at: &str, part: &Geometry, vertices: &[[f64; 2]]) -> Result<()> {
+    if vertices.len() < 3 {
+        return Err(invalid(
+            format!("{at}.vertices"),
+            format!("has {} vertices: a polygon needs at least 3", vertices.len()),
+        ));
+    }
+    if let Some(i) = vertices.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
+        return Err(invalid(
+            format!("{at}.vertices[{i}]"),
+            format!("{} is not a finite point", pair(vertices[i])),
+        ));
+    }
+    if part.area().is_none_or(|a| !(a > 0.0 && a.is_finite())) {
+        return Err(invalid(
+            format!("{at}.vertices"),
+            "enclose no area (the vertices lie on a line, or the outline cancels itself)",
+        ));
+    }
+    Ok(())
 }
