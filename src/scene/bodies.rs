@@ -46,11 +46,10 @@ impl Scene {
             }
             geometry => {
                 inside_grid(k, geometry, grid)?;
-                let bounds = geometry.bounding_box().map(|(lo, hi)| [lo, hi]);
-                let inside = |px: f64, py: f64| geometry.contains(px, py);
-                let (x, y, volume) = crate::particles::lattice_within(grid, body.particles_per_cell, bounds, inside);
+                let (x, y, volume) =
+                    super::sampling::sample(geometry, grid, body.particles_per_cell, body.sampling, body.seed);
                 ParticleColumns {
-                    volume: vec![volume; x.len()],
+                    volume,
                     x,
                     y,
                     ..ParticleColumns::default()

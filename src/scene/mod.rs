@@ -80,12 +80,14 @@ pub mod initial;
 mod locate;
 mod overlap;
 mod particle_file;
+mod sampling;
 mod validate;
 
 pub use contact::{ContactSpec, NormalSpec, PairSpec, SeparationSpec};
 pub use geometry::{Affine, BoundingBox, Geometry, MAX_GEOMETRY_DEPTH};
 pub use initial::InitialStress;
 pub use overlap::{overlaps, Overlap, SceneWarning};
+pub use sampling::{sample, Sampling, SplitMix64, POISSON_DISK_RADIUS};
 
 use std::path::{Path, PathBuf};
 
@@ -306,9 +308,18 @@ pub struct BodySpec {
     pub material: Material,
     /// Reference density (mass per unit area, unit thickness).
     pub density: f64,
-    /// Particles per cell along each axis (rectangles and disks).
+    /// Particles per cell along each axis (every shape but a particle file): the lattice's
+    /// density, which the random samplings match on average.
     #[serde(default = "default_ppc")]
     pub particles_per_cell: usize,
+    /// How the shape is filled: `"regular"` (the default), `"jittered"` or `"poisson_disk"`
+    /// ([`Sampling`]).
+    #[serde(default, skip_serializing_if = "Sampling::is_regular")]
+    pub sampling: Sampling,
+    /// The seed of a random sampling (the same scene and seed give the same particles on every
+    /// machine).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub seed: u64,
     /// Initial velocity of every particle (added to a file's `vx`, `vy`).
     #[serde(default)]
     #[serde(deserialize_with = "crate::pairs::exactly_two")]
@@ -348,6 +359,10 @@ pub const MAX_PARTICLE_FILE_BYTES: u64 = 1 << 30;
 
 fn default_ppc() -> usize {
     2
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 /// What a run writes.

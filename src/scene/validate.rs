@@ -295,6 +295,12 @@ impl Scene {
         self.check_vector(&key("velocity"), b.velocity, MAX_SPEED)?;
         self.check_vector(&key("body_force"), b.body_force, MAX_ACCELERATION)?;
         check_geometry(&key("geometry"), &b.geometry)?;
+        if matches!(b.geometry, Geometry::File(_)) && !b.sampling.is_regular() {
+            return Err(invalid(
+                key("sampling"),
+                "a particle file gives its own particles: `sampling` is for shapes",
+            ));
+        }
         super::bodies::inside_grid(k, &b.geometry, &self.grid()?)
     }
 
