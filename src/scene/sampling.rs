@@ -175,7 +175,7 @@ fn poisson_disk(
     let mut owner = vec![u32::MAX; nx * ny];
     let index = |px: f64, py: f64| -> Option<(usize, usize)> {
         let (u, v) = ((px - lo[0]) / cell, (py - lo[1]) / cell);
-        (u >= 0.0 && v >= 0.0 && u < nx as f64 && v < ny as f64).then(|| (u as usize, v as usize))
+        (u >= 0.0 && v >= 0.0 && u < nx as f64 && v < ny as f64).then_some((u as usize, v as usize))
     };
     let r2 = r * r;
     let free = |x: &[f64], y: &[f64], owner: &[u32], px: f64, py: f64| -> bool {
@@ -195,7 +195,7 @@ fn poisson_disk(
         }
         true
     };
-    let mut rng = SplitMix64::new(seed ^ 0x5EED_0F_D15C);
+    let mut rng = SplitMix64::new(seed ^ 0x005E_ED0F_D15C);
     let mut active: Vec<usize> = Vec::new();
     for (&sx, &sy) in lx.iter().zip(ly) {
         if !free(&x, &y, &owner, sx, sy) {
