@@ -177,6 +177,17 @@ impl MirrorWalls {
         }
     }
 
+    /// The condition of the mirrored wall on `edge`, if there is one.
+    pub fn wall_on(&self, edge: Edge) -> Option<usize> {
+        let side = match edge {
+            Edge::Left => &self.axes[0].low,
+            Edge::Right => &self.axes[0].high,
+            Edge::Bottom => &self.axes[1].low,
+            Edge::Top => &self.axes[1].high,
+        };
+        side.as_ref().map(|w| w.condition)
+    }
+
     /// The walls of slip edges as component `c` (0: x, 1: y) sees them: odd (`s = −1`) on the
     /// walls normal to `c`, even (`s = +1`) on the walls `c` runs along ([module docs](self),
     /// slip walls).

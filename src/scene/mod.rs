@@ -559,10 +559,49 @@ impl Scene {
     /// The errors of [`Scene::grid`], [`Scene::particles`] and [`Simulation::new`].
     pub fn build(&self) -> Result<Simulation> {
         let build = || {
-            Simulation::new(self.grid()?, self.body_particles_all()?, self.bodies(), self.options())
-                .map_err(|e| self.scene_error(e))
+            let particles = self.body_particles_all()?;
+            let body_of = particles.body.clone();
+            Simulation::new(self.grid()?, particles, self.bodies(), self.options()).map_err(|e| match e {
+                MpmError::SupportOutsideGrid {
+                    particle,
+                    position,
+                    shape,
+                    allowed,
+                    padding,
+                } if particle < body_of.len() => {
+                    self.needs_padding(body_of[particle], position, shape, allowed, padding)
+                }
+                e => self.scene_error(e),
+            })
         };
         build().map_err(|e| self.locate(e))
+    }
+
+    /// Body `k`'s particle at `position` closer to the grid's edge than the kernel's support
+    /// allows: the body named, and the padded grid that holds it.
+    fn needs_padding(&self, k: usize, position: [f64; 2], shape: &str, allowed: [f64; 4], padding: usize) -> MpmError {
+        let g = &self.grid;
+        let p = padding as f64;
+        invalid(
+            format!("bodies[{k}].geometry"),
+            format!(
+                "body \"{}\" has a particle at ({}, {}), closer to the grid's edge than the {shape} support \
+                 allows (particles must lie inside [{}, {}] x [{}, {}]): pad the grid by {padding} cell{} on each \
+                 side, origin = [{}, {}] and cells = [{}, {}] (an edge's walls then stay outside the body)",
+                self.bodies[k].name,
+                position[0],
+                position[1],
+                allowed[0],
+                allowed[1],
+                allowed[2],
+                allowed[3],
+                if padding == 1 { "" } else { "s" },
+                g.origin[0] - p * g.cell_size[0],
+                g.origin[1] - p * g.cell_size[1],
+                g.cells[0] + 2 * padding,
+                g.cells[1] + 2 * padding,
+            ),
+        )
     }
 
     /// An [`MpmError::InvalidOption`] of the library restated as [`MpmError::InvalidScene`] at

@@ -54,7 +54,7 @@ use crate::particles::Particles;
 
 /// The version of the checkpoint file format this build writes and reads. Files of another
 /// version are refused.
-pub const CHECKPOINT_FORMAT_VERSION: u32 = 10;
+pub const CHECKPOINT_FORMAT_VERSION: u32 = 11;
 
 /// The first bytes of every checkpoint file: the format name.
 const MAGIC: &[u8] = b"sparse-mpm checkpoint\n";

@@ -58,6 +58,7 @@ pub(super) struct BoundaryRecord {
     vy: Option<f64>,
     wall: Option<WallRule>,
     friction: Option<f64>,
+    range: Option<[f64; 2]>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -190,6 +191,7 @@ impl BoundaryRecord {
             vy,
             wall,
             friction,
+            range,
         } = bc;
         BoundaryRecord {
             edge: *edge,
@@ -201,6 +203,7 @@ impl BoundaryRecord {
             vy: *vy,
             wall: *wall,
             friction: *friction,
+            range: *range,
         }
     }
 
@@ -215,6 +218,7 @@ impl BoundaryRecord {
             vy,
             wall,
             friction,
+            range,
         } = self;
         BoundaryCondition {
             edge,
@@ -226,6 +230,7 @@ impl BoundaryRecord {
             vy,
             wall,
             friction,
+            range,
         }
     }
 }

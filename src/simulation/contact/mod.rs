@@ -354,7 +354,8 @@ fn layered_gradient(
 }
 
 /// The nodes whose kernel support crosses the line of `wall` (those a body there meets it at),
-/// the wall's own line and the lines beyond it included, line by line; with each, the
+/// the wall's own line and the lines beyond it included, line by line, over the wall's range
+/// along it; with each, the
 /// coordinate along the wall's axis of the mass centre of the half-space beyond the wall as the
 /// node sees it (the wall's `x̄` in the separation test, [`crate::contact::Separation`]).
 pub(super) fn wall_nodes(grid: &Grid, shape: ShapeFunction, wall: &FrictionWall) -> Vec<(usize, f64)> {
@@ -374,7 +375,15 @@ pub(super) fn wall_nodes(grid: &Grid, shape: ShapeFunction, wall: &FrictionWall)
         let node_at = origin + j as f64 * h;
         // Inward coordinate `s` is `−outward` along the axis.
         let wall_centre = node_at - wall.outward * h * moment / weight.max(f64::MIN_POSITIVE);
-        for k in 0..counts[1 - wall.axis] {
+        let (along_origin, along_h) = (grid.origin()[1 - wall.axis], grid.cell_size()[1 - wall.axis]);
+        let in_range = |k: usize| {
+            wall.range.is_none_or(|[from, to]| {
+                let c = along_origin + k as f64 * along_h;
+                let tol = 1e-9 * along_h;
+                c >= from - tol && c <= to + tol
+            })
+        };
+        for k in (0..counts[1 - wall.axis]).filter(|&k| in_range(k)) {
             let node = if wall.axis == 0 {
                 grid.node_index(j, k)
             } else {
