@@ -79,6 +79,7 @@ mod geometry;
 pub mod initial;
 mod locate;
 mod overlap;
+mod overrides;
 mod particle_file;
 mod sampling;
 mod validate;
@@ -87,6 +88,7 @@ pub use contact::{ContactSpec, NormalSpec, PairSpec, SeparationSpec};
 pub use geometry::{Affine, BoundingBox, Geometry, MAX_GEOMETRY_DEPTH};
 pub use initial::InitialStress;
 pub use overlap::{overlaps, Overlap, SceneWarning};
+pub use overrides::apply_overrides;
 pub use sampling::{sample, Sampling, SplitMix64, POISSON_DISK_RADIUS};
 
 use std::path::{Path, PathBuf};
@@ -475,6 +477,27 @@ impl Scene {
         scene.base_dir = path.parent().map(Path::to_path_buf);
         scene.file = Some(path.to_path_buf());
         scene.validate().map_err(|e| located(e, path, &text))?;
+        Ok(scene)
+    }
+
+    /// [`Scene::load`] with `KEY=VALUE` overrides applied to the file's text first
+    /// ([`apply_overrides`]): the scene of the edited file, its relative paths still taken from
+    /// the file's folder. Without overrides, [`Scene::load`] itself.
+    ///
+    /// # Errors
+    /// Those of [`Scene::load`] and [`apply_overrides`].
+    pub fn load_with(path: &Path, sets: &[String]) -> Result<Scene> {
+        if sets.is_empty() {
+            return Scene::load(path);
+        }
+        let text = crate::io::read_bounded_text(path, MAX_SCENE_BYTES, "scene")?;
+        let text = apply_overrides(&text, sets).map_err(|e| match e {
+            MpmError::InvalidScene { key, reason } => invalid(format!("{}: {key}", path.display()), reason),
+            e => e,
+        })?;
+        let mut scene = Scene::parse(&text)?;
+        scene.base_dir = path.parent().map(Path::to_path_buf);
+        scene.validate()?;
         Ok(scene)
     }
 

@@ -56,6 +56,9 @@ enum Command {
     /// Write N, Gx, Gy, M (consistent mass) and mL (lumped mass) of a scene's initial
     /// configuration as Matrix Market files, with nodes.csv and particles.csv.
     Matrices(MatricesArgs),
+    /// Print a scene with every default filled in (and any --set applied), as TOML that reads
+    /// back to the same scene: what `run` would run.
+    Scene(SceneArgs),
     /// Read and validate a scene exactly as `run` does (limits and the stable time step
     /// included) and print its size and stable time step.
     Check(CheckArgs),
@@ -175,6 +178,11 @@ impl StepArgs {
 struct RunArgs {
     /// The scene file [default: the built-in two-disk impact].
     scene: Option<PathBuf>,
+    /// Change a key of the scene, as an edit of the file would (repeatable):
+    /// `--set time.end=2 --set bodies[0].material.youngs_modulus=2e7`; an empty value removes
+    /// the key (`--set time.cfl= --set time.dt=1e-4`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
     #[command(flatten)]
     output: OutputArgs,
     #[command(flatten)]
@@ -196,6 +204,11 @@ struct ResumeArgs {
 struct MatricesArgs {
     /// The scene file.
     scene: PathBuf,
+    /// Change a key of the scene, as an edit of the file would (repeatable):
+    /// `--set time.end=2 --set bodies[0].material.youngs_modulus=2e7`; an empty value removes
+    /// the key (`--set time.cfl= --set time.dt=1e-4`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
     /// Output folder [default: out/SCENE/matrices].
     #[arg(long, short = 'o', value_name = "DIR")]
     out: Option<PathBuf>,
@@ -208,9 +221,28 @@ struct MatricesArgs {
 }
 
 #[derive(Args, Debug)]
+struct SceneArgs {
+    /// The scene file [default: the built-in two-disk impact].
+    scene: Option<PathBuf>,
+    /// Print the scene as TOML with every default filled in (the default action).
+    #[arg(long)]
+    print: bool,
+    /// Change a key of the scene, as an edit of the file would (repeatable):
+    /// `--set time.end=2 --set bodies[0].material.youngs_modulus=2e7`; an empty value removes
+    /// the key (`--set time.cfl= --set time.dt=1e-4`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+}
+
+#[derive(Args, Debug)]
 struct CheckArgs {
     /// The scene file.
     scene: PathBuf,
+    /// Change a key of the scene, as an edit of the file would (repeatable):
+    /// `--set time.end=2 --set bodies[0].material.youngs_modulus=2e7`; an empty value removes
+    /// the key (`--set time.cfl= --set time.dt=1e-4`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
     /// Check against raised limits, as `mpm run --allow-large` would run.
     #[arg(long)]
     allow_large: bool,
@@ -247,17 +279,19 @@ fn particle_count(text: &str) -> Result<usize, String> {
 }
 
 /// The scene at `path`, or the built-in default; and its name.
-fn load_scene(path: Option<&Path>) -> Result<(Scene, String), String> {
+fn load_scene(path: Option<&Path>, sets: &[String]) -> Result<(Scene, String), String> {
     match path {
         Some(path) => {
-            let scene = Scene::load(path).map_err(|e| e.to_string())?;
+            let scene = Scene::load_with(path, sets).map_err(|e| e.to_string())?;
             let name = path
                 .file_stem()
                 .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
             Ok((scene, name))
         }
         None => {
-            let scene = Scene::from_toml_str(DEFAULT_SCENE.1).map_err(|e| format!("built-in scene: {e}"))?;
+            let text = sparse_mpm::scene::apply_overrides(DEFAULT_SCENE.1, sets)
+                .map_err(|e| format!("built-in scene: {e}"))?;
+            let scene = Scene::from_toml_str(&text).map_err(|e| format!("built-in scene: {e}"))?;
             Ok((scene, DEFAULT_SCENE.0.to_string()))
         }
     }
@@ -387,7 +421,7 @@ fn failure(error: sparse_mpm::MpmError, out: &Path) -> String {
 }
 
 fn run(args: &RunArgs) -> Result<(), String> {
-    let (scene, name) = load_scene(args.scene.as_deref())?;
+    let (scene, name) = load_scene(args.scene.as_deref(), &args.sets)?;
     let limits = if args.run.allow_large {
         limits::Limits::raised()
     } else {
@@ -426,7 +460,7 @@ fn resume(args: &ResumeArgs) -> Result<(), String> {
 }
 
 fn matrices(args: &MatricesArgs) -> Result<(), String> {
-    let (scene, name) = load_scene(Some(&args.scene))?;
+    let (scene, name) = load_scene(Some(&args.scene), &args.sets)?;
     let out = args
         .out
         .clone()
@@ -445,8 +479,15 @@ fn matrices(args: &MatricesArgs) -> Result<(), String> {
     Ok(())
 }
 
+fn print_scene(args: &SceneArgs) -> Result<(), String> {
+    let _ = args.print;
+    let (scene, _) = load_scene(args.scene.as_deref(), &args.sets)?;
+    print!("{}", scene.to_toml_string().map_err(|e| e.to_string())?);
+    Ok(())
+}
+
 fn check(args: &CheckArgs) -> Result<(), String> {
-    let (scene, name) = load_scene(Some(&args.scene))?;
+    let (scene, name) = load_scene(Some(&args.scene), &args.sets)?;
     let limits = if args.allow_large {
         limits::Limits::raised()
     } else {
@@ -542,6 +583,7 @@ fn main() -> ExitCode {
         Command::Resume(a) => resume(a),
         Command::Matrices(a) => matrices(a),
         Command::Check(a) => check(a),
+        Command::Scene(a) => print_scene(a),
         Command::Homework { json } => homework(*json),
         Command::Study(a) => match study(a) {
             Ok(0) => Ok(()),
