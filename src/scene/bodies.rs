@@ -24,8 +24,7 @@ impl Scene {
         let grid = self.grid()?;
         let mut all = Particles::default();
         for (k, body) in self.bodies.iter().enumerate() {
-            let mut p = self.body_particles(k, body, &grid)?;
-            p.body = vec![k; p.len()];
+            let p = self.body_particles(k, body, &grid)?;
             // Each body's ids are 0..n, so the next free id is the count so far.
             let next = all.len();
             all.append_from(p, next)
@@ -64,20 +63,62 @@ impl Scene {
             ));
         }
         let [vx, vy, mass, sxx, syy, sxy] = columns.optional;
+        // The last region holding each particle.
+        let region: Vec<Option<usize>> = (0..count)
+            .map(|i| (body.regions.iter()).rposition(|r| r.geometry.contains(columns.x[i], columns.y[i])))
+            .collect();
+        let velocity = |i: usize| {
+            region[i]
+                .and_then(|r| body.regions[r].velocity)
+                .unwrap_or(body.velocity)
+        };
         let or_zero = |v: Option<Vec<f64>>| v.unwrap_or_else(|| vec![0.0; count]);
         let mass = mass.unwrap_or_else(|| columns.volume.iter().map(|v| body.density * v).collect());
-        let vx = or_zero(vx).iter().map(|v| v + body.velocity[0]).collect();
-        let vy = or_zero(vy).iter().map(|v| v + body.velocity[1]).collect();
+        let vx = (or_zero(vx).iter().enumerate())
+            .map(|(i, v)| v + velocity(i)[0])
+            .collect();
+        let vy = (or_zero(vy).iter().enumerate())
+            .map(|(i, v)| v + velocity(i)[1])
+            .collect();
         let mut p = Particles::new(columns.x, columns.y, mass, columns.volume)
             .and_then(|p| p.with_velocity(vx, vy))
             .and_then(|p| p.with_stress(or_zero(sxx), or_zero(syy), or_zero(sxy)))
             .and_then(|p| p.with_body_force(vec![body.body_force[0]; count], vec![body.body_force[1]; count]))
             .map_err(|e| invalid(key("geometry"), e.to_string()))?;
+        let solver_body = self.region_bodies(k);
+        p.body = (0..count)
+            .map(|i| region[i].and_then(|r| solver_body[r]).unwrap_or(k))
+            .collect();
         let g = [
             self.loads.gravity[0] + body.body_force[0],
             self.loads.gravity[1] + body.body_force[1],
         ];
-        super::initial::apply(k, body, g, &mut p)?;
+        // The initial stress of each group of particles with the same material and initial
+        // stress: the body's, and each region's that changes either.
+        let own = |r: Option<usize>| {
+            r.filter(|&r| body.regions[r].material.is_some() || body.regions[r].initial_stress.is_some())
+        };
+        let group: Vec<Option<usize>> = region.iter().map(|&r| own(r)).collect();
+        let mut groups: Vec<Option<usize>> = group.clone();
+        groups.sort_unstable();
+        groups.dedup();
+        for g_id in groups {
+            let view = match g_id {
+                None => body.clone(),
+                Some(r) => {
+                    let spec = &body.regions[r];
+                    BodySpec {
+                        material: spec.material.unwrap_or(body.material),
+                        initial_stress: spec.initial_stress.or(body.initial_stress),
+                        regions: Vec::new(),
+                        ..body.clone()
+                    }
+                }
+            };
+            let select: Vec<bool> = group.iter().map(|&x| x == g_id).collect();
+            let at = g_id.map_or(format!("bodies[{k}]"), |r| format!("bodies[{k}].regions[{r}]"));
+            super::initial::apply(&at, &view, g, &mut p, &select)?;
+        }
         Ok(p)
     }
 }

@@ -92,18 +92,18 @@ fn elastic_constants(m: &Material) -> (f64, f64) {
     }
 }
 
-/// Adds body `k`'s initial stress to its particles `p`, under the acceleration `g` (gravity
-/// and the body force).
+/// Adds `body`'s initial stress to its particles `p` where `select` holds, under the
+/// acceleration `g` (gravity and the body force); errors at `at.initial_stress`.
 ///
 /// # Errors
 /// [`crate::error::MpmError::InvalidScene`] at `bodies[k].initial_stress` for a neo-Hookean
 /// body (its stress is a function of `F`), a body without gravity, a `k0` that is not a
 /// finite non-negative number, or a stress at the body's base beyond its Young's modulus.
-pub(super) fn apply(k: usize, body: &BodySpec, g: [f64; 2], p: &mut Particles) -> Result<()> {
+pub(super) fn apply(at: &str, body: &BodySpec, g: [f64; 2], p: &mut Particles, select: &[bool]) -> Result<()> {
     let Some(InitialStress::Geostatic { k0 }) = body.initial_stress else {
         return Ok(());
     };
-    let key = format!("bodies[{k}].initial_stress");
+    let key = format!("{at}.initial_stress");
     if matches!(body.material, Material::NeoHookean(_)) {
         return Err(invalid(
             key,
@@ -136,6 +136,7 @@ pub(super) fn apply(k: usize, body: &BodySpec, g: [f64; 2], p: &mut Particles) -
     // The deepest particle's vertical stress, against the material's stiffness: beyond E the
     // elastic strain that carries it exceeds 1 (a body crushed to a third of its height).
     let deepest = (0..p.len())
+        .filter(|&i| select[i])
         .map(|i| (p.mass[i] / p.volume[i]) * magnitude * (top - height(p.x[i], p.y[i])).max(0.0))
         .fold(0.0, f64::max);
     if deepest.max(k0 * deepest) > youngs_modulus {
@@ -148,7 +149,7 @@ pub(super) fn apply(k: usize, body: &BodySpec, g: [f64; 2], p: &mut Particles) -
             ),
         ));
     }
-    for i in 0..p.len() {
+    for i in (0..p.len()).filter(|&i| select[i]) {
         let depth = (top - height(p.x[i], p.y[i])).max(0.0);
         let rho = p.mass[i] / p.volume[i];
         let sv = -rho * magnitude * depth;

@@ -81,6 +81,7 @@ mod locate;
 mod overlap;
 mod overrides;
 mod particle_file;
+mod regions;
 mod sampling;
 mod validate;
 
@@ -89,6 +90,7 @@ pub use geometry::{Affine, BoundingBox, Geometry, MAX_GEOMETRY_DEPTH};
 pub use initial::InitialStress;
 pub use overlap::{overlaps, Overlap, SceneWarning};
 pub use overrides::apply_overrides;
+pub use regions::RegionSpec;
 pub use sampling::{sample, Sampling, SplitMix64, POISSON_DISK_RADIUS};
 
 use std::path::{Path, PathBuf};
@@ -335,6 +337,10 @@ pub struct BodySpec {
     pub initial_stress: Option<InitialStress>,
     /// Where the particles are.
     pub geometry: Geometry,
+    /// Parts of the body with a material, velocity or initial stress of their own
+    /// ([`RegionSpec`]); later regions win where they overlap.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub regions: Vec<RegionSpec>,
 }
 
 /// Largest scene file read (bytes): 16 MiB, room for node lists of a million nodes; a larger
@@ -567,11 +573,53 @@ impl Scene {
 
     /// The bodies (names and materials) in order.
     pub fn bodies(&self) -> Vec<Body> {
-        self.bodies
+        let mut out: Vec<Body> = self
+            .bodies
             .iter()
             .map(|b| Body {
                 name: b.name.clone(),
                 material: b.material,
+            })
+            .collect();
+        // Each region with a material of its own: a body of the solver after the scene's.
+        for b in &self.bodies {
+            for (r, region) in b.regions.iter().enumerate() {
+                if let Some(material) = region.material {
+                    out.push(Body {
+                        name: format!("{}/regions[{r}]", b.name),
+                        material,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// The scene's body of each of the solver's bodies ([`Scene::bodies`]).
+    pub(super) fn region_owners(&self) -> Vec<usize> {
+        let mut out: Vec<usize> = (0..self.bodies.len()).collect();
+        for (k, b) in self.bodies.iter().enumerate() {
+            out.extend(b.regions.iter().filter(|r| r.material.is_some()).map(|_| k));
+        }
+        out
+    }
+
+    /// The solver's body of each region of body `k` with a material of its own (`None` for a
+    /// region that keeps the body's): numbered after the scene's bodies, in order.
+    pub(super) fn region_bodies(&self, k: usize) -> Vec<Option<usize>> {
+        let mut next = self.bodies.len()
+            + self.bodies[..k]
+                .iter()
+                .map(|b| b.regions.iter().filter(|r| r.material.is_some()).count())
+                .sum::<usize>();
+        self.bodies[k]
+            .regions
+            .iter()
+            .map(|r| {
+                r.material.map(|_| {
+                    next += 1;
+                    next - 1
+                })
             })
             .collect()
     }

@@ -115,6 +115,19 @@ impl Scene {
     /// with the file and line as [`Scene::locate`] gives them.
     pub fn warnings_for(&self, particles: &Particles) -> Vec<SceneWarning> {
         let name = |k: usize| self.bodies.get(k).map_or("", |b| b.name.as_str());
+        // A region with a material of its own is its body's part: overlaps are between bodies.
+        let owner = self.region_owners();
+        let mapped;
+        let particles = if particles.body.iter().any(|&b| b >= self.bodies.len()) {
+            let mut p = particles.clone();
+            p.body
+                .iter_mut()
+                .for_each(|b| *b = owner.get(*b).copied().unwrap_or(*b));
+            mapped = p;
+            &mapped
+        } else {
+            particles
+        };
         overlaps(particles)
             .into_iter()
             .map(|o| {

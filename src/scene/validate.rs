@@ -295,6 +295,37 @@ impl Scene {
         self.check_vector(&key("velocity"), b.velocity, MAX_SPEED)?;
         self.check_vector(&key("body_force"), b.body_force, MAX_ACCELERATION)?;
         check_geometry(&key("geometry"), &b.geometry)?;
+        for (r, region) in b.regions.iter().enumerate() {
+            let at = |f: &str| key(&format!("regions[{r}].{f}"));
+            check_geometry(&at("geometry"), &region.geometry)?;
+            if matches!(region.geometry, Geometry::File(_)) {
+                return Err(invalid(at("geometry"), "a region is a shape, not a particle file"));
+            }
+            if let Some(m) = &region.material {
+                if self.contact.is_some() {
+                    return Err(invalid(
+                        at("material"),
+                        "a region with its own material is a body of its own in the solver, which under \
+                         [contact] would meet the rest of its body through contact: give the region as a body",
+                    ));
+                }
+                m.validate().map_err(|e| parameter_error(&at("material"), e))?;
+                let c = m.wave_speed(b.density);
+                if !(c.is_finite() && c > 0.0) {
+                    return Err(invalid(
+                        at("material"),
+                        format!(
+                            "the wave speed of this material at `density` = {} is {}: it must be positive and finite",
+                            exact(b.density),
+                            exact(c)
+                        ),
+                    ));
+                }
+            }
+            if let Some(v) = region.velocity {
+                self.check_vector(&at("velocity"), v, MAX_SPEED)?;
+            }
+        }
         if matches!(b.geometry, Geometry::File(_)) && !b.sampling.is_regular() {
             return Err(invalid(
                 key("sampling"),
