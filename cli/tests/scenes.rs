@@ -17,13 +17,15 @@ mod vtk_read;
 
 use vtk_read::{read_pvd, read_vtp};
 
-const SHIPPED: [&str; 6] = [
+const SHIPPED: [&str; 8] = [
     "seed_problem",
     "two_disks",
     "vibrating_bar",
     "cantilever",
     "block_in_box",
     "column",
+    "cantilever_clamp",
+    "rings",
 ];
 
 fn scene_path(name: &str) -> PathBuf {
