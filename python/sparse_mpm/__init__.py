@@ -386,15 +386,30 @@ class Simulation:
         self._particles: _t.Optional[_t.Tuple[int, _t.Dict[str, _np.ndarray]]] = None
 
     @classmethod
-    def from_scene(cls, path: _PathLike, allow_large: bool = False) -> "Simulation":
-        """The simulation of a scene file; relative particle files are read from its folder."""
-        return cls(_core.Simulation.from_scene(_os.fspath(path), allow_large))
+    def from_scene(
+        cls, path: _PathLike, allow_large: bool = False, overrides: _t.Optional[_t.Sequence[str]] = None
+    ) -> "Simulation":
+        """The simulation of a scene file; relative particle files are read from its folder.
+
+        ``overrides``: ``"KEY=VALUE"`` changes of the file's keys, as ``mpm run --set`` takes
+        them (``["time.end=0.5", "bodies[0].material.youngs_modulus=2e7"]``), checked as an
+        edit of the file would be."""
+        sets = None if overrides is None else [str(o) for o in overrides]
+        return cls(_core.Simulation.from_scene(_os.fspath(path), allow_large, sets))
 
     @classmethod
-    def from_toml(cls, text: str, base_dir: _t.Optional[_PathLike] = None, allow_large: bool = False) -> "Simulation":
-        """The simulation of a scene given as TOML text; particle files relative to ``base_dir``."""
+    def from_toml(
+        cls,
+        text: str,
+        base_dir: _t.Optional[_PathLike] = None,
+        allow_large: bool = False,
+        overrides: _t.Optional[_t.Sequence[str]] = None,
+    ) -> "Simulation":
+        """The simulation of a scene given as TOML text; particle files relative to ``base_dir``;
+        ``overrides`` as for ``from_scene``."""
         base = None if base_dir is None else _os.fspath(base_dir)
-        return cls(_core.Simulation.from_toml(text, base, allow_large))
+        sets = None if overrides is None else [str(o) for o in overrides]
+        return cls(_core.Simulation.from_toml(text, base, allow_large, sets))
 
     @classmethod
     def from_dict(

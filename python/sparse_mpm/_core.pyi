@@ -207,9 +207,11 @@ def scene_operators(path: Union[str, PathLike[str]]) -> Tuple[Grid, Particles, O
 
 class Simulation:
     @staticmethod
-    def from_scene(path: Path, allow_large: bool = False) -> Simulation: ...
+    def from_scene(path: Path, allow_large: bool = False, overrides: Optional[List[str]] = None) -> Simulation: ...
     @staticmethod
-    def from_toml(text: str, base_dir: Optional[str] = None, allow_large: bool = False) -> Simulation: ...
+    def from_toml(
+        text: str, base_dir: Optional[str] = None, allow_large: bool = False, overrides: Optional[List[str]] = None
+    ) -> Simulation: ...
     @staticmethod
     def from_dict(scene: Dict[str, Any], base_dir: Optional[str] = None, allow_large: bool = False) -> Simulation:
         """Bounded: 64 levels, 2·10⁶ values, 16 MiB of strings, no self-reference, node lists

@@ -113,18 +113,25 @@ impl PySimulation {
 
 #[pymethods]
 impl PySimulation {
-    /// The simulation of a scene file; particle files are read from its folder.
+    /// The simulation of a scene file; particle files are read from its folder. `overrides`:
+    /// `KEY=VALUE` changes of the file's keys, as `mpm run --set` takes them.
     #[staticmethod]
-    #[pyo3(signature = (path, allow_large = false))]
-    fn from_scene(path: PathBuf, allow_large: bool) -> PyResult<Self> {
-        Self::build(Scene::load(&path).map_err(mpm_err)?, allow_large)
+    #[pyo3(signature = (path, allow_large = false, overrides = None))]
+    fn from_scene(path: PathBuf, allow_large: bool, overrides: Option<Vec<String>>) -> PyResult<Self> {
+        let sets = overrides.unwrap_or_default();
+        Self::build(Scene::load_with(&path, &sets).map_err(mpm_err)?, allow_large)
     }
 
     /// The simulation of a scene given as TOML text; relative particle files are read from
-    /// `base_dir` (none without it).
+    /// `base_dir` (none without it); `overrides` as for `from_scene`.
     #[staticmethod]
-    #[pyo3(signature = (text, base_dir = None, allow_large = false))]
-    fn from_toml(text: &str, base_dir: Option<PathBuf>, allow_large: bool) -> PyResult<Self> {
+    #[pyo3(signature = (text, base_dir = None, allow_large = false, overrides = None))]
+    fn from_toml(
+        text: &str,
+        base_dir: Option<PathBuf>,
+        allow_large: bool,
+        overrides: Option<Vec<String>>,
+    ) -> PyResult<Self> {
         if text.len() as u64 > sparse_mpm::scene::MAX_SCENE_BYTES {
             return Err(mpm_msg(format!(
                 "the scene text is {} bytes, more than the {} a scene file may hold",
@@ -132,7 +139,13 @@ impl PySimulation {
                 sparse_mpm::scene::MAX_SCENE_BYTES
             )));
         }
-        let mut scene = Scene::from_toml_str(text).map_err(mpm_err)?;
+        let sets = overrides.unwrap_or_default();
+        let text = if sets.is_empty() {
+            text.to_string()
+        } else {
+            sparse_mpm::scene::apply_overrides(text, &sets).map_err(mpm_err)?
+        };
+        let mut scene = Scene::from_toml_str(&text).map_err(mpm_err)?;
         scene.base_dir = base_dir;
         Self::build(scene, allow_large)
     }

@@ -292,3 +292,40 @@ def test_a_scene_dict_selects_the_quasi_static_integrator_and_damping():
     assert "damping_work" in report and "settled" in report
     with pytest.raises(mpm.MpmError, match="loads.damping"):
         mpm.Simulation.from_dict(_column_dict(damping={"model": "local", "alpha": 1.5}))
+
+
+def test_overrides_change_a_scene_as_an_edit_of_its_text_would():
+    """``overrides`` of ``from_toml`` give the particles and the run of the edited text; a bad
+    key is refused by name."""
+    text = """
+[grid]
+origin = [-0.25, -0.25]
+cell_size = [0.25, 0.25]
+cells = [12, 8]
+
+[schemes]
+shape = "quadratic_bspline"
+
+[time]
+end = 0.02
+
+[loads]
+gravity = [0.0, -10.0]
+
+[[bodies]]
+name = "ring"
+material = { model = "neo_hookean", youngs_modulus = 1.0e5, poisson_ratio = 0.3 }
+density = 1000.0
+geometry = { annulus = { center = [1.0, 0.75], inner_radius = 0.3, outer_radius = 0.6 } }
+"""
+    edited = text.replace("density = 1000.0", "density = 800.0\nsampling = \"poisson_disk\"\nseed = 3")
+    a = mpm.Simulation.from_toml(
+        text, overrides=["bodies[0].density=800.0", "bodies[0].sampling=poisson_disk", "bodies[0].seed=3"]
+    )
+    b = mpm.Simulation.from_toml(edited)
+    ra, rb = a.run(), b.run()
+    for key in ["x", "y", "mass", "volume", "vx", "vy"]:
+        np.testing.assert_array_equal(a.particles()[key], b.particles()[key])
+    np.testing.assert_array_equal(ra["total_energy"], rb["total_energy"])
+    with pytest.raises(mpm.MpmError, match="densty"):
+        mpm.Simulation.from_toml(text, overrides=["bodies[0].densty=1"])
