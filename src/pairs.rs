@@ -62,3 +62,11 @@ where
     let v: Vec<Pair> = Vec::deserialize(d)?;
     Ok(v.into_iter().map(|p| p.0).collect())
 }
+
+/// [`exactly_two`], optional (`None` when the key is absent, with `#[serde(default)]`).
+pub(crate) fn optional_pair<'de, D>(d: D) -> std::result::Result<Option<[f64; 2]>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    exactly_two(d).map(Some)
+}

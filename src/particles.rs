@@ -474,26 +474,8 @@ pub fn lattice_within(
     let n = per_cell.max(1);
     let [hx, hy] = grid.cell_size();
     let [ox, oy] = grid.origin();
-    let [cx, cy] = grid.cells();
     let (dx, dy) = (hx / n as f64, hy / n as f64);
-    // Point k of an axis is at o + (k + 1/2) d: the points from just below `lo` to just above
-    // `hi` (one more each way, so that rounding cannot drop a point the box holds).
-    let range = |lo: f64, hi: f64, o: f64, d: f64, count: usize| -> std::ops::Range<usize> {
-        let first = ((lo - o) / d - 0.5).floor() - 1.0;
-        let last = ((hi - o) / d - 0.5).ceil() + 2.0;
-        if !(first.is_finite() && last.is_finite()) {
-            return 0..count;
-        }
-        let clamp = |v: f64| v.clamp(0.0, count as f64) as usize;
-        clamp(first)..clamp(last)
-    };
-    let (is, js) = match bounds {
-        Some([min, max]) => (
-            range(min[0], max[0], ox, dx, cx * n),
-            range(min[1], max[1], oy, dy, cy * n),
-        ),
-        None => (0..cx * n, 0..cy * n),
-    };
+    let (is, js) = lattice_ranges(grid, n, bounds);
     let (mut x, mut y) = (Vec::new(), Vec::new());
     for j in js {
         for i in is.clone() {
@@ -505,4 +487,35 @@ pub fn lattice_within(
         }
     }
     (x, y, dx * dy)
+}
+
+/// The sub-cell indices along x and y of [`lattice_within`]'s points (`n` per cell and axis)
+/// that the box `[min, max]` can hold (`None`: the whole grid): from just below the box to just
+/// above it, one more each way, so that rounding cannot drop a point or sub-cell the box holds.
+pub(crate) fn lattice_ranges(
+    grid: &Grid,
+    n: usize,
+    bounds: Option<[[f64; 2]; 2]>,
+) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+    let [hx, hy] = grid.cell_size();
+    let [ox, oy] = grid.origin();
+    let [cx, cy] = grid.cells();
+    let (dx, dy) = (hx / n as f64, hy / n as f64);
+    // Point k of an axis is at o + (k + 1/2) d.
+    let range = |lo: f64, hi: f64, o: f64, d: f64, count: usize| -> std::ops::Range<usize> {
+        let first = ((lo - o) / d - 0.5).floor() - 1.0;
+        let last = ((hi - o) / d - 0.5).ceil() + 2.0;
+        if !(first.is_finite() && last.is_finite()) {
+            return 0..count;
+        }
+        let clamp = |v: f64| v.clamp(0.0, count as f64) as usize;
+        clamp(first)..clamp(last)
+    };
+    match bounds {
+        Some([min, max]) => (
+            range(min[0], max[0], ox, dx, cx * n),
+            range(min[1], max[1], oy, dy, cy * n),
+        ),
+        None => (0..cx * n, 0..cy * n),
+    }
 }

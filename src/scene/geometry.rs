@@ -78,7 +78,7 @@ pub enum Geometry {
         angle: f64,
         /// The centre of the rotation (default: the centre of the shape's bounding box).
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        #[serde(deserialize_with = "optional_pair")]
+        #[serde(deserialize_with = "crate::pairs::optional_pair")]
         about: Option<[f64; 2]>,
         /// Translation after the rotation.
         #[serde(default)]
@@ -88,10 +88,6 @@ pub enum Geometry {
     /// Particles listed in a CSV file (columns `x`, `y`, `volume`, optionally `vx`, `vy`, `mass`,
     /// `sxx`, `syy`, `sxy`).
     File(PathBuf),
-}
-
-fn optional_pair<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Option<[f64; 2]>, D::Error> {
-    crate::pairs::exactly_two(d).map(Some)
 }
 
 /// The affine map `x ↦ A x + b`.

@@ -595,35 +595,6 @@ impl Scene {
         out
     }
 
-    /// The scene's body of each of the solver's bodies ([`Scene::bodies`]).
-    pub(super) fn region_owners(&self) -> Vec<usize> {
-        let mut out: Vec<usize> = (0..self.bodies.len()).collect();
-        for (k, b) in self.bodies.iter().enumerate() {
-            out.extend(b.regions.iter().filter(|r| r.material.is_some()).map(|_| k));
-        }
-        out
-    }
-
-    /// The solver's body of each region of body `k` with a material of its own (`None` for a
-    /// region that keeps the body's): numbered after the scene's bodies, in order.
-    pub(super) fn region_bodies(&self, k: usize) -> Vec<Option<usize>> {
-        let mut next = self.bodies.len()
-            + self.bodies[..k]
-                .iter()
-                .map(|b| b.regions.iter().filter(|r| r.material.is_some()).count())
-                .sum::<usize>();
-        self.bodies[k]
-            .regions
-            .iter()
-            .map(|r| {
-                r.material.map(|_| {
-                    next += 1;
-                    next - 1
-                })
-            })
-            .collect()
-    }
-
     /// Builds the simulation at time 0.
     ///
     /// # Errors

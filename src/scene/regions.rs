@@ -23,7 +23,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Geometry, InitialStress};
+use super::{Geometry, InitialStress, Scene};
 use crate::material::Material;
 
 /// A region of a body ([module docs](self)).
@@ -36,13 +36,44 @@ pub struct RegionSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<Material>,
     /// The region's initial velocity (default: the body's).
-    #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "optional_pair")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::pairs::optional_pair"
+    )]
     pub velocity: Option<[f64; 2]>,
     /// The region's initial stress (default: the body's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub initial_stress: Option<InitialStress>,
 }
 
-fn optional_pair<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Option<[f64; 2]>, D::Error> {
-    crate::pairs::exactly_two(d).map(Some)
+impl Scene {
+    /// The scene's body of each of the solver's bodies ([`Scene::bodies`]).
+    pub(super) fn region_owners(&self) -> Vec<usize> {
+        let mut out: Vec<usize> = (0..self.bodies.len()).collect();
+        for (k, b) in self.bodies.iter().enumerate() {
+            out.extend(b.regions.iter().filter(|r| r.material.is_some()).map(|_| k));
+        }
+        out
+    }
+
+    /// The solver's body of each region of body `k` with a material of its own (`None` for a
+    /// region that keeps the body's): numbered after the scene's bodies, in order.
+    pub(super) fn region_bodies(&self, k: usize) -> Vec<Option<usize>> {
+        let mut next = self.bodies.len()
+            + self.bodies[..k]
+                .iter()
+                .map(|b| b.regions.iter().filter(|r| r.material.is_some()).count())
+                .sum::<usize>();
+        self.bodies[k]
+            .regions
+            .iter()
+            .map(|r| {
+                r.material.map(|_| {
+                    next += 1;
+                    next - 1
+                })
+            })
+            .collect()
+    }
 }

@@ -124,29 +124,10 @@ pub fn sample(
     }
 }
 
-/// Calls `f(i, j)` for every sub-cell of the box (the grid's whole lattice for `None`), row by
-/// row, as [`crate::particles::lattice_within`] visits them.
+/// Calls `f(i, j)` for every sub-cell the box can hold (the grid's whole lattice for `None`),
+/// row by row, as [`crate::particles::lattice_within`] visits them.
 fn for_sites(grid: &Grid, n: usize, bounds: Option<[[f64; 2]; 2]>, mut f: impl FnMut(usize, usize)) {
-    let [hx, hy] = grid.cell_size();
-    let [ox, oy] = grid.origin();
-    let [cx, cy] = grid.cells();
-    let (dx, dy) = (hx / n as f64, hy / n as f64);
-    let range = |lo: f64, hi: f64, o: f64, d: f64, count: usize| -> std::ops::Range<usize> {
-        let first = ((lo - o) / d).floor() - 1.0;
-        let last = ((hi - o) / d).ceil() + 1.0;
-        if !(first.is_finite() && last.is_finite()) {
-            return 0..count;
-        }
-        let clamp = |v: f64| v.clamp(0.0, count as f64) as usize;
-        clamp(first)..clamp(last)
-    };
-    let (is, js) = match bounds {
-        Some([min, max]) => (
-            range(min[0], max[0], ox, dx, cx * n),
-            range(min[1], max[1], oy, dy, cy * n),
-        ),
-        None => (0..cx * n, 0..cy * n),
-    };
+    let (is, js) = crate::particles::lattice_ranges(grid, n, bounds);
     for j in js {
         for i in is.clone() {
             f(i, j);
