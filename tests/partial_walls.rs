@@ -246,3 +246,72 @@ fn range_keys_are_checked_by_name() {
         .to_string();
     assert!(e.contains("range") && e.contains("only to an `edge`"), "{e}");
 }
+
+#[test]
+fn a_range_prescribes_exactly_the_edge_nodes_it_covers() {
+    use sparse_mpm::boundary::{resolve, BoundaryCondition, Condition, Edge};
+    use sparse_mpm::grid::Grid;
+    use sparse_mpm::shape::ShapeFunction;
+    // 10 × 8 cells of 0.5 from (−0.5, −0.5): node lines at x, y = −0.5, 0, 0.5, …
+    let grid = Grid::new([-0.5, -0.5], [0.5, 0.5], [10, 8]).unwrap();
+    let cases = [
+        // (condition, edge, range, kernel): the layers held, and the lines along the edge.
+        (
+            Condition::Fixed,
+            Edge::Left,
+            [0.0, 1.0],
+            ShapeFunction::QuadraticBSpline,
+            3,
+        ),
+        (
+            Condition::Slip,
+            Edge::Bottom,
+            [1.0, 2.2],
+            ShapeFunction::QuadraticBSpline,
+            2,
+        ),
+        (Condition::Fixed, Edge::Top, [0.2, 0.8], ShapeFunction::Linear, 1),
+    ];
+    for (condition, edge, [from, to], shape, layers) in cases {
+        let bc = BoundaryCondition::edge(edge, condition).with_range(from, to);
+        let p = resolve(&grid, shape, &[bc]).unwrap();
+        let [nx, ny] = grid.nodes_per_axis();
+        let mut want = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                let [x, y] = grid.node_position(grid.node_index(i, j));
+                let (across, along) = match edge {
+                    Edge::Left => (i, y),
+                    Edge::Right => (nx - 1 - i, y),
+                    Edge::Bottom => (j, x),
+                    Edge::Top => (ny - 1 - j, x),
+                };
+                if across < layers && along >= from - 1e-12 && along <= to + 1e-12 {
+                    want.push(grid.node_index(i, j));
+                }
+            }
+        }
+        want.sort_unstable();
+        let normal_is_y = matches!(edge, Edge::Bottom | Edge::Top);
+        let got = if condition == Condition::Slip && !normal_is_y {
+            p.constraints.fixed_x.clone()
+        } else {
+            p.constraints.fixed_y.clone()
+        };
+        assert_eq!(
+            got, want,
+            "{condition:?} on {edge:?} over [{from}, {to}] with {shape:?}"
+        );
+        assert!(
+            p.mirror.is_empty() && p.slip.is_empty(),
+            "a range is held, not mirrored"
+        );
+    }
+    // A wall with friction over part of an edge keeps its range.
+    let bc = BoundaryCondition::edge(Edge::Bottom, Condition::Slip)
+        .with_friction(0.3)
+        .with_range(0.0, 2.0);
+    let p = resolve(&grid, ShapeFunction::QuadraticBSpline, &[bc]).unwrap();
+    assert_eq!(p.friction[0].range, Some([0.0, 2.0]));
+    assert!(p.constraints.fixed_y.is_empty());
+}
