@@ -192,10 +192,12 @@ pub fn resolve(grid: &Grid, shape: ShapeFunction, conditions: &[BoundaryConditio
 fn node_lines_within(grid: &Grid, axis: usize, from: f64, to: f64, count: usize) -> std::ops::Range<usize> {
     let (o, h) = (grid.origin()[axis], grid.cell_size()[axis]);
     let tol = 1e-9;
-    let first = ((from - o) / h - tol).ceil().max(0.0);
-    let last = ((to - o) / h + tol).floor();
-    if !(first.is_finite() && last.is_finite()) || last < first {
+    // The first and one past the last line, clamped to the grid's lines before any cast (a
+    // range far beyond the grid holds every line or none, never an overflow).
+    let first = ((from - o) / h - tol).ceil().clamp(0.0, count as f64);
+    let end = (((to - o) / h + tol).floor() + 1.0).clamp(0.0, count as f64);
+    if first.is_nan() || end.is_nan() || end <= first {
         return 0..0;
     }
-    (first as usize).min(count)..((last as usize) + 1).min(count)
+    first as usize..end as usize
 }
