@@ -62,12 +62,26 @@ fn a_bad_override_is_refused_by_name_and_writes_nothing() {
         ("time.end=-1", "time.end"),
         ("grid", "KEY=VALUE"),
         ("time.end[0]=1", "is not an array"),
+        ("bodies[99999999999999999999999].density=1", "is not an index"),
+        (
+            "a.b.c.d.e.f.g.h.i.j.k.l.m.n.o.p.q.r.s.t.u.v.w.x.y.z.a.b.c.d.e.f.g=1",
+            "more than 32",
+        ),
     ] {
         let out = mpm(&["run", "cantilever.toml", "-o", "out", "-q", "--set", set], &dir);
         assert!(!out.status.success(), "{set}: {}", text(&out));
         assert!(text(&out).contains(want), "{set}: {}", text(&out));
         assert!(!dir.join("out").exists(), "{set}: output written");
     }
+    // A key of fifty thousand steps is refused before anything is built from it.
+    let long = format!("{}=1", vec!["a"; 50_000].join("."));
+    let out = mpm(&["check", "cantilever.toml", "--set", &long], &dir);
+    assert!(!out.status.success(), "{}", text(&out));
+    assert!(
+        text(&out).contains("more than 32") && text(&out).len() < 1000,
+        "{}",
+        text(&out)
+    );
 }
 
 #[test]

@@ -89,7 +89,7 @@ pub use contact::{ContactSpec, NormalSpec, PairSpec, SeparationSpec};
 pub use geometry::{Affine, BoundingBox, Geometry, MAX_GEOMETRY_DEPTH};
 pub use initial::InitialStress;
 pub use overlap::{overlaps, Overlap, SceneWarning};
-pub use overrides::apply_overrides;
+pub use overrides::{apply_overrides, MAX_OVERRIDES, MAX_OVERRIDE_STEPS};
 pub use regions::RegionSpec;
 pub use sampling::{sample, Sampling, SplitMix64, POISSON_DISK_RADIUS};
 

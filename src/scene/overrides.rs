@@ -17,8 +17,27 @@ enum Step {
     Index(usize),
 }
 
-/// The steps of `key` (`bodies[0].density` → `bodies`, `[0]`, `density`).
+/// The most overrides one scene takes.
+pub const MAX_OVERRIDES: usize = 1000;
+
+/// The most steps (keys and indices) an override's key may have: a scene's deepest key has
+/// about ten.
+pub const MAX_OVERRIDE_STEPS: usize = 32;
+
+/// The steps of `key` (`bodies[0].density` → `bodies`, `[0]`, `density`), at most
+/// [`MAX_OVERRIDE_STEPS`].
 fn steps(key: &str) -> std::result::Result<Vec<Step>, String> {
+    let bound = |n: usize| {
+        if n > MAX_OVERRIDE_STEPS {
+            Err(format!(
+                "the key has more than {MAX_OVERRIDE_STEPS} keys and indices; a scene's keys have about ten"
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    // Counted before anything is built: a dot or a bracket starts each step.
+    bound(1 + key.matches(['.', '[']).count())?;
     let mut out = Vec::new();
     for part in key.split('.') {
         let (name, mut rest) = match part.find('[') {
@@ -139,19 +158,35 @@ fn shown(path: &[Step]) -> String {
 /// [`MpmError::InvalidScene`](crate::error::MpmError::InvalidScene) at `--set KEY` for a
 /// malformed override, a path through a value that is not a table or array, an index past an
 /// array's end, or an override after which the scene no longer reads (an unknown key, a value
-/// of the wrong type), with the parser's reason.
+/// of the wrong type), with the parser's reason; more than [`MAX_OVERRIDES`] overrides, a key of
+/// more than [`MAX_OVERRIDE_STEPS`] steps.
 pub fn apply_overrides(text: &str, sets: &[String]) -> Result<String> {
+    if sets.len() > MAX_OVERRIDES {
+        return Err(invalid(
+            "--set",
+            format!(
+                "{} overrides: at most {MAX_OVERRIDES} are read (each is checked against the whole scene)",
+                sets.len()
+            ),
+        ));
+    }
     let mut root: toml::Table =
         toml::from_str(text).map_err(|e| invalid("scene", format!("does not read as TOML: {}", e.message().trim())))?;
     for set in sets {
         let Some((key, raw)) = set.split_once('=') else {
+            let shown: String = set.chars().take(80).collect();
             return Err(invalid(
-                format!("--set {set}"),
+                format!("--set {shown}"),
                 "an override is KEY=VALUE (`time.end=2.0`; an empty VALUE removes the key)",
             ));
         };
         let key = key.trim();
-        let at = |reason: String| invalid(format!("--set {key}"), reason);
+        // A key is shown whole up to 80 characters, its start with an ellipsis beyond.
+        let shown = match key.char_indices().nth(80) {
+            Some((cut, _)) => format!("{}…", &key[..cut]),
+            None => key.to_string(),
+        };
+        let at = |reason: String| invalid(format!("--set {shown}"), reason);
         let path = steps(key).map_err(at)?;
         let raw = raw.trim();
         let new = (!raw.is_empty()).then(|| value(raw));
