@@ -205,6 +205,16 @@ fn malformed_shapes_are_refused_by_key() {
         assert!(key.ends_with(want_key), "{g}: key {key} ({reason})");
         assert!(reason.contains(want), "{g}: {reason}");
     }
+    // An outline of more vertices than a particle's test should visit.
+    let many: Vec<String> = (0..5000)
+        .map(|k| {
+            let t = k as f64 / 5000.0 * std::f64::consts::TAU;
+            format!("[{}, {}]", 0.5 * t.cos(), 0.5 * t.sin())
+        })
+        .collect();
+    let (key, reason) = refused(&format!("{{ polygon = {{ vertices = [{}] }} }}", many.join(", ")));
+    assert_eq!(key, "bodies[0].geometry", "{reason}");
+    assert!(reason.contains("at most 4096"), "{reason}");
     // A polygon vertex of the wrong length is refused by the parser.
     let text = scene("{ polygon = { vertices = [[0, 0], [0.5, 0, 1], [0, 0.5]] } }", 20, 2);
     let e = Scene::from_toml_str(&text).unwrap_err().to_string();

@@ -21,6 +21,10 @@ use serde::{Deserialize, Serialize};
 /// The deepest nesting of unions, differences and transforms a scene may write.
 pub const MAX_GEOMETRY_DEPTH: usize = 16;
 
+/// The most shapes one body's geometry may hold, a polygon's vertices counted as shapes: each
+/// particle's test visits every one of them.
+pub const MAX_GEOMETRY_PARTS: usize = 4096;
+
 /// Where a body's particles are.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
@@ -393,6 +397,18 @@ impl Geometry {
             }
             Geometry::File(_) => None,
             leaf => leaf.mapped_box(map).filter(|b| outside(*b)).map(|b| (here, b)),
+        }
+    }
+
+    /// The shapes the geometry holds, this one included, a polygon's vertices counted too:
+    /// the work of one [`Geometry::contains`].
+    pub fn size(&self) -> usize {
+        match self {
+            Geometry::Polygon { vertices } => 1 + vertices.len(),
+            Geometry::Union(parts) => 1 + parts.iter().map(Geometry::size).sum::<usize>(),
+            Geometry::Difference { base, minus } => 1 + base.size() + minus.iter().map(Geometry::size).sum::<usize>(),
+            Geometry::Transformed { shape, .. } => 1 + shape.size(),
+            _ => 1,
         }
     }
 

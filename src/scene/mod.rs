@@ -86,11 +86,11 @@ mod sampling;
 mod validate;
 
 pub use contact::{ContactSpec, NormalSpec, PairSpec, SeparationSpec};
-pub use geometry::{Affine, BoundingBox, Geometry, MAX_GEOMETRY_DEPTH};
+pub use geometry::{Affine, BoundingBox, Geometry, MAX_GEOMETRY_DEPTH, MAX_GEOMETRY_PARTS};
 pub use initial::InitialStress;
 pub use overlap::{overlaps, Overlap, SceneWarning};
 pub use overrides::{apply_overrides, MAX_OVERRIDES, MAX_OVERRIDE_STEPS};
-pub use regions::RegionSpec;
+pub use regions::{RegionSpec, MAX_REGIONS};
 pub use sampling::{sample, Sampling, SplitMix64, POISSON_DISK_RADIUS};
 
 use std::path::{Path, PathBuf};

@@ -26,6 +26,9 @@ use serde::{Deserialize, Serialize};
 use super::{Geometry, InitialStress, Scene};
 use crate::material::Material;
 
+/// The most regions one body may have (every particle is tested against each).
+pub const MAX_REGIONS: usize = 64;
+
 /// A region of a body ([module docs](self)).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

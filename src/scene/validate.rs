@@ -1,8 +1,8 @@
 //! The checks of a scene that the file format cannot express ([`Scene::validate`]).
 
 use super::{
-    invalid, BodySpec, Geometry, Scene, MAX_ACCELERATION, MAX_GEOMETRY_DEPTH, MAX_NODES, MAX_ORIGIN_CELLS,
-    MAX_PARTICLES_PER_CELL, MAX_SPEED,
+    invalid, BodySpec, Geometry, Scene, MAX_ACCELERATION, MAX_GEOMETRY_DEPTH, MAX_GEOMETRY_PARTS, MAX_NODES,
+    MAX_ORIGIN_CELLS, MAX_PARTICLES_PER_CELL, MAX_SPEED,
 };
 use crate::error::{MpmError, Result};
 use crate::mass::{SingularityPolicy, Stabilization};
@@ -295,6 +295,12 @@ impl Scene {
         self.check_vector(&key("velocity"), b.velocity, MAX_SPEED)?;
         self.check_vector(&key("body_force"), b.body_force, MAX_ACCELERATION)?;
         check_geometry(&key("geometry"), &b.geometry)?;
+        if b.regions.len() > super::MAX_REGIONS {
+            return Err(invalid(
+                key("regions"),
+                format!("{} regions: at most {} per body", b.regions.len(), super::MAX_REGIONS),
+            ));
+        }
         for (r, region) in b.regions.iter().enumerate() {
             let at = |f: &str| key(&format!("regions[{r}].{f}"));
             check_geometry(&at("geometry"), &region.geometry)?;
@@ -382,6 +388,16 @@ fn check_geometry(key: &str, geometry: &Geometry) -> Result<()> {
             format!(
                 "unions, differences and transforms nest {} deep; at most {MAX_GEOMETRY_DEPTH} are read",
                 geometry.depth()
+            ),
+        ));
+    }
+    if geometry.size() > MAX_GEOMETRY_PARTS {
+        return Err(invalid(
+            key,
+            format!(
+                "holds {} shapes and vertices; at most {MAX_GEOMETRY_PARTS} are read (every particle is tested against \
+                 each): give a large outline as a particle file",
+                geometry.size()
             ),
         ));
     }
