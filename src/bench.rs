@@ -55,6 +55,8 @@ pub struct BenchSpec {
     pub particles: Vec<usize>,
     /// Worker threads (1: serial).
     pub threads: usize,
+    /// The explicit step's fused pass ([`Options::fused_passes`]; `true` by default).
+    pub fused_passes: bool,
     /// Timed steps per repetition (`None`: the peers' rule, `max(20, min(2000, 2·10⁷ / N))`).
     pub steps: Option<usize>,
     /// Repetitions (at least 1; the median is reported).
@@ -86,6 +88,7 @@ impl Default for BenchSpec {
             update: UpdateScheme::Usl,
             particles: PEER_SIZES.to_vec(),
             threads: 1,
+            fused_passes: true,
             steps: None,
             reps: 5,
             seed: 1,
@@ -225,6 +228,7 @@ pub fn falling_block(n: usize, spec: &BenchSpec, time_step: TimeStep, stability_
         allow_unstable_time_step: true,
         stability_interval,
         threads: spec.threads,
+        fused_passes: spec.fused_passes,
         gravity: [0.0, -GRAVITY],
         boundaries,
         integrator: spec.integrator,

@@ -64,9 +64,9 @@ pub(crate) fn lanes_available() -> usize {
 /// `$body::<S, …, 4>` from a copy compiled for AVX2, or `$body::<S, …, 1>` from the baseline
 /// build, the widest that [`lanes_available`] allows (see the note on bits).
 macro_rules! dispatch {
-    ($(#[$doc:meta])* fn $name:ident $(<const $c:ident : usize>)? / $avx2:ident, $avx512:ident = $body:ident ( $($arg:ident : $ty:ty),* ) -> $ret:ty) => {
+    ($(#[$doc:meta])* $vis:vis fn $name:ident $(<const $c:ident : usize>)? / $avx2:ident, $avx512:ident = $body:ident ( $($arg:ident : $ty:ty),* ) -> $ret:ty) => {
         $(#[$doc])*
-        fn $name<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
+        $vis fn $name<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             match $crate::lanes::lanes_available() {
                 // SAFETY: the CPU has AVX-512F, checked at run time just above.

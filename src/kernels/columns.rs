@@ -7,7 +7,7 @@
 //! offsets `x_I − x_p` are `dα_a` along `α` and `dβ_b` along `β`.
 
 use crate::lanes::Real;
-use crate::operators::Operators;
+use crate::operators::{ColumnView, Operators};
 
 /// Particles `k … k + R::LANES − 1`, one per lane: their 1D weights, derivatives and node
 /// offsets along and across the runs of their stencils, and each one's first node.
@@ -34,13 +34,23 @@ impl<R: Real, const S: usize> Columns<R, S> {
     /// If `S` is not the operators' support or `k + R::LANES` exceeds the particle count.
     #[inline(always)]
     pub(crate) fn load(ops: &Operators, k: usize, xp: R, yp: R) -> Columns<R, S> {
-        assert!(S == ops.support(), "stencil size must equal the support");
-        let firsts = &ops.first_nodes()[k..k + R::LANES];
+        Columns::load_view(&ops.view(), k, xp, yp)
+    }
+
+    /// The columns of entries `k …` of `view`, at positions `(xp, yp)`.
+    ///
+    /// # Panics
+    /// If `S` is not the support or `k + R::LANES` exceeds the view's length.
+    #[inline(always)]
+    pub(crate) fn load_view(view: &ColumnView, k: usize, xp: R, yp: R) -> Columns<R, S> {
+        let layout = &view.layout;
+        assert!(S == layout.support, "stencil size must equal the support");
+        let firsts = &view.first[k..k + R::LANES];
         let zero = R::splat(0.0);
         let (mut wx, mut dwx, mut wy, mut dwy) = ([zero; S], [zero; S], [zero; S], [zero; S]);
-        if ops.stores_factors() {
-            let f = ops.factors_block(k, R::LANES);
+        if let Some(factors) = view.factors {
             let per = 4 * S;
+            let f = &factors[per * k..per * (k + R::LANES)];
             for a in 0..S {
                 wx[a] = R::from_fn(|l| f[l * per + a]);
                 dwx[a] = R::from_fn(|l| f[l * per + S + a]);
@@ -48,12 +58,12 @@ impl<R: Real, const S: usize> Columns<R, S> {
                 dwy[a] = R::from_fn(|l| f[l * per + 3 * S + a]);
             }
         } else {
-            let ([fx, fy], [tx, ty]) = (ops.frames(), ops.local());
+            let ([fx, fy], [tx, ty]) = (&layout.frames, view.local);
             (wx, dwx) = fx.weights_at::<R, S>(R::load(tx, k));
             (wy, dwy) = fy.weights_at::<R, S>(R::load(ty, k));
         }
-        let [sx, sy] = ops.strides();
-        let ([ox, oy], [hx, hy]) = (ops.origin(), ops.cell_size());
+        let [sx, sy] = layout.strides;
+        let ([ox, oy], [hx, hy]) = (layout.origin, layout.cell_size);
         let lane = |l: usize| firsts[l.min(R::LANES - 1)];
         let mut first = [0; 8];
         for (l, f) in first.iter_mut().enumerate() {

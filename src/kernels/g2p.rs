@@ -5,13 +5,14 @@
 //! transposed into lanes), with the same bits as the scalar build.
 
 use super::columns::Columns;
+use super::fused::{relocate_and_scatter, NextBand};
+use super::gather::{gather_sums, Gather, Wanted};
 use super::particle::{update_stress, Partials, StressInput, StressOutput, StressPartials, SumInput, SumPartials};
 use super::{ApicInertia, GridField, GridState, KineticEnergies, ParticleScratch};
 use crate::lanes::dispatch;
-use crate::lanes::Real;
 #[cfg(target_arch = "x86_64")]
 use crate::lanes::{F64x4, F64x8};
-use crate::operators::Operators;
+use crate::operators::{ColumnView, Layout, Operators};
 use crate::parallel::{Splittable, Workers};
 use crate::particles::Particles;
 use crate::schemes::{PositionUpdate, Transfer};
@@ -163,6 +164,31 @@ pub(crate) fn g2p_packed(
     workers: &Workers,
     blocks: &mut Vec<G2pBlock>,
 ) {
+    let view = BlockColumns::Shared(ops.view());
+    let lo = ops.node_span().start;
+    let (input, out) = split_pass(view, ops.support(), lo, packed, rule, dt, fused, p, scratch);
+    let width = rule.packed_width();
+    workers.split_blocks(out, blocks, |first, out| match width {
+        4 => crate::with_support!(ops, g2p_block::<S, 4>(&input, first, out, None)),
+        _ => crate::with_support!(ops, g2p_block::<S, 8>(&input, first, out, None)),
+    });
+}
+
+/// What the blocks of a grid-to-particle pass read and write: the particles `p` and the scratch
+/// split into [`G2pInput`] and [`G2pOutput`], with the columns `columns` (of a support of
+/// `support` nodes per axis) and the grid velocities `packed` from node `lo`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn split_pass<'a>(
+    columns: BlockColumns<'a>,
+    support: usize,
+    lo: usize,
+    packed: Packed<'a>,
+    rule: &'a G2pRule,
+    dt: f64,
+    fused: &Fused<'a>,
+    p: &'a mut Particles,
+    scratch: &'a mut ParticleScratch,
+) -> (G2pInput<'a>, G2pOutput<'a>) {
     let np = p.len();
     let with_gradient = rule.gradient.is_some() && fused.stress.is_none();
     if with_gradient {
@@ -174,10 +200,21 @@ pub(crate) fn g2p_packed(
         scratch.displacement.x.resize(np, 0.0);
         scratch.displacement.y.resize(np, 0.0);
     }
+    // The stress and volume: written by the pass (USL), or read by the fused scatter.
+    let (held, stress) = if fused.stress.is_some() {
+        let out = StressOutput {
+            f: [&mut p.fxx[..], &mut p.fxy[..], &mut p.fyx[..], &mut p.fyy[..]],
+            sigma: [&mut p.sxx[..], &mut p.syy[..], &mut p.sxy[..]],
+            volume: &mut p.volume[..],
+        };
+        (None, Some(out))
+    } else {
+        (Some(([&p.sxx[..], &p.syy[..], &p.sxy[..]], &p.volume[..])), None)
+    };
     let input = G2pInput {
-        ops,
+        support,
         packed,
-        lo: ops.node_span().start,
+        lo,
         rule,
         dt,
         mass: &p.mass,
@@ -185,9 +222,11 @@ pub(crate) fn g2p_packed(
         force: [&p.bx, &p.by],
         stress: fused.stress,
         gravity: fused.moves,
+        held,
     };
     let moves = fused.moves.is_some();
     let out = G2pOutput {
+        columns,
         position: [&mut p.x[..], &mut p.y[..]],
         moves,
         velocity: [&mut p.vx[..], &mut p.vy[..]],
@@ -199,17 +238,9 @@ pub(crate) fn g2p_packed(
         ],
         gradient: with_gradient.then(|| scratch.velocity_gradient.each_mut().map(|v| &mut v[..])),
         displacement: (!moves).then(|| [&mut scratch.displacement.x[..], &mut scratch.displacement.y[..]]),
-        stress: fused.stress.is_some().then(|| StressOutput {
-            f: [&mut p.fxx[..], &mut p.fxy[..], &mut p.fyx[..], &mut p.fyy[..]],
-            sigma: [&mut p.sxx[..], &mut p.syy[..], &mut p.sxy[..]],
-            volume: &mut p.volume[..],
-        }),
+        stress,
     };
-    let width = rule.packed_width();
-    workers.split_blocks(out, blocks, |first, out| match width {
-        4 => crate::with_support!(ops, g2p_block::<S, 4>(&input, first, out)),
-        _ => crate::with_support!(ops, g2p_block::<S, 8>(&input, first, out)),
-    });
+    (input, out)
 }
 
 /// The grid velocities a grid-to-particle pass reads: node `lo + i` holds `W` values (`[w, v]`,
@@ -224,36 +255,91 @@ pub(crate) struct Packed<'a> {
 }
 
 /// What every block of [`g2p`] reads.
-struct G2pInput<'a> {
-    ops: &'a Operators,
+pub(super) struct G2pInput<'a> {
+    /// Nodes per axis of a stencil.
+    pub(super) support: usize,
     /// Grid velocities packed per node from node `lo`.
-    packed: Packed<'a>,
-    lo: usize,
-    rule: &'a G2pRule,
-    dt: f64,
-    mass: &'a [f64],
-    body: &'a [usize],
-    force: [&'a [f64]; 2],
-    stress: Option<&'a [crate::material::Prepared]>,
-    gravity: Option<[f64; 2]>,
+    pub(super) packed: Packed<'a>,
+    pub(super) lo: usize,
+    pub(super) rule: &'a G2pRule,
+    pub(super) dt: f64,
+    pub(super) mass: &'a [f64],
+    pub(super) body: &'a [usize],
+    pub(super) force: [&'a [f64]; 2],
+    pub(super) stress: Option<&'a [crate::material::Prepared]>,
+    pub(super) gravity: Option<[f64; 2]>,
+    /// `σxx, σyy, σxy` and `V` of every particle when the pass does not update them.
+    pub(super) held: Option<([&'a [f64]; 3], &'a [f64])>,
 }
 
 /// What a block of [`g2p`] writes, for its particles: velocities, APIC moments, velocity
 /// gradients or the stress update, position increments or the positions.
-struct G2pOutput<'a> {
+pub(super) struct G2pOutput<'a> {
+    /// The columns the particles read.
+    pub(super) columns: BlockColumns<'a>,
     /// `x_p` (read for the node offsets; written when the pass moves the particles).
-    position: [&'a mut [f64]; 2],
-    moves: bool,
+    pub(super) position: [&'a mut [f64]; 2],
+    pub(super) moves: bool,
     /// `v_p` (x, y).
-    velocity: [&'a mut [f64]; 2],
+    pub(super) velocity: [&'a mut [f64]; 2],
     /// APIC's `B_p` (or `C_p` for linear kernels), row-major.
-    affine: [&'a mut [f64]; 4],
+    pub(super) affine: [&'a mut [f64]; 4],
     /// `L_p`, row-major, when written.
-    gradient: Option<[&'a mut [f64]; 4]>,
+    pub(super) gradient: Option<[&'a mut [f64]; 4]>,
     /// `Δx_p` (x, y), unless the pass moves the particles.
-    displacement: Option<[&'a mut [f64]; 2]>,
+    pub(super) displacement: Option<[&'a mut [f64]; 2]>,
     /// `F`, `σ`, `V`, when the pass updates the stress.
-    stress: Option<StressOutput<'a>>,
+    pub(super) stress: Option<StressOutput<'a>>,
+}
+
+/// The columns a block of the pass reads: the operators' own, shared by every block (entry `k`
+/// particle `k`'s), or the block's part of them, which the fused pass rewrites as its particles
+/// move (entry `j` the block's particle `j`'s).
+pub(super) enum BlockColumns<'a> {
+    Shared(ColumnView<'a>),
+    Own {
+        layout: Layout,
+        first: &'a mut [[u32; 2]],
+        local: [&'a mut [f64]; 2],
+    },
+}
+
+impl BlockColumns<'_> {
+    /// The columns as a view (the block's own, or every particle's).
+    #[inline(always)]
+    pub(super) fn view(&self) -> ColumnView<'_> {
+        match self {
+            BlockColumns::Shared(view) => *view,
+            BlockColumns::Own { layout, first, local } => ColumnView {
+                layout: *layout,
+                first,
+                local: [&local[0][..], &local[1][..]],
+                factors: None,
+            },
+        }
+    }
+
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        match self {
+            BlockColumns::Shared(view) => (BlockColumns::Shared(view), BlockColumns::Shared(view)),
+            BlockColumns::Own { layout, first, local } => {
+                let (f0, f1) = first.split_at_mut(mid);
+                let (l0, l1) = Splittable::split_at(local, mid);
+                (
+                    BlockColumns::Own {
+                        layout,
+                        first: f0,
+                        local: l0,
+                    },
+                    BlockColumns::Own {
+                        layout,
+                        first: f1,
+                        local: l1,
+                    },
+                )
+            }
+        }
+    }
 }
 
 fn split_option<T: Splittable>(t: Option<T>, mid: usize) -> (Option<T>, Option<T>) {
@@ -277,8 +363,10 @@ impl Splittable for G2pOutput<'_> {
         let (g0, g1) = split_option(self.gradient, mid);
         let (d0, d1) = split_option(self.displacement, mid);
         let (s0, s1) = split_option(self.stress, mid);
+        let (c0, c1) = self.columns.split_at(mid);
         (
             G2pOutput {
+                columns: c0,
                 position: x0,
                 moves: self.moves,
                 velocity: v0,
@@ -288,6 +376,7 @@ impl Splittable for G2pOutput<'_> {
                 stress: s0,
             },
             G2pOutput {
+                columns: c1,
                 position: x1,
                 moves: self.moves,
                 velocity: v1,
@@ -300,214 +389,27 @@ impl Splittable for G2pOutput<'_> {
     }
 }
 
-/// What the particles of a group gather over their stencils: `Nᵀ w`, `Nᵀ v*`, `Nᵀ v`, `L` of the
-/// gradient field, `L` of `w` and APIC's `B_p` (the last three when asked for).
-#[derive(Clone, Copy)]
-struct Gathered<R> {
-    w: [R; 2],
-    t: [R; 2],
-    r: [R; 2],
-    l: [R; 4],
-    lw: [R; 4],
-    b: [R; 4],
-}
-
-/// Which of the optional sums of [`Gathered`] a pass forms.
-#[derive(Clone, Copy)]
-struct Wanted {
-    /// `L` of the gradient field.
-    l: bool,
-    /// `L` of `w` and `B_p`.
-    apic: bool,
-}
-
-/// Reading a node's packed velocities for every lane.
-trait Gather: Real {
-    /// `packed[at_l + c]` for `c < W` in lane `l`.
-    ///
-    /// # Safety
-    /// `at_l + W ≤ packed.len()` for every lane `l < LANES`.
-    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [Self; W];
-}
-
-impl Gather for f64 {
-    #[inline(always)]
-    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [f64; W] {
-        let mut out = [0.0; W];
-        for (c, o) in out.iter_mut().enumerate() {
-            // SAFETY: in bounds by the caller's contract.
-            *o = unsafe { *packed.get_unchecked(at[0] + c) };
-        }
-        out
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-impl Gather for F64x4 {
-    /// Each lane's node as 4-wide rows (one or two per node), transposed into lanes.
-    #[inline(always)]
-    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [F64x4; W] {
-        use std::arch::x86_64::*;
-        let mut out = [F64x4::splat(0.0); W];
-        let base = packed.as_ptr();
-        for half in 0..W / 4 {
-            // SAFETY: each row is in bounds by the caller's contract; F64x4 runs only where the
-            // CPU has AVX2.
-            let row = |l: usize| unsafe { _mm256_loadu_pd(base.add(at[l] + 4 * half)) };
-            let t = super::p2g::transpose([row(0), row(1), row(2), row(3)]);
-            for c in 0..4 {
-                out[4 * half + c] = F64x4(t[c]);
-            }
-        }
-        out
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-impl Gather for F64x8 {
-    /// Lanes 0–3 and lanes 4–7 as [`F64x4`] gathers them, joined.
-    #[inline(always)]
-    unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [F64x8; W] {
-        let hi = [at[4], at[5], at[6], at[7], 0, 0, 0, 0];
-        // SAFETY: the caller's contract covers every lane.
-        let (lo, hi) = unsafe { (F64x4::gather::<W>(packed, at), F64x4::gather::<W>(packed, hi)) };
-        let mut out = [F64x8::splat(0.0); W];
-        for c in 0..W {
-            out[c] = F64x8::join(lo[c], hi[c]);
-        }
-        out
-    }
-}
-
-/// The sums of the particles of `cols` over their stencils, factored along the runs: with `α`
-/// the axis along a run and `β` across, node `(a, b)` has `N = wα_a wβ_b`, and each sum over the
-/// stencil is a sum over the runs of a sum along each run,
-///
-/// ```text
-/// Nᵀu = Σ_b wβ_b (Σ_a wα_a u_ab),    (∂N/∂α)ᵀu = Σ_b wβ_b (Σ_a w′α_a u_ab),
-/// (∂N/∂β)ᵀu = Σ_b w′β_b (Σ_a wα_a u_ab),
-/// Σ N u dα = Σ_b wβ_b (Σ_a wα_a dα_a u_ab),    Σ N u dβ = Σ_b wβ_b dβ_b (Σ_a wα_a u_ab)
-/// ```
-///
-/// (`dα`, `dβ` the offsets `x_I − x_p`), in stencil order.
-#[inline(always)]
-fn gather_sums<R: Gather, const S: usize, const W: usize>(
-    cols: &Columns<R, S>,
-    packed: Packed,
-    lo: usize,
-    layers: [usize; 8],
-    wanted: Wanted,
-) -> Gathered<R> {
-    let Packed {
-        values: packed, stride, ..
-    } = packed;
-    debug_assert!(stride >= W, "a node holds the values read");
-    let z = R::splat(0.0);
-    let (wa, dwa, da, wb, dwb, db) = (&cols.wa, &cols.dwa, &cols.da, &cols.wb, &cols.dwb, &cols.db);
-    let gradient_of_w = wanted.apic || (W == 4 && wanted.l);
-    let mut wda = [z; S];
-    if wanted.apic {
-        for a in 0..S {
-            wda[a] = wa[a] * da[a];
-        }
-    }
-    // Each lane's first packed value, and the stencil's reach from there, checked once.
-    let mut at = [0; 8];
-    for (l, at) in at.iter_mut().enumerate().take(R::LANES) {
-        *at = layers[l] + stride * (cols.first[l] - lo);
-    }
-    let reach = stride * ((S - 1) * cols.run_stride + S - 1) + W;
-    assert!(
-        at[..R::LANES].iter().all(|&a| a + reach <= packed.len()),
-        "a stencil reaches past the packed grid velocities"
-    );
-    // Nᵀw, Nᵀv, Nᵀv*; ∂/∂α and ∂/∂β of w and of the gradient field; Σ N w dα, Σ N w dβ.
-    let (mut w, mut r, mut t) = ([z; 2], [z; 2], [z; 2]);
-    let (mut lw_a, mut lw_b, mut lg_a, mut lg_b, mut b_a, mut b_b) = ([z; 2], [z; 2], [z; 2], [z; 2], [z; 2], [z; 2]);
-    for b in 0..S {
-        // Sums along run b: wα u for w, v, v*, u; w′α u for w and u; wα dα w.
-        let (mut aw, mut av, mut at_, mut ag) = ([z; 2], [z; 2], [z; 2], [z; 2]);
-        let (mut dw, mut dg, mut xw) = ([z; 2], [z; 2], [z; 2]);
-        for a in 0..S {
-            let offset = stride * (b * cols.run_stride + a);
-            // SAFETY: every lane's node of the stencil is in bounds (checked above).
-            let mut node = at;
-            for n in node.iter_mut().take(R::LANES) {
-                *n += offset;
-            }
-            let u = unsafe { R::gather::<W>(packed, node) };
-            for c in 0..2 {
-                aw[c] = aw[c] + wa[a] * u[c];
-                av[c] = av[c] + wa[a] * u[2 + c];
-                if W == 8 {
-                    at_[c] = at_[c] + wa[a] * u[4 + c];
-                    if wanted.l {
-                        ag[c] = ag[c] + wa[a] * u[6 + c];
-                        dg[c] = dg[c] + dwa[a] * u[6 + c];
-                    }
-                }
-                if gradient_of_w {
-                    dw[c] = dw[c] + dwa[a] * u[c];
-                }
-                if wanted.apic {
-                    xw[c] = xw[c] + wda[a] * u[c];
-                }
-            }
-        }
-        let wdb = wb[b] * db[b];
-        for c in 0..2 {
-            w[c] = w[c] + wb[b] * aw[c];
-            r[c] = r[c] + wb[b] * av[c];
-            if W == 8 {
-                t[c] = t[c] + wb[b] * at_[c];
-                if wanted.l {
-                    lg_a[c] = lg_a[c] + wb[b] * dg[c];
-                    lg_b[c] = lg_b[c] + dwb[b] * ag[c];
-                }
-            }
-            if gradient_of_w {
-                lw_a[c] = lw_a[c] + wb[b] * dw[c];
-                lw_b[c] = lw_b[c] + dwb[b] * aw[c];
-            }
-            if wanted.apic {
-                b_a[c] = b_a[c] + wb[b] * xw[c];
-                b_b[c] = b_b[c] + wdb * aw[c];
-            }
-        }
-    }
-    // Rows of L (`[∂/∂x, ∂/∂y]` of each component) and of B (`[dx, dy]`) from (α, β).
-    let xy = |along: [R; 2], across: [R; 2]| {
-        let (x, y) = cols.xy(along, across);
-        [x[0], y[0], x[1], y[1]]
-    };
-    let lw = xy(lw_a, lw_b);
-    if W == 4 {
-        // The target and the gradient field are w itself.
-        t = w;
-    }
-    Gathered {
-        w,
-        t,
-        r,
-        l: if W == 4 { lw } else { xy(lg_a, lg_b) },
-        lw,
-        b: xy(b_a, b_b),
-    }
-}
-
 dispatch! {
     /// The particle loop of [`g2p`] for the particles from `first` (a block), for a support of
     /// `S` nodes per axis and `W` packed values per node.
-    fn g2p_block<const W: usize> / g2p_block_avx2, g2p_block_avx512 = g2p_block_body(input: &G2pInput, first: usize, out: G2pOutput) -> G2pBlock
+    pub(super) fn g2p_block<const W: usize> / g2p_block_avx2, g2p_block_avx512 = g2p_block_body(
+        input: &G2pInput,
+        first: usize,
+        out: G2pOutput,
+        next: Option<&mut NextBand>
+    ) -> G2pBlock
 }
 
 /// The body of [`g2p_block`]: the particles' sums `V` at a time (eight in the AVX-512 build,
-/// four in the AVX2 build; then fewer for the last few of a block), then their updates.
+/// four in the AVX2 build; then fewer for the last few of a block), then their updates; with
+/// `next`, the fused pass, each group's new columns and its terms of the next step's (2)–(5)
+/// right after its update ([`super::fused`]).
 #[inline(always)]
 fn g2p_block_body<const S: usize, const W: usize, const V: usize>(
     input: &G2pInput,
     first: usize,
     mut out: G2pOutput,
+    mut next: Option<&mut NextBand>,
 ) -> G2pBlock {
     let np = out.len();
     let mut block = G2pBlock::default();
@@ -516,15 +418,24 @@ fn g2p_block_body<const S: usize, const W: usize, const V: usize>(
     {
         while V >= 8 && j + 8 <= np {
             update_group::<F64x8, S, W>(input, first, j, &mut out, &mut block);
+            if let Some(next) = next.as_deref_mut() {
+                relocate_and_scatter::<F64x8, S, V>(input, first, j, &mut out, next);
+            }
             j += 8;
         }
         while V >= 4 && j + 4 <= np {
             update_group::<F64x4, S, W>(input, first, j, &mut out, &mut block);
+            if let Some(next) = next.as_deref_mut() {
+                relocate_and_scatter::<F64x4, S, V>(input, first, j, &mut out, next);
+            }
             j += 4;
         }
     }
     while j < np {
         update_group::<f64, S, W>(input, first, j, &mut out, &mut block);
+        if let Some(next) = next.as_deref_mut() {
+            relocate_and_scatter::<f64, S, V>(input, first, j, &mut out, next);
+        }
         j += 1;
     }
     block
@@ -550,7 +461,10 @@ fn update_group<R: Gather, const S: usize, const W: usize>(
         apic,
     };
     let (xp, yp) = (R::load(out.position[0], j), R::load(out.position[1], j));
-    let cols = Columns::<R, S>::load(input.ops, k, xp, yp);
+    let cols = match &out.columns {
+        BlockColumns::Shared(view) => Columns::<R, S>::load_view(view, k, xp, yp),
+        own => Columns::<R, S>::load_view(&own.view(), j, xp, yp),
+    };
     // Each particle reads its own body's field when there is one per body.
     let mut layers = [0; 8];
     if input.packed.layer > 0 {

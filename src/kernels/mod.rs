@@ -25,7 +25,9 @@
 
 mod columns;
 mod extend;
+mod fused;
 mod g2p;
+mod gather;
 mod gradient;
 mod grid;
 mod p2g;
@@ -34,13 +36,14 @@ mod stiffness;
 
 pub use crate::lanes::{kernel_lanes, set_kernel_lanes, set_scalar_kernels};
 pub use extend::{extend_to_inactive_nodes, ExtensionScratch};
+pub(crate) use fused::{g2p_then_p2g, NextTerms, Velocities};
 pub use g2p::{g2p, G2pRule};
 pub(crate) use g2p::{g2p_packed, pack_layers, pack_velocities, Fused, G2pBlock, Packed};
 pub use gradient::{velocity_gradient_into, velocity_gradient_layered};
 pub(crate) use grid::update_lumped_grid;
-pub(crate) use p2g::p2g_with;
 pub(crate) use p2g::subtract_particle_force;
 pub use p2g::{add_internal_force, p2g, reproject_momentum};
+pub(crate) use p2g::{p2g_prepared, p2g_with};
 pub(crate) use particle::{update_stress, StressInput, StressOutput, SumInput};
 pub use particle::{Partials, ParticleSums, StressPartials, StressSums, SumPartials};
 pub(crate) use stiffness::subtract_tangent_forces;
@@ -100,6 +103,8 @@ pub struct GridState {
     lumped_span: std::ops::Range<usize>,
     /// The angular momentum of each block of nodes of the last [`p2g`].
     angular_blocks: Vec<f64>,
+    /// The next step's particle terms, scattered by the fused pass ([`fused`]).
+    next: fused::NextScatter,
 }
 
 impl GridState {
@@ -124,7 +129,27 @@ impl GridState {
             base: 0,
             lumped_span: 0..n,
             angular_blocks: Vec::new(),
+            next: fused::NextScatter::with_capacity(n),
         }
+    }
+
+    /// Whether the fused pass of the last step left this step's particle terms
+    /// ([`fused::g2p_then_p2g`]).
+    pub(crate) fn next_ready(&self) -> bool {
+        self.next.ready
+    }
+
+    /// Forgets the particle terms the fused pass left (the particles changed since).
+    pub(crate) fn discard_next(&mut self) {
+        self.next.ready = false;
+    }
+
+    /// Takes the particle terms the fused pass left as this step's accumulator.
+    fn take_next(&mut self) {
+        assert!(self.next.ready, "the fused pass left this step's terms");
+        std::mem::swap(&mut self.accumulator, &mut self.next.acc);
+        self.base = self.next.base;
+        self.next.ready = false;
     }
 
     /// The velocity field `field`.

@@ -8,7 +8,7 @@ use crate::lanes::dispatch;
 #[cfg(target_arch = "x86_64")]
 use crate::lanes::F64x4;
 use crate::lanes::Real;
-use crate::operators::{Operators, Stencil};
+use crate::operators::{ColumnView, Operators, Stencil};
 use crate::parallel::Workers;
 use crate::particles::Particles;
 
@@ -47,6 +47,42 @@ pub(crate) fn p2g_with(
     fields: bool,
 ) {
     let P2gTerms { apic, gravity, stress } = terms;
+    let internal = if stress == Stress::Include { 1.0 } else { 0.0 };
+    let source = P2gSource::of(ops, p);
+    let np = p.len();
+    let (_, base) = scatter_bands(ops, &mut grid.accumulator, workers, |acc, base, lines| {
+        let target = Band { acc, base, lines };
+        crate::with_support!(ops, p2g_columns::<S>(&source, 0..np, apic, internal, target))
+    });
+    grid.base = base;
+    p2g_nodes(ops, gravity, lumped, grid, workers, fields);
+}
+
+/// The node pass of [`p2g_with`] after the fused pass of the last step scattered this step's
+/// particle terms ([`super::fused`]): the same results as [`p2g_with`] with the same `terms`.
+pub(crate) fn p2g_prepared(
+    ops: &Operators,
+    gravity: [f64; 2],
+    lumped: &mut [f64],
+    grid: &mut GridState,
+    workers: &Workers,
+    fields: bool,
+) {
+    grid.take_next();
+    p2g_nodes(ops, gravity, lumped, grid, workers, fields);
+}
+
+/// What (2)–(5) write per node from the accumulator of the particles' terms: `m_L`, `q` and
+/// `f` (with gravity `m_L g`; only `m_L` without `fields`) over the operators' node span, zero
+/// outside it, and the angular momentum `Σ_I x_I × q_I`.
+fn p2g_nodes(
+    ops: &Operators,
+    gravity: [f64; 2],
+    lumped: &mut [f64],
+    grid: &mut GridState,
+    workers: &Workers,
+    fields: bool,
+) {
     let n = ops.num_nodes();
     assert!(
         lumped.len() == n && grid.momentum.len() == n,
@@ -65,10 +101,6 @@ pub(crate) fn p2g_with(
             field.y[range.clone()].fill(0.0);
         }
     }
-    let internal = if stress == Stress::Include { 1.0 } else { 0.0 };
-    let (acc, base) = scatter_bands(ops, &mut grid.accumulator, workers, |acc, base, lines| {
-        crate::with_support!(ops, p2g_columns::<S>(ops, p, apic, internal, acc, base, lines))
-    });
     let [gx, gy] = gravity;
     let (line_len, ([ox, oy], [hx, hy])) = (ops.line_length().max(1), grid.frame);
     let runs_along_x = ops.strides()[0] == 1;
@@ -76,8 +108,11 @@ pub(crate) fn p2g_with(
         momentum,
         force,
         angular_blocks,
+        accumulator,
+        base,
         ..
     } = grid;
+    let (acc, base) = (&accumulator[..], *base);
     let out = (
         &mut lumped[span.clone()],
         [
@@ -114,7 +149,6 @@ pub(crate) fn p2g_with(
     let angular = grid.angular_blocks.iter().sum();
     grid.angular_momentum = angular;
     grid.span = span;
-    grid.base = base;
 }
 
 /// A deterministic scatter into the interleaved accumulator: zeroes it over the operators'
@@ -138,53 +172,90 @@ fn scatter_bands<'a>(
     (acc, lines.start * line_len)
 }
 
+/// The accumulator of a band of grid lines: node `base + i` at entry `i`, the lines `lines`.
+pub(crate) struct Band<'a> {
+    pub acc: &'a mut [[f64; 5]],
+    pub base: usize,
+    pub lines: std::ops::Range<usize>,
+}
+
+/// What (2)–(5) read of particles `first …` (entry `k` of each array is particle `first + k`'s):
+/// their columns, positions, masses, velocities, body forces, volumes, stresses and APIC
+/// moments.
+#[derive(Clone, Copy)]
+pub(crate) struct P2gSource<'a> {
+    pub cols: ColumnView<'a>,
+    pub position: [&'a [f64]; 2],
+    pub mass: &'a [f64],
+    pub velocity: [&'a [f64]; 2],
+    pub force: [&'a [f64]; 2],
+    pub volume: &'a [f64],
+    /// `σxx`, `σyy`, `σxy`.
+    pub stress: [&'a [f64]; 3],
+    /// `B_p` (or `C_p`), row-major.
+    pub affine: [&'a [f64]; 4],
+}
+
+impl<'a> P2gSource<'a> {
+    /// Every particle of `p`, with the columns of `ops`.
+    pub(crate) fn of(ops: &'a Operators, p: &'a Particles) -> P2gSource<'a> {
+        P2gSource {
+            cols: ops.view(),
+            position: [&p.x, &p.y],
+            mass: &p.mass,
+            velocity: [&p.vx, &p.vy],
+            force: [&p.bx, &p.by],
+            volume: &p.volume,
+            stress: [&p.sxx, &p.syy, &p.sxy],
+            affine: [&p.affine_xx, &p.affine_xy, &p.affine_yx, &p.affine_yy],
+        }
+    }
+}
+
 dispatch! {
-    /// The particle loop of [`p2g`] for a support of `S` nodes per axis, into the interleaved
-    /// accumulator of the nodes from `base`.
-    fn p2g_columns / p2g_columns_avx2, p2g_columns_avx512 = p2g_columns_body(
-        ops: &Operators,
-        p: &Particles,
+    /// The particle loop of [`p2g`] for a support of `S` nodes per axis: the entries `range`
+    /// of `source`, into the band `target`.
+    pub(super) fn p2g_columns / p2g_columns_avx2, p2g_columns_avx512 = p2g_columns_body(
+        source: &P2gSource,
+        range: std::ops::Range<usize>,
         apic: Option<ApicInertia>,
         internal: f64,
-        acc: &mut [[f64; 5]],
-        base: usize,
-        lines: std::ops::Range<usize>
+        target: Band
     ) -> ()
 }
 
-/// The body of [`p2g_columns`]: every particle whose stencil reaches the band, in order, its
-/// terms added to the nodes of the band; four particles at a time in the vector builds
-/// ([`p2g_lanes`]; the AVX-512 build too: its scatter goes lane by lane, and eight lanes side by
-/// side measured slower than four) where all their stencils lie in the band, one at a time
-/// otherwise. Every node receives its terms in particle order either way.
+/// The body of [`p2g_columns`]: every particle of `range` whose stencil reaches the band, in
+/// order, its terms added to the nodes of the band; four particles at a time in the vector
+/// builds ([`p2g_lanes`]; the AVX-512 build too: its scatter goes lane by lane, and eight lanes
+/// side by side measured slower than four) where all their stencils lie in the band, one at a
+/// time otherwise. Every node receives its terms in particle order either way.
 #[inline(always)]
-fn p2g_columns_body<const S: usize, const V: usize>(
-    ops: &Operators,
-    p: &Particles,
+pub(crate) fn p2g_columns_body<const S: usize, const V: usize>(
+    source: &P2gSource,
+    range: std::ops::Range<usize>,
     apic: Option<ApicInertia>,
     internal: f64,
-    acc: &mut [[f64; 5]],
-    base: usize,
-    lines: std::ops::Range<usize>,
+    target: Band,
 ) {
-    let np = p.len();
+    let Band { acc, base, lines } = target;
+    let cols = &source.cols;
     let inside = |k: usize| {
-        let l0 = ops.first_line(k);
+        let l0 = cols.first_line(k);
         l0 >= lines.start && l0 + S <= lines.end
     };
-    let mut k = 0;
-    while k < np {
+    let mut k = range.start;
+    while k < range.end {
         #[cfg(target_arch = "x86_64")]
         {
-            if V >= 4 && k + 4 <= np && (k..k + 4).all(inside) {
-                p2g_lanes::<F64x4, S>(ops, p, apic, internal, k, acc, base);
+            if V >= 4 && k + 4 <= range.end && (k..k + 4).all(inside) {
+                p2g_lanes::<F64x4, S>(source, apic, internal, k, acc, base);
                 k += 4;
                 continue;
             }
         }
-        let l0 = ops.first_line(k);
+        let l0 = cols.first_line(k);
         if l0 + S > lines.start && l0 < lines.end {
-            let group = Group::<f64, S>::new(ops, p, apic, internal, k);
+            let group = Group::<f64, S>::new(source, apic, internal, k);
             for b in lines.start.saturating_sub(l0)..(lines.end - l0).min(S) {
                 f64::scatter_run(&group.run(b), &group.cols, b, acc, base);
             }
@@ -200,17 +271,17 @@ fn p2g_columns_body<const S: usize, const V: usize>(
 /// at different runs), then lane after lane.
 #[inline(always)]
 fn p2g_lanes<R: Scatter, const S: usize>(
-    ops: &Operators,
-    p: &Particles,
+    source: &P2gSource,
     apic: Option<ApicInertia>,
     internal: f64,
     k: usize,
     acc: &mut [[f64; 5]],
     base: usize,
 ) {
-    let group = Group::<R, S>::new(ops, p, apic, internal, k);
-    let l0 = ops.first_line(k);
-    if (k + 1..k + R::LANES).all(|q| ops.first_line(q) == l0) {
+    let group = Group::<R, S>::new(source, apic, internal, k);
+    let cols = &source.cols;
+    let l0 = cols.first_line(k);
+    if (k + 1..k + R::LANES).all(|q| cols.first_line(q) == l0) {
         for b in 0..S {
             R::scatter_run(&group.run(b), &group.cols, b, acc, base);
         }
@@ -228,7 +299,7 @@ fn p2g_lanes<R: Scatter, const S: usize>(
 #[inline(always)]
 pub(super) fn affine_velocity<R: Real, const S: usize>(
     cols: &Columns<R, S>,
-    p: &Particles,
+    affine: [&[f64]; 4],
     apic: Option<ApicInertia>,
     k: usize,
 ) -> [R; 4] {
@@ -238,12 +309,7 @@ pub(super) fn affine_velocity<R: Real, const S: usize>(
         Some(ApicInertia::Constant([dxx, dyy])) => [R::splat(dxx), R::splat(dyy)],
         Some(ApicInertia::Column) => column_inertia(cols),
     };
-    let b = [
-        R::load(&p.affine_xx, k),
-        R::load(&p.affine_xy, k),
-        R::load(&p.affine_yx, k),
-        R::load(&p.affine_yy, k),
-    ];
+    let b = affine.map(|a| R::load(a, k));
     if apic == Some(ApicInertia::StoredC) {
         return b;
     }
@@ -293,14 +359,15 @@ struct Group<R, const S: usize> {
 
 impl<R: Real, const S: usize> Group<R, S> {
     #[inline(always)]
-    fn new(ops: &Operators, p: &Particles, apic: Option<ApicInertia>, internal: f64, k: usize) -> Self {
-        let cols = Columns::<R, S>::load(ops, k, R::load(&p.x, k), R::load(&p.y, k));
-        let m = R::load(&p.mass, k);
-        let mv = [m * R::load(&p.vx, k), m * R::load(&p.vy, k)];
-        let mb = [m * R::load(&p.bx, k), m * R::load(&p.by, k)];
-        let v = R::splat(internal) * R::load(&p.volume, k);
-        let [sxx, syy, sxy] = [v * R::load(&p.sxx, k), v * R::load(&p.syy, k), v * R::load(&p.sxy, k)];
-        let c = affine_velocity(&cols, p, apic, k);
+    fn new(p: &P2gSource, apic: Option<ApicInertia>, internal: f64, k: usize) -> Self {
+        let [x, y] = p.position;
+        let cols = Columns::<R, S>::load_view(&p.cols, k, R::load(x, k), R::load(y, k));
+        let m = R::load(p.mass, k);
+        let mv = [m * R::load(p.velocity[0], k), m * R::load(p.velocity[1], k)];
+        let mb = [m * R::load(p.force[0], k), m * R::load(p.force[1], k)];
+        let v = R::splat(internal) * R::load(p.volume, k);
+        let [sxx, syy, sxy] = p.stress.map(|s| v * R::load(s, k));
+        let c = affine_velocity(&cols, p.affine, apic, k);
         let mc = [m * c[0], m * c[1], m * c[2], m * c[3]];
         let c_rows = [cols.xy(mc[0], mc[1]), cols.xy(mc[2], mc[3])];
         let s_rows = [cols.xy(sxx, sxy), cols.xy(sxy, syy)];

@@ -48,9 +48,11 @@ use std::sync::OnceLock;
 mod locate;
 mod products;
 mod stencil;
+mod view;
 
 pub use products::weighted_product;
 pub use stencil::Stencil;
+pub(crate) use view::{relocate, ColumnView, Layout};
 
 use crate::error::{MpmError, Result};
 use crate::grid::Grid;
@@ -362,18 +364,6 @@ impl Operators {
         self.zero_weights
     }
 
-    /// The kernel's constants along x and y (their `weights_at(t)` are the factors of a column
-    /// stored by its coordinates).
-    pub(crate) fn frames(&self) -> &[AxisFrame; 2] {
-        &self.frames
-    }
-
-    /// Each particle's kernel coordinates along x and y ([`Located::t`](crate::shape)); meaningful while
-    /// [`Operators::stores_factors`] is false.
-    pub(crate) fn local(&self) -> &[Vec<f64>; 2] {
-        &self.local
-    }
-
     /// Nodes per grid line, a line being the nodes that share the index along the axis with
     /// the larger node stride (for x-fastest numbering, a row of constant `j`): the runs of a
     /// [`Stencil`] lie within lines, one run per line.
@@ -416,16 +406,6 @@ impl Operators {
     /// Node-number strides along x and y.
     pub(crate) fn strides(&self) -> [usize; 2] {
         self.strides
-    }
-
-    /// The grid's origin, for node coordinates.
-    pub(crate) fn origin(&self) -> [f64; 2] {
-        self.origin
-    }
-
-    /// The grid's cell size, for node coordinates.
-    pub(crate) fn cell_size(&self) -> [f64; 2] {
-        self.cell_size
     }
 
     /// Nodes per axis in each particle's support (2 linear, 3 uGIMP and quadratic, 4 cubic; 0
@@ -480,21 +460,6 @@ impl Operators {
                 fy.weights_at::<f64, S>(self.local[1][p]),
             )
         }
-    }
-
-    /// The factors of particles `p … p + count − 1`, `4 S` values each (as in [`Stencil`]).
-    ///
-    /// # Panics
-    /// If `p + count > num_particles()`, or if the operators do not store factors
-    /// ([`Operators::stores_factors`]).
-    #[inline(always)]
-    pub(crate) fn factors_block(&self, p: usize, count: usize) -> &[f64] {
-        assert!(
-            self.stores_factors,
-            "the columns are stored by their kernel coordinates"
-        );
-        let per = 4 * self.support;
-        &self.factors[per * p..per * (p + count)]
     }
 
     /// Each particle's first node as grid indices `[i, j]` (the lowest x and y indices of its

@@ -44,6 +44,7 @@
 //!
 //! [execution]
 //! threads = 1                    # worker threads (the results are the same bits for any count)
+//! fused_passes = true            # the explicit step's fused particle pass (the same bits either way)
 //! ```
 //!
 //! Geometries ([`Geometry`]): `{ rectangle = { min = [x, y], max = [x, y] } }`, `{ disk = { center = [x, y],
@@ -249,11 +250,16 @@ impl Default for Schemes {
 pub struct Execution {
     /// Worker threads (1 to [`crate::parallel::MAX_THREADS`]; 1 runs serially).
     pub threads: usize,
+    /// The explicit step's fused pass ([`Options::fused_passes`]; `true`, the default).
+    pub fused_passes: bool,
 }
 
 impl Default for Execution {
     fn default() -> Self {
-        Execution { threads: 1 }
+        Execution {
+            threads: 1,
+            fused_passes: true,
+        }
     }
 }
 
@@ -567,6 +573,7 @@ impl Scene {
                 .stability_interval
                 .unwrap_or(crate::simulation::DEFAULT_STABILITY_INTERVAL),
             threads: self.execution.threads,
+            fused_passes: self.execution.fused_passes,
             integrator: s.integrator,
         }
     }

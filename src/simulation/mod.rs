@@ -272,6 +272,7 @@ impl Simulation {
         };
         options.validate()?;
         self.options = options;
+        self.cache.nodes.discard_next();
         Ok(())
     }
 
@@ -306,7 +307,9 @@ impl Simulation {
     pub fn steps(&self) -> usize {
         self.state.steps
     }
-    /// The operators N, Gx, Gy of the last step (of the initial configuration before the first).
+    /// The operators N, Gx, Gy of the last step (of the initial configuration before the first;
+    /// of the particles' present positions after an explicit step whose fused pass prepared
+    /// the next step, [`Options::fused_passes`]).
     pub fn operators(&self) -> &Operators {
         &self.cache.ops
     }
@@ -327,6 +330,7 @@ impl Simulation {
     /// `id` the particle's permanent id and `x_p` its current position. For a time-dependent load,
     /// such as a manufactured solution's, call it before each step with the time in `b`.
     pub fn set_body_force(&mut self, mut b: impl FnMut(usize, [f64; 2]) -> [f64; 2]) {
+        self.cache.nodes.discard_next();
         let p = &mut self.state.particles;
         for k in 0..p.len() {
             [p.bx[k], p.by[k]] = b(p.id[k], [p.x[k], p.y[k]]);
@@ -343,6 +347,7 @@ impl Simulation {
     /// value that is not finite; nothing is changed then.
     pub fn set_velocity(&mut self, v: impl FnMut(usize, [f64; 2]) -> [f64; 2]) -> Result<()> {
         let new = self.particle_pairs(v, ["vx", "vy"], |p, k| [p.vx[k], p.vy[k]])?;
+        self.cache.nodes.discard_next();
         let p = &mut self.state.particles;
         for (k, [vx, vy]) in new.into_iter().enumerate() {
             (p.vx[k], p.vy[k]) = (vx, vy);
@@ -374,6 +379,7 @@ impl Simulation {
             }
             new.push(value);
         }
+        self.cache.nodes.discard_next();
         let p = &mut self.state.particles;
         for (k, [sxx, syy, sxy]) in new.into_iter().enumerate() {
             (p.sxx[k], p.syy[k], p.sxy[k]) = (sxx, syy, sxy);

@@ -57,6 +57,11 @@ pub struct Options {
     /// Worker threads (1: serial). Results do not depend on it, to the last bit
     /// ([`crate::parallel`]).
     pub threads: usize,
+    /// The explicit step's fused pass (the default): the grid-to-particle pass of each step
+    /// also locates the moved particles and scatters the next step's particle-to-grid terms
+    /// ([`crate::kernels`], `fused`), where the schemes allow it. Results do not depend on it,
+    /// to the last bit; `false` runs the separate passes.
+    pub fused_passes: bool,
     /// Explicit (the default) or implicit Newmark integration ([`crate::implicit`]).
     pub integrator: Integrator,
     /// Damping of the explicit step's grid force, for dynamic relaxation ([`crate::damping`];
@@ -83,6 +88,7 @@ impl Default for Options {
             sort_interval: 50,
             stability_interval: DEFAULT_STABILITY_INTERVAL,
             threads: 1,
+            fused_passes: true,
             integrator: Integrator::Explicit,
             damping: None,
             contact: None,

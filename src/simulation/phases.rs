@@ -117,7 +117,14 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
     let (state, cache, scratch, profile) = out.into_parts();
     let (grid, workers) = (&setup.grid, &setup.workers);
     let interval = options.sort_interval;
-    if interval > 0 && state.steps.is_multiple_of(interval) {
+    let sorts = interval > 0 && state.steps.is_multiple_of(interval);
+    // The last step's fused pass assembled (1) and scattered (2)–(5) already (never before a
+    // sort: see particle_phases).
+    let prepared = cache.nodes.next_ready() && !sorts;
+    if !prepared {
+        cache.nodes.discard_next();
+    }
+    if sorts {
         timed(profile, Phase::Sort, || {
             // The operators' coordinate array, which the assembly below rewrites, lends its
             // memory as the sort's work array.
@@ -127,11 +134,13 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
     }
     let p = &state.particles;
     let (mirror, slip) = (&setup.prescribed.mirror, &setup.prescribed.slip);
-    timed(profile, Phase::Assemble, || {
-        cache.ops.reassemble_with(grid, options.shape, &p.x, &p.y, workers)?;
-        mirror.fold(grid, options.shape, &p.x, &p.y, &mut cache.ops); // mirrored walls
-        Ok::<_, MpmError>(())
-    })?; // (1)
+    if !prepared {
+        timed(profile, Phase::Assemble, || {
+            cache.ops.reassemble_with(grid, options.shape, &p.x, &p.y, workers)?;
+            mirror.fold(grid, options.shape, &p.x, &p.y, &mut cache.ops); // mirrored walls
+            Ok::<_, MpmError>(())
+        })?; // (1)
+    }
     let stress = if plan.stress_first {
         Stress::Omit
     } else {
@@ -146,7 +155,11 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
             gravity: plan.gravity,
             stress,
         };
-        kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, fields);
+        if prepared {
+            kernels::p2g_prepared(ops, plan.gravity, mass.lumped_mut(), nodes, workers, fields);
+        } else {
+            kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, fields);
+        }
         mirror.fold_lumped(grid, p, ops, mass.lumped_mut());
         walls::fold_lumped(slip, grid, mass.lumped_mut());
         walls::fold(slip, grid, &mut nodes.momentum);
@@ -320,11 +333,50 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
         stress: (stress_last == Some(StressFrom::Updated) && !plastic).then_some(&setup.materials[..]),
         moves: (stress_last != Some(StressFrom::Reprojected)).then_some(plan.gravity),
     };
+    let next = next_terms(input, state.steps, ops, &fused);
     let (p, workers) = (&mut state.particles, &setup.workers);
     let mut blocks = std::mem::take(&mut scratch.g2p_blocks);
     let mut packed = std::mem::take(&mut scratch.packed);
     let by_grid_pass = plan.lumped_grid_pass;
     timed(profile, Phase::G2p, || {
+        let Some(terms) = next else { return };
+        // (9)–(13) and the next step's (1)–(5) in one pass.
+        let velocities = if by_grid_pass {
+            kernels::Velocities::Lumped
+        } else {
+            kernels::pack_velocities(ops, nodes, &rule, &mut packed);
+            kernels::Velocities::Packed(kernels::Packed {
+                values: &packed,
+                stride: rule.packed_width(),
+                layer: 0,
+            })
+        };
+        let particle = &mut scratch.particle;
+        let ready = kernels::g2p_then_p2g(
+            ops,
+            velocities,
+            nodes,
+            &rule,
+            dt,
+            &fused,
+            p,
+            particle,
+            workers,
+            &mut blocks,
+            terms,
+        );
+        if !ready {
+            // The next step assembles (and reports a particle the grid does not accept).
+            let (grid, shape) = (&setup.grid, options.shape);
+            if ops.reassemble_with(grid, shape, &p.x, &p.y, workers).is_err() {
+                ops.invalidate();
+            }
+        }
+    });
+    timed(profile, Phase::G2p, || {
+        if next.is_some() {
+            return;
+        }
         // The lumped grid pass left [w, v] in p2g's accumulator; otherwise pack them.
         let velocities = if by_grid_pass {
             nodes.lumped_velocities()
@@ -390,6 +442,33 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
         }); // (9)
     }
     Ok(())
+}
+
+/// The terms of the next step's (2)–(5) when this step's grid-to-particle pass scatters them
+/// ([`kernels::g2p_then_p2g`]): the explicit integrator with [`Options::fused_passes`], a pass
+/// that moves the particles with their stress final (USL updating it in the pass, or USF before
+/// it; not MUSL, whose stress update and move follow the pass, nor an elastoplastic USL, whose
+/// stress update follows it), one velocity field (no contact), no mirrored walls (which fold
+/// the columns), columns of kernel coordinates, and no sort before the next step (step
+/// `steps + 1`).
+fn next_terms(input: StepInput, steps: usize, ops: &Operators, fused: &Fused) -> Option<kernels::NextTerms> {
+    let StepInput { setup, options, plan } = input;
+    let interval = options.sort_interval;
+    let sorts_next = interval > 0 && (steps + 1).is_multiple_of(interval);
+    let stress_final = fused.stress.is_some() || plan.stress_first;
+    let fuse = options.fused_passes
+        && options.integrator == super::Integrator::Explicit
+        && plan.motion.is_none()
+        && fused.moves.is_some()
+        && stress_final
+        && setup.contact.is_none()
+        && setup.prescribed.mirror.is_empty()
+        && !sorts_next
+        && ops.relocatable();
+    fuse.then_some(kernels::NextTerms {
+        apic: plan.apic,
+        internal: if plan.stress_first { 0.0 } else { 1.0 },
+    })
 }
 
 /// The end of a step: time and step count advanced, the report, what the state keeps of it.

@@ -240,7 +240,10 @@ pub fn run_scene_with(
     let scene = match options.threads {
         Some(threads) => {
             threaded = Scene {
-                execution: sparse_mpm::scene::Execution { threads },
+                execution: sparse_mpm::scene::Execution {
+                    threads,
+                    ..scene.execution.clone()
+                },
                 ..scene.clone()
             };
             &threaded

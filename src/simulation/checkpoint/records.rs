@@ -115,6 +115,8 @@ impl OptionsRecord {
             sort_interval,
             stability_interval,
             threads,
+            // An execution choice with the same bits either way, not kept: a resumed run fuses.
+            fused_passes: _,
             integrator,
             damping,
             contact,
@@ -172,6 +174,7 @@ impl OptionsRecord {
             sort_interval,
             stability_interval,
             threads,
+            fused_passes: true,
             integrator,
             damping,
             contact,

@@ -62,6 +62,11 @@ pub(crate) struct BenchArgs {
     /// (AVX-512; the CPU may allow fewer). The same results, to the bit, for every width.
     #[arg(long, default_value_t = 8, value_parser = lanes)]
     lanes: usize,
+    /// Run the explicit step's particle passes separately (the grid-to-particle pass, then the
+    /// next step's assembly and particle-to-grid pass) instead of the fused pass: the same
+    /// results, to the bit; for comparing their speed.
+    #[arg(long)]
+    separate_passes: bool,
 }
 
 /// Runs the benchmark of `args` and prints its rows, the memory peak, the estimates and the
@@ -81,6 +86,7 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
         update: args.update,
         particles: args.particles.clone().unwrap_or(defaults.particles.clone()),
         threads: args.threads as usize,
+        fused_passes: !args.separate_passes,
         steps: args.steps.map(|s| s as usize),
         reps: args.reps as usize,
         profile: args.profile,
@@ -94,14 +100,15 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
         ..defaults
     };
     println!(
-        "# sparse-mpm {}: shape {:#}, mass {:#}, transfer {:#}, update {}, {} thread(s), f64, transfers {} particle(s) side by side",
+        "# sparse-mpm {}: shape {:#}, mass {:#}, transfer {:#}, update {}, {} thread(s), f64, transfers {} particle(s) side by side, {} passes",
         env!("CARGO_PKG_VERSION"),
         spec.shape,
         spec.mass,
         spec.transfer,
         spec.update,
         spec.threads,
-        sparse_mpm::kernels::kernel_lanes()
+        sparse_mpm::kernels::kernel_lanes(),
+        if spec.fused_passes { "fused" } else { "separate" }
     );
     println!("particles,n_grid,steps,dt,reps,setup_s,min_psps,median_psps,max_psps,peak_bytes_per_particle,median_ms_per_step,median_s_per_simulated_s");
     let rows = sparse_mpm_cli::bench::run(&spec, |row| {

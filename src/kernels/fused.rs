@@ -1,0 +1,379 @@
+//! The fused pass of the explicit step: the grid-to-particle pass of step `n` and the
+//! particle-to-grid scatter of step `n + 1` in one sweep over the particles.
+//!
+//! Each group of particles (one, four or eight side by side, as in [`super::g2p`]) is updated,
+//! moved, located in the grid at its new position (its new column written in place of the old,
+//! [`crate::operators::relocate`]) and scattered into the next step's accumulator while its
+//! data are in registers and its grid nodes in cache. The next step then starts from that
+//! accumulator ([`super::p2g_prepared`]) instead of assembling the operators and scattering
+//! again: what the sort, the assembly and (2)–(5) would have done, to the bit.
+//!
+//! **Order.** Every node must receive its terms in particle order, as in the separate
+//! scatter, whatever the number of threads. The particles are cut into one range of whole
+//! blocks per worker, each with a band of grid lines (from the line its first particle's
+//! stencil started on at the start of the step). A worker adds its particles' terms to the
+//! lines of its band and skips the runs outside it; lines where some worker skipped a run (the
+//! few lines at the bands' edges that particles of two ranges share) are zeroed afterwards and
+//! scattered again from every particle that reaches them, in order. With one worker the band
+//! is the whole accumulator and nothing is skipped.
+//!
+//! **When it stops.** A particle the grid does not accept, a stencil shifted at the grid's
+//! edge (uGIMP) or a stencil beyond the lines prepared ([`MARGIN`] lines around the last
+//! step's) stops the scatter: the pass still finishes the step, and the next step assembles
+//! and scatters as usual (reporting the particle where the grid does not accept it).
+
+use super::g2p::{g2p_block, split_pass, BlockColumns, Fused, G2pBlock, G2pInput, G2pOutput, G2pRule, Packed};
+use super::p2g::{p2g_columns, p2g_columns_body, Band, P2gSource};
+use super::{ApicInertia, GridState, ParticleScratch};
+use crate::lanes::Real;
+use crate::operators::{relocate, Operators};
+use crate::parallel::{Splittable, Workers, REDUCTION_BLOCK};
+use crate::particles::Particles;
+
+/// Grid lines beyond the last step's line span that the next step's accumulator covers: a
+/// particle whose stencil moves further (more than a cell in a step) stops the fused scatter.
+pub const MARGIN: usize = 2;
+
+/// The next step's accumulator and what the fused pass found per block of particles.
+#[derive(Debug, Clone, Default)]
+pub(super) struct NextScatter {
+    pub(super) acc: Vec<[f64; 5]>,
+    /// Node number of `acc[0]`.
+    pub(super) base: usize,
+    /// Whether `acc` holds the terms of the particles as they are now.
+    pub(super) ready: bool,
+    stats: Vec<NextStats>,
+}
+
+impl NextScatter {
+    /// Address space for `nodes` accumulator entries (pages are touched as the span needs them).
+    pub(super) fn with_capacity(nodes: usize) -> NextScatter {
+        NextScatter {
+            acc: Vec::with_capacity(nodes),
+            ..NextScatter::default()
+        }
+    }
+}
+
+/// The terms of the next step's (2)–(5): APIC's inertia, and 1 to include `f_int` (0 under USF,
+/// whose stress update comes between the solves).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct NextTerms {
+    pub apic: Option<ApicInertia>,
+    pub internal: f64,
+}
+
+/// The grid velocities the pass reads: the lumped grid pass's `[w, v]` in the accumulator, or
+/// packed apart.
+pub(crate) enum Velocities<'a> {
+    Lumped,
+    Packed(Packed<'a>),
+}
+
+/// What one block of the fused pass found.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct NextStats {
+    /// Lowest and highest first node, lowest and highest first line of the new stencils.
+    lo: usize,
+    hi: usize,
+    min_line: usize,
+    max_line: usize,
+    /// The lowest line below the band, and one past the highest line above it, of a skipped run.
+    below: Option<usize>,
+    above: Option<usize>,
+    zero: bool,
+    stopped: bool,
+}
+
+impl Default for NextStats {
+    fn default() -> Self {
+        NextStats {
+            lo: usize::MAX,
+            hi: 0,
+            min_line: usize::MAX,
+            max_line: 0,
+            below: None,
+            above: None,
+            zero: false,
+            stopped: false,
+        }
+    }
+}
+
+/// What a block of the fused pass scatters into: its worker's band of the next accumulator.
+pub(crate) struct NextBand<'a> {
+    band: Band<'a>,
+    /// The lines the whole next accumulator covers.
+    prepared: std::ops::Range<usize>,
+    terms: NextTerms,
+    stats: NextStats,
+}
+
+/// The particles `first + j …` (`R::LANES` of them), just updated and moved by
+/// [`super::g2p`]'s group: their new columns written in place, their terms of the next step's
+/// (2)–(5) added to the band's nodes (runs outside the band skipped and noted).
+#[inline(always)]
+pub(super) fn relocate_and_scatter<R: Real, const S: usize, const V: usize>(
+    input: &G2pInput,
+    first: usize,
+    j: usize,
+    out: &mut G2pOutput,
+    next: &mut NextBand,
+) {
+    let st = &mut next.stats;
+    if st.stopped {
+        return;
+    }
+    let (x, y) = (R::load(out.position[0], j), R::load(out.position[1], j));
+    let BlockColumns::Own {
+        layout,
+        first: firsts,
+        local: [tx, ty],
+    } = &mut out.columns
+    else {
+        unreachable!("the fused pass rewrites the block's own columns")
+    };
+    let found = relocate::<R>(layout, x, y, j, firsts, [&mut **tx, &mut **ty]);
+    if !found.usable {
+        st.stopped = true;
+        return;
+    }
+    st.zero |= found.zero;
+    let (band, prepared) = (&next.band.lines, &next.prepared);
+    for f in &firsts[j..j + R::LANES] {
+        let line = layout.line_of(*f);
+        if line < prepared.start || line + S > prepared.end {
+            st.stopped = true;
+            return;
+        }
+        let node = layout.node_of(*f);
+        (st.lo, st.hi) = (st.lo.min(node), st.hi.max(node));
+        (st.min_line, st.max_line) = (st.min_line.min(line), st.max_line.max(line));
+        if line < band.start {
+            st.below = Some(st.below.map_or(line, |b| b.min(line)));
+        }
+        if line + S > band.end {
+            st.above = Some(st.above.map_or(line + S, |a| a.max(line + S)));
+        }
+    }
+    let (stress, volume): ([&[f64]; 3], &[f64]) = match (&out.stress, input.held) {
+        (Some(s), _) => ([&*s.sigma[0], &*s.sigma[1], &*s.sigma[2]], &*s.volume),
+        (None, Some((sigma, v))) => (sigma.map(|a| &a[first..]), &v[first..]),
+        (None, None) => unreachable!("the pass reads or writes the stress"),
+    };
+    let source = P2gSource {
+        cols: out.columns.view(),
+        position: [&*out.position[0], &*out.position[1]],
+        mass: &input.mass[first..],
+        velocity: [&*out.velocity[0], &*out.velocity[1]],
+        force: [&input.force[0][first..], &input.force[1][first..]],
+        volume,
+        stress,
+        affine: [&*out.affine[0], &*out.affine[1], &*out.affine[2], &*out.affine[3]],
+    };
+    let band = Band {
+        acc: &mut *next.band.acc,
+        base: next.band.base,
+        lines: next.band.lines.clone(),
+    };
+    let NextTerms { apic, internal } = next.terms;
+    p2g_columns_body::<S, V>(&source, j..j + R::LANES, apic, internal, band);
+}
+
+/// One worker's part of the fused pass: a range of whole blocks from particle `first`, and its
+/// band of the next accumulator.
+struct Task<'a> {
+    first: usize,
+    out: Option<G2pOutput<'a>>,
+    blocks: &'a mut [G2pBlock],
+    stats: &'a mut [NextStats],
+    band: Band<'a>,
+}
+
+/// The grid-to-particle pass of this step ([`super::g2p_packed`] with `fused`, which must move
+/// the particles) and the particle-to-grid scatter of the next ([`super::p2g_with`] with
+/// `terms`) in one sweep (see the [module docs](self)), the pass's results per block into
+/// `blocks`. Returns whether the next step's terms are ready in `grid`; if not, the operators
+/// are unusable until reassembled.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn g2p_then_p2g(
+    ops: &mut Operators,
+    velocities: Velocities,
+    grid: &mut GridState,
+    rule: &G2pRule,
+    dt: f64,
+    fused: &Fused,
+    p: &mut Particles,
+    scratch: &mut ParticleScratch,
+    workers: &Workers,
+    blocks: &mut Vec<G2pBlock>,
+    terms: NextTerms,
+) -> bool {
+    assert!(fused.moves.is_some(), "the fused pass moves the particles");
+    assert!(
+        ops.relocatable(),
+        "the fused pass rewrites columns of kernel coordinates"
+    );
+    let (np, support, lo) = (p.len(), ops.support(), ops.node_span().start);
+    let line_len = ops.line_length();
+    let all_lines = ops.num_nodes() / line_len;
+    let now = ops.line_span();
+    let prepared = now.start.saturating_sub(MARGIN)..(now.end + MARGIN).min(all_lines);
+    let count = np.div_ceil(REDUCTION_BLOCK);
+    let tasks = workers.threads().min(count).max(1);
+    let task_block = |t: usize| t * count / tasks;
+    // Each band from the line the first particle of its range started on.
+    let mut bounds = vec![prepared.start; tasks + 1];
+    bounds[tasks] = prepared.end;
+    for t in 1..tasks {
+        let line = ops.first_line(task_block(t) * REDUCTION_BLOCK);
+        bounds[t] = line.clamp(bounds[t - 1], prepared.end);
+    }
+    let GridState {
+        accumulator,
+        base,
+        span,
+        next,
+        ..
+    } = grid;
+    next.ready = false;
+    next.acc.clear();
+    next.acc.resize(prepared.len() * line_len, [0.0; 5]);
+    next.stats.clear();
+    next.stats.resize(count, NextStats::default());
+    blocks.clear();
+    blocks.resize_with(count, G2pBlock::default);
+    let packed = match velocities {
+        Velocities::Lumped => Packed {
+            values: accumulator[span.start - *base..span.end - *base].as_flattened(),
+            stride: 5,
+            layer: 0,
+        },
+        Velocities::Packed(packed) => packed,
+    };
+    let (layout, firsts, local) = ops.relocation();
+    let columns = BlockColumns::Own {
+        layout,
+        first: firsts,
+        local,
+    };
+    let (input, out) = split_pass(columns, support, lo, packed, rule, dt, fused, p, scratch);
+    let mut parts = Vec::with_capacity(tasks);
+    let (mut out, mut block_rest, mut stat_rest) = (out, &mut blocks[..], &mut next.stats[..]);
+    let mut acc_rest = &mut next.acc[..];
+    for t in 0..tasks {
+        let (b0, b1) = (task_block(t), task_block(t + 1));
+        let particles = (b1 * REDUCTION_BLOCK).min(np) - b0 * REDUCTION_BLOCK;
+        let (mine, rest) = out.split_at(particles);
+        out = rest;
+        let (mine_blocks, rest) = block_rest.split_at_mut(b1 - b0);
+        block_rest = rest;
+        let (mine_stats, rest) = stat_rest.split_at_mut(b1 - b0);
+        stat_rest = rest;
+        let lines = bounds[t]..bounds[t + 1];
+        let (acc, rest) = acc_rest.split_at_mut(lines.len() * line_len);
+        acc_rest = rest;
+        parts.push(Task {
+            first: b0 * REDUCTION_BLOCK,
+            out: Some(mine),
+            blocks: mine_blocks,
+            stats: mine_stats,
+            band: Band {
+                acc,
+                base: lines.start * line_len,
+                lines,
+            },
+        });
+    }
+    let width = rule.packed_width();
+    workers.chunks(&mut parts, 1, |_, task| {
+        run_task(&input, &mut task[0], prepared.clone(), terms, width);
+    });
+    drop((parts, out, input));
+    let stats = &next.stats;
+    if stats.iter().any(|s| s.stopped) {
+        return false;
+    }
+    // The lines where a worker skipped runs, merged, scattered again in particle order.
+    let mut redo: Vec<std::ops::Range<usize>> = Vec::new();
+    for t in 0..tasks {
+        for s in &stats[task_block(t)..task_block(t + 1)] {
+            if let Some(below) = s.below {
+                redo.push(below..bounds[t]);
+            }
+            if let Some(above) = s.above {
+                redo.push(bounds[t + 1]..above);
+            }
+        }
+    }
+    redo.sort_by_key(|r| r.start);
+    let mut merged: Vec<std::ops::Range<usize>> = Vec::new();
+    for r in redo {
+        match merged.last_mut() {
+            Some(last) if r.start <= last.end => last.end = last.end.max(r.end),
+            _ => merged.push(r),
+        }
+    }
+    let next_base = prepared.start * line_len;
+    let source = P2gSource::of(ops, p);
+    for lines in merged {
+        let rows = (lines.start - prepared.start) * line_len..(lines.end - prepared.start) * line_len;
+        next.acc[rows].fill([0.0; 5]);
+        for (b, s) in stats.iter().enumerate() {
+            if s.max_line + support <= lines.start || s.min_line >= lines.end {
+                continue;
+            }
+            let range = b * REDUCTION_BLOCK..((b + 1) * REDUCTION_BLOCK).min(np);
+            let target = Band {
+                acc: &mut next.acc,
+                base: next_base,
+                lines: lines.clone(),
+            };
+            crate::with_support!(
+                ops,
+                p2g_columns::<S>(&source, range, terms.apic, terms.internal, target)
+            );
+        }
+    }
+    let (lo, hi, zero) = stats.iter().fold((usize::MAX, 0, false), |(lo, hi, z), s| {
+        (lo.min(s.lo), hi.max(s.hi), z | s.zero)
+    });
+    ops.finish_relocation(lo, hi, zero);
+    next.base = next_base;
+    next.ready = np > 0;
+    next.ready
+}
+
+/// The blocks of one worker's range in order, each with [`super::g2p`]'s block and
+/// [`relocate_and_scatter`] after each group.
+fn run_task(input: &G2pInput, task: &mut Task, prepared: std::ops::Range<usize>, terms: NextTerms, width: usize) {
+    let mut out = task.out.take().expect("a task runs once");
+    let mut first = task.first;
+    for (slot, stats) in task.blocks.iter_mut().zip(task.stats.iter_mut()) {
+        let len = out.len().min(REDUCTION_BLOCK);
+        let (this, rest) = out.split_at(len);
+        out = rest;
+        let mut next = NextBand {
+            band: Band {
+                acc: &mut *task.band.acc,
+                base: task.band.base,
+                lines: task.band.lines.clone(),
+            },
+            prepared: prepared.clone(),
+            terms,
+            stats: NextStats::default(),
+        };
+        let next_ref = Some(&mut next);
+        *slot = match (input.support, width) {
+            (2, 4) => g2p_block::<2, 4>(input, first, this, next_ref),
+            (3, 4) => g2p_block::<3, 4>(input, first, this, next_ref),
+            (4, 4) => g2p_block::<4, 4>(input, first, this, next_ref),
+            (2, _) => g2p_block::<2, 8>(input, first, this, next_ref),
+            (3, _) => g2p_block::<3, 8>(input, first, this, next_ref),
+            (4, _) => g2p_block::<4, 8>(input, first, this, next_ref),
+            (s, _) => unreachable!("a support of {s} nodes per axis (at most MAX_SUPPORT = 4)"),
+        };
+        *stats = next.stats;
+        first += len;
+    }
+}
