@@ -83,6 +83,8 @@ pub(super) struct NextStats {
     above: Option<usize>,
     zero: bool,
     stopped: bool,
+    /// One past the highest line a stencil of the block reached so far.
+    reach: usize,
 }
 
 impl Default for NextStats {
@@ -96,6 +98,7 @@ impl Default for NextStats {
             above: None,
             zero: false,
             stopped: false,
+            reach: 0,
         }
     }
 }
@@ -107,19 +110,92 @@ pub(crate) struct NextBand<'a> {
     prepared: std::ops::Range<usize>,
     terms: NextTerms,
     stats: NextStats,
+    /// The band's lines below this one are zeroed (the rest is zeroed as the particles reach
+    /// it: each line just before its first terms, while it is about to be in cache anyway).
+    cleared_to: usize,
+    /// Nodes per grid line.
+    line_len: usize,
 }
 
-/// The particles `first + j …` (`R::LANES` of them), just updated and moved by
-/// [`super::g2p`]'s group: their new columns written in place, their terms of the next step's
-/// (2)–(5) added to the band's nodes (runs outside the band skipped and noted).
+impl NextBand<'_> {
+    /// Zeroes the band's lines from `cleared_to` up to `line` (exclusive, at most the band's end).
+    #[inline(always)]
+    fn clear_to(&mut self, line: usize) {
+        let line = line.min(self.band.lines.end);
+        if line > self.cleared_to {
+            let (first, len) = (self.band.lines.start, self.line_len);
+            self.band.acc[(self.cleared_to - first) * len..(line - first) * len].fill([0.0; 5]);
+            self.cleared_to = line;
+        }
+    }
+}
+
+/// Particles per batch of the fused pass: updated together, then relocated and scattered
+/// together (a multiple of the widest group, eight).
+pub(super) const FUSED_BATCH: usize = 64;
+
+/// The particles `first + range`, just updated and moved by [`super::g2p`]'s groups: their new
+/// columns written in place, their terms of the next step's (2)–(5) added to the band's nodes
+/// (runs outside the band skipped and noted).
 #[inline(always)]
-pub(super) fn relocate_and_scatter<R: Real, const S: usize, const V: usize>(
+pub(super) fn relocate_and_scatter<const S: usize, const V: usize>(
     input: &G2pInput,
     first: usize,
-    j: usize,
+    range: std::ops::Range<usize>,
     out: &mut G2pOutput,
     next: &mut NextBand,
 ) {
+    if next.stats.stopped {
+        return;
+    }
+    let mut j = range.start;
+    #[cfg(target_arch = "x86_64")]
+    {
+        while V >= 8 && j + 8 <= range.end {
+            relocate_group::<crate::lanes::F64x8, S>(j, out, next);
+            j += 8;
+        }
+        while V >= 4 && j + 4 <= range.end {
+            relocate_group::<crate::lanes::F64x4, S>(j, out, next);
+            j += 4;
+        }
+    }
+    while j < range.end {
+        relocate_group::<f64, S>(j, out, next);
+        j += 1;
+    }
+    if next.stats.stopped {
+        return;
+    }
+    next.clear_to(next.stats.reach);
+    let (stress, volume): ([&[f64]; 3], &[f64]) = match (&out.stress, input.held) {
+        (Some(s), _) => ([&*s.sigma[0], &*s.sigma[1], &*s.sigma[2]], &*s.volume),
+        (None, Some(([xx, yy, xy], v))) => ([&xx[first..], &yy[first..], &xy[first..]], &v[first..]),
+        (None, None) => unreachable!("the pass reads or writes the stress"),
+    };
+    let source = P2gSource {
+        cols: out.columns.view(),
+        position: [&*out.position[0], &*out.position[1]],
+        mass: &input.mass[first..],
+        velocity: [&*out.velocity[0], &*out.velocity[1]],
+        force: [&input.force[0][first..], &input.force[1][first..]],
+        volume,
+        stress,
+        affine: [&*out.affine[0], &*out.affine[1], &*out.affine[2], &*out.affine[3]],
+    };
+    let band = Band {
+        acc: &mut *next.band.acc,
+        base: next.band.base,
+        lines: next.band.lines.clone(),
+    };
+    let NextTerms { apic, internal } = next.terms;
+    p2g_columns_body::<S, V>(&source, range, apic, internal, band);
+}
+
+/// Particles `j …` (`R::LANES` of them) located at their new positions, their columns written,
+/// what the scatter needs to know noted (or the pass stopped).
+#[inline(always)]
+fn relocate_group<R: Real, const S: usize>(j: usize, out: &mut G2pOutput, next: &mut NextBand) {
     let st = &mut next.stats;
     if st.stopped {
         return;
@@ -149,6 +225,7 @@ pub(super) fn relocate_and_scatter<R: Real, const S: usize, const V: usize>(
         let node = layout.node_of(*f);
         (st.lo, st.hi) = (st.lo.min(node), st.hi.max(node));
         (st.min_line, st.max_line) = (st.min_line.min(line), st.max_line.max(line));
+        st.reach = st.reach.max(line + S);
         if line < band.start {
             st.below = Some(st.below.map_or(line, |b| b.min(line)));
         }
@@ -156,28 +233,6 @@ pub(super) fn relocate_and_scatter<R: Real, const S: usize, const V: usize>(
             st.above = Some(st.above.map_or(line + S, |a| a.max(line + S)));
         }
     }
-    let (stress, volume): ([&[f64]; 3], &[f64]) = match (&out.stress, input.held) {
-        (Some(s), _) => ([&*s.sigma[0], &*s.sigma[1], &*s.sigma[2]], &*s.volume),
-        (None, Some((sigma, v))) => (sigma.map(|a| &a[first..]), &v[first..]),
-        (None, None) => unreachable!("the pass reads or writes the stress"),
-    };
-    let source = P2gSource {
-        cols: out.columns.view(),
-        position: [&*out.position[0], &*out.position[1]],
-        mass: &input.mass[first..],
-        velocity: [&*out.velocity[0], &*out.velocity[1]],
-        force: [&input.force[0][first..], &input.force[1][first..]],
-        volume,
-        stress,
-        affine: [&*out.affine[0], &*out.affine[1], &*out.affine[2], &*out.affine[3]],
-    };
-    let band = Band {
-        acc: &mut *next.band.acc,
-        base: next.band.base,
-        lines: next.band.lines.clone(),
-    };
-    let NextTerms { apic, internal } = next.terms;
-    p2g_columns_body::<S, V>(&source, j..j + R::LANES, apic, internal, band);
 }
 
 /// One worker's part of the fused pass: a range of whole blocks from particle `first`, and its
@@ -237,8 +292,12 @@ pub(crate) fn g2p_then_p2g(
         ..
     } = grid;
     next.ready = false;
-    next.acc.clear();
-    next.acc.resize(prepared.len() * line_len, [0.0; 5]);
+    // Zeroed by each worker as its particles reach the lines (NextBand::clear_to).
+    let len = prepared.len() * line_len;
+    if next.acc.len() < len {
+        next.acc.resize(len, [0.0; 5]);
+    }
+    next.acc.truncate(len);
     next.stats.clear();
     next.stats.resize(count, NextStats::default());
     blocks.clear();
@@ -287,7 +346,7 @@ pub(crate) fn g2p_then_p2g(
     }
     let width = rule.packed_width();
     workers.chunks(&mut parts, 1, |_, task| {
-        run_task(&input, &mut task[0], prepared.clone(), terms, width);
+        run_task(&input, &mut task[0], prepared.clone(), terms, width, line_len);
     });
     drop((parts, out, input));
     let stats = &next.stats;
@@ -346,9 +405,17 @@ pub(crate) fn g2p_then_p2g(
 
 /// The blocks of one worker's range in order, each with [`super::g2p`]'s block and
 /// [`relocate_and_scatter`] after each group.
-fn run_task(input: &G2pInput, task: &mut Task, prepared: std::ops::Range<usize>, terms: NextTerms, width: usize) {
+fn run_task(
+    input: &G2pInput,
+    task: &mut Task,
+    prepared: std::ops::Range<usize>,
+    terms: NextTerms,
+    width: usize,
+    line_len: usize,
+) {
     let mut out = task.out.take().expect("a task runs once");
     let mut first = task.first;
+    let mut cleared_to = task.band.lines.start;
     for (slot, stats) in task.blocks.iter_mut().zip(task.stats.iter_mut()) {
         let len = out.len().min(REDUCTION_BLOCK);
         let (this, rest) = out.split_at(len);
@@ -362,6 +429,8 @@ fn run_task(input: &G2pInput, task: &mut Task, prepared: std::ops::Range<usize>,
             prepared: prepared.clone(),
             terms,
             stats: NextStats::default(),
+            cleared_to,
+            line_len,
         };
         let next_ref = Some(&mut next);
         *slot = match (input.support, width) {
@@ -374,6 +443,9 @@ fn run_task(input: &G2pInput, task: &mut Task, prepared: std::ops::Range<usize>,
             (s, _) => unreachable!("a support of {s} nodes per axis (at most MAX_SUPPORT = 4)"),
         };
         *stats = next.stats;
+        cleared_to = next.cleared_to;
         first += len;
     }
+    // The band's lines no particle reached.
+    task.band.acc[(cleared_to - task.band.lines.start) * line_len..].fill([0.0; 5]);
 }

@@ -5,7 +5,7 @@
 //! transposed into lanes), with the same bits as the scalar build.
 
 use super::columns::Columns;
-use super::fused::{relocate_and_scatter, NextBand};
+use super::fused::{relocate_and_scatter, NextBand, FUSED_BATCH};
 use super::gather::{gather_sums, Gather, Wanted};
 use super::particle::{update_stress, Partials, StressInput, StressOutput, StressPartials, SumInput, SumPartials};
 use super::{ApicInertia, GridField, GridState, KineticEnergies, ParticleScratch};
@@ -413,30 +413,32 @@ fn g2p_block_body<const S: usize, const W: usize, const V: usize>(
 ) -> G2pBlock {
     let np = out.len();
     let mut block = G2pBlock::default();
-    let mut j = 0;
-    #[cfg(target_arch = "x86_64")]
-    {
-        while V >= 8 && j + 8 <= np {
-            update_group::<F64x8, S, W>(input, first, j, &mut out, &mut block);
-            if let Some(next) = next.as_deref_mut() {
-                relocate_and_scatter::<F64x8, S, V>(input, first, j, &mut out, next);
+    // The fused pass relocates and scatters a batch of particles after updating them, while
+    // they are in cache (each phase's code in a loop of its own).
+    let batch = if next.is_some() { FUSED_BATCH } else { np.max(1) };
+    let mut start = 0;
+    while start < np {
+        let end = (start + batch).min(np);
+        let mut j = start;
+        #[cfg(target_arch = "x86_64")]
+        {
+            while V >= 8 && j + 8 <= end {
+                update_group::<F64x8, S, W>(input, first, j, &mut out, &mut block);
+                j += 8;
             }
-            j += 8;
-        }
-        while V >= 4 && j + 4 <= np {
-            update_group::<F64x4, S, W>(input, first, j, &mut out, &mut block);
-            if let Some(next) = next.as_deref_mut() {
-                relocate_and_scatter::<F64x4, S, V>(input, first, j, &mut out, next);
+            while V >= 4 && j + 4 <= end {
+                update_group::<F64x4, S, W>(input, first, j, &mut out, &mut block);
+                j += 4;
             }
-            j += 4;
         }
-    }
-    while j < np {
-        update_group::<f64, S, W>(input, first, j, &mut out, &mut block);
+        while j < end {
+            update_group::<f64, S, W>(input, first, j, &mut out, &mut block);
+            j += 1;
+        }
         if let Some(next) = next.as_deref_mut() {
-            relocate_and_scatter::<f64, S, V>(input, first, j, &mut out, next);
+            relocate_and_scatter::<S, V>(input, first, start..end, &mut out, next);
         }
-        j += 1;
+        start = end;
     }
     block
 }
