@@ -22,7 +22,7 @@
 //! step's) stops the scatter: the pass still finishes the step, and the next step assembles
 //! and scatters as usual (reporting the particle where the grid does not accept it).
 
-use super::g2p::{g2p_block, split_pass, BlockColumns, Fused, G2pBlock, G2pInput, G2pOutput, G2pRule, Packed};
+use super::g2p::{g2p_block_next, split_pass, BlockColumns, Fused, G2pBlock, G2pInput, G2pOutput, G2pRule, Packed};
 use super::p2g::{p2g_columns, p2g_columns_body, Band, P2gSource};
 use super::{ApicInertia, GridState, ParticleScratch};
 use crate::lanes::Real;
@@ -432,14 +432,14 @@ fn run_task(
             cleared_to,
             line_len,
         };
-        let next_ref = Some(&mut next);
+        let next_ref = &mut next;
         *slot = match (input.support, width) {
-            (2, 4) => g2p_block::<2, 4>(input, first, this, next_ref),
-            (3, 4) => g2p_block::<3, 4>(input, first, this, next_ref),
-            (4, 4) => g2p_block::<4, 4>(input, first, this, next_ref),
-            (2, _) => g2p_block::<2, 8>(input, first, this, next_ref),
-            (3, _) => g2p_block::<3, 8>(input, first, this, next_ref),
-            (4, _) => g2p_block::<4, 8>(input, first, this, next_ref),
+            (2, 4) => g2p_block_next::<2, 4>(input, first, this, next_ref),
+            (3, 4) => g2p_block_next::<3, 4>(input, first, this, next_ref),
+            (4, 4) => g2p_block_next::<4, 4>(input, first, this, next_ref),
+            (2, _) => g2p_block_next::<2, 8>(input, first, this, next_ref),
+            (3, _) => g2p_block_next::<3, 8>(input, first, this, next_ref),
+            (4, _) => g2p_block_next::<4, 8>(input, first, this, next_ref),
             (s, _) => unreachable!("a support of {s} nodes per axis (at most MAX_SUPPORT = 4)"),
         };
         *stats = next.stats;

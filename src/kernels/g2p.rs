@@ -169,8 +169,8 @@ pub(crate) fn g2p_packed(
     let (input, out) = split_pass(view, ops.support(), lo, packed, rule, dt, fused, p, scratch);
     let width = rule.packed_width();
     workers.split_blocks(out, blocks, |first, out| match width {
-        4 => crate::with_support!(ops, g2p_block::<S, 4>(&input, first, out, None)),
-        _ => crate::with_support!(ops, g2p_block::<S, 8>(&input, first, out, None)),
+        4 => crate::with_support!(ops, g2p_block::<S, 4>(&input, first, out)),
+        _ => crate::with_support!(ops, g2p_block::<S, 8>(&input, first, out)),
     });
 }
 
@@ -392,12 +392,43 @@ impl Splittable for G2pOutput<'_> {
 dispatch! {
     /// The particle loop of [`g2p`] for the particles from `first` (a block), for a support of
     /// `S` nodes per axis and `W` packed values per node.
-    pub(super) fn g2p_block<const W: usize> / g2p_block_avx2, g2p_block_avx512 = g2p_block_body(
+    pub(super) fn g2p_block<const W: usize> / g2p_block_avx2, g2p_block_avx512 = g2p_block_plain(
+        input: &G2pInput,
+        first: usize,
+        out: G2pOutput
+    ) -> G2pBlock
+}
+
+dispatch! {
+    /// [`g2p_block`] with the fused pass's relocation and scatter of the next step
+    /// ([`super::fused`]).
+    pub(super) fn g2p_block_next<const W: usize> / g2p_block_next_avx2, g2p_block_next_avx512 = g2p_block_fused(
         input: &G2pInput,
         first: usize,
         out: G2pOutput,
-        next: Option<&mut NextBand>
+        next: &mut NextBand
     ) -> G2pBlock
+}
+
+/// [`g2p_block_body`] alone (its own code, without the fused pass's).
+#[inline(always)]
+fn g2p_block_plain<const S: usize, const W: usize, const V: usize>(
+    input: &G2pInput,
+    first: usize,
+    out: G2pOutput,
+) -> G2pBlock {
+    g2p_block_body::<S, W, V>(input, first, out, None)
+}
+
+/// [`g2p_block_body`] with the fused pass.
+#[inline(always)]
+fn g2p_block_fused<const S: usize, const W: usize, const V: usize>(
+    input: &G2pInput,
+    first: usize,
+    out: G2pOutput,
+    next: &mut NextBand,
+) -> G2pBlock {
+    g2p_block_body::<S, W, V>(input, first, out, Some(next))
 }
 
 /// The body of [`g2p_block`]: the particles' sums `V` at a time (eight in the AVX-512 build,

@@ -309,7 +309,12 @@ pub(super) fn affine_velocity<R: Real, const S: usize>(
         Some(ApicInertia::Constant([dxx, dyy])) => [R::splat(dxx), R::splat(dyy)],
         Some(ApicInertia::Column) => column_inertia(cols),
     };
-    let b = affine.map(|a| R::load(a, k));
+    let b = [
+        R::load(affine[0], k),
+        R::load(affine[1], k),
+        R::load(affine[2], k),
+        R::load(affine[3], k),
+    ];
     if apic == Some(ApicInertia::StoredC) {
         return b;
     }
@@ -366,7 +371,12 @@ impl<R: Real, const S: usize> Group<R, S> {
         let mv = [m * R::load(p.velocity[0], k), m * R::load(p.velocity[1], k)];
         let mb = [m * R::load(p.force[0], k), m * R::load(p.force[1], k)];
         let v = R::splat(internal) * R::load(p.volume, k);
-        let [sxx, syy, sxy] = p.stress.map(|s| v * R::load(s, k));
+        // (Written out: a closure of `array::map` is not compiled for the vector build's CPU.)
+        let [sxx, syy, sxy] = [
+            v * R::load(p.stress[0], k),
+            v * R::load(p.stress[1], k),
+            v * R::load(p.stress[2], k),
+        ];
         let c = affine_velocity(&cols, p.affine, apic, k);
         let mc = [m * c[0], m * c[1], m * c[2], m * c[3]];
         let c_rows = [cols.xy(mc[0], mc[1]), cols.xy(mc[2], mc[3])];

@@ -34,7 +34,8 @@ pub enum Phase {
     Extend,
     /// XPIC / FMPM series velocity.
     Series,
-    /// (9)–(11) `kernels::g2p` (USL: with (12)–(13), (9) and the report's particle sums).
+    /// (9)–(11) `kernels::g2p` (USL: with (12)–(13), (9) and the report's particle sums; the
+    /// fused pass also the next step's (1)–(5) scatter, leaving (2)–(5) its node pass).
     G2p,
     /// USL, MUSL: (11) (MUSL's re-projection) and (12)–(13).
     Stress,
@@ -80,7 +81,7 @@ impl Phase {
             Phase::LumpedGrid => "(6)-(8) lumped grid pass",
             Phase::Extend => "(8b) massless support nodes",
             Phase::Series => "XPIC/FMPM series",
-            Phase::G2p => "(9)-(11) g2p (USL: (12)-(13), move, sums)",
+            Phase::G2p => "(9)-(11) g2p (USL: (12)-(13), move, sums; fused: next (1)-(5))",
             Phase::Stress => "(11)-(13) stress and volume",
             Phase::Move => "(9) move particles",
             Phase::Report => "step report",
