@@ -62,6 +62,7 @@
 mod build;
 mod checkpoint;
 mod contact;
+mod fused;
 mod motion;
 mod near_singular;
 mod newmark;
@@ -73,6 +74,7 @@ mod profile;
 mod quasi_static;
 mod report;
 mod series;
+mod sort;
 mod speeds;
 mod stability;
 mod walls;
@@ -189,7 +191,7 @@ struct Scratch {
     particle: ParticleScratch,
     extension: ExtensionScratch,
     series: SeriesScratch,
-    sorting: phases::Sorting,
+    sorting: sort::Sorting,
     stress_blocks: Vec<kernels::StressPartials>,
     report_blocks: Vec<kernels::SumPartials>,
     /// The grid's kinetic energy per block of nodes, for the report.
@@ -216,7 +218,7 @@ impl Scratch {
     fn for_grid(grid: &Grid) -> Scratch {
         Scratch {
             extension: ExtensionScratch::new(grid.num_nodes()),
-            sorting: phases::Sorting::for_grid(grid),
+            sorting: sort::Sorting::for_grid(grid),
             ..Scratch::default()
         }
     }

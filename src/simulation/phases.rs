@@ -9,7 +9,6 @@ use super::{stability, walls, Body, Cache, Options, Scratch, Setup, Simulation, 
 use crate::boundary::Prescribed;
 use crate::error::{MpmError, Result};
 use crate::fields::VectorField;
-use crate::grid::Grid;
 use crate::kernels::{
     self, extend_to_inactive_nodes, ApicInertia, ExtensionScratch, Fused, G2pRule, GridField, GridState, P2gTerms,
     ParticleSums, Stress, StressInput, StressOutput, StressPartials, StressSums,
@@ -18,7 +17,6 @@ use crate::mass::{series_velocity_into, GridMass, MassOptions, MassScheme, Role,
 use crate::operators::Operators;
 use crate::particles::Particles;
 use crate::schemes::StressFrom;
-use crate::shape::ShapeFunction;
 
 impl Simulation {
     /// One step no longer than `max_dt`: the lines of the [module docs](super) in order.
@@ -129,7 +127,7 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
             // The operators' coordinate array, which the assembly below rewrites, lends its
             // memory as the sort's work array.
             let work = cache.ops.reassembly_scratch();
-            sort_particles(grid, options.shape, &mut state.particles, &mut scratch.sorting, work)
+            super::sort::sort_particles(grid, options.shape, &mut state.particles, &mut scratch.sorting, work)
         });
     }
     let p = &state.particles;
@@ -333,46 +331,23 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
         stress: (stress_last == Some(StressFrom::Updated) && !plastic).then_some(&setup.materials[..]),
         moves: (stress_last != Some(StressFrom::Reprojected)).then_some(plan.gravity),
     };
-    let next = next_terms(input, state.steps, ops, &fused);
+    let next = super::fused::next_terms(input, state.steps, ops, &fused);
     let (p, workers) = (&mut state.particles, &setup.workers);
     let mut blocks = std::mem::take(&mut scratch.g2p_blocks);
     let mut packed = std::mem::take(&mut scratch.packed);
     let by_grid_pass = plan.lumped_grid_pass;
     timed(profile, Phase::G2p, || {
         let Some(terms) = next else { return };
-        // (9)–(13) and the next step's (1)–(5) in one pass.
-        let velocities = if by_grid_pass {
-            kernels::Velocities::Lumped
-        } else {
-            kernels::pack_velocities(ops, nodes, &rule, &mut packed);
-            kernels::Velocities::Packed(kernels::Packed {
-                values: &packed,
-                stride: rule.packed_width(),
-                layer: 0,
-            })
-        };
-        let particle = &mut scratch.particle;
-        let ready = kernels::g2p_then_p2g(
-            ops,
-            velocities,
-            nodes,
-            &rule,
+        let (packed, particle) = (&mut packed, &mut scratch.particle);
+        let pass = super::fused::FusedPass {
+            rule: &rule,
+            fused: &fused,
+            by_grid_pass,
             dt,
-            &fused,
-            p,
-            particle,
-            workers,
-            &mut blocks,
             terms,
-        );
-        if !ready {
-            // The next step assembles (and reports a particle the grid does not accept).
-            let (grid, shape) = (&setup.grid, options.shape);
-            if ops.reassemble_with(grid, shape, &p.x, &p.y, workers).is_err() {
-                ops.invalidate();
-            }
-        }
-    });
+        };
+        pass.run(setup, options, ops, nodes, p, particle, packed, &mut blocks);
+    }); // (9)–(13) and the next step's (1)–(5)
     timed(profile, Phase::G2p, || {
         if next.is_some() {
             return;
@@ -442,33 +417,6 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
         }); // (9)
     }
     Ok(())
-}
-
-/// The terms of the next step's (2)–(5) when this step's grid-to-particle pass scatters them
-/// ([`kernels::g2p_then_p2g`]): the explicit integrator with [`Options::fused_passes`], a pass
-/// that moves the particles with their stress final (USL updating it in the pass, or USF before
-/// it; not MUSL, whose stress update and move follow the pass, nor an elastoplastic USL, whose
-/// stress update follows it), one velocity field (no contact), no mirrored walls (which fold
-/// the columns), columns of kernel coordinates, and no sort before the next step (step
-/// `steps + 1`).
-fn next_terms(input: StepInput, steps: usize, ops: &Operators, fused: &Fused) -> Option<kernels::NextTerms> {
-    let StepInput { setup, options, plan } = input;
-    let interval = options.sort_interval;
-    let sorts_next = interval > 0 && (steps + 1).is_multiple_of(interval);
-    let stress_final = fused.stress.is_some() || plan.stress_first;
-    let fuse = options.fused_passes
-        && options.integrator == super::Integrator::Explicit
-        && plan.motion.is_none()
-        && fused.moves.is_some()
-        && stress_final
-        && setup.contact.is_none()
-        && setup.prescribed.mirror.is_empty()
-        && !sorts_next
-        && ops.relocatable();
-    fuse.then_some(kernels::NextTerms {
-        apic: plan.apic,
-        internal: if plan.stress_first { 0.0 } else { 1.0 },
-    })
 }
 
 /// The end of a step: time and step count advanced, the report, what the state keeps of it.
@@ -711,61 +659,4 @@ fn inversion(bodies: &[Body], state: &State, k: usize, det_increment: f64, det_f
         det_increment,
         det_f,
     }
-}
-
-/// The counting sort's arrays, with 32-bit indices (the operators number at most 2³² nodes; a
-/// simulation of more particles than that is not sorted).
-#[derive(Debug, Default)]
-pub(super) struct Sorting {
-    keys: Vec<u32>,
-    counts: Vec<u32>,
-    order: Vec<u32>,
-}
-
-impl Sorting {
-    /// Arrays sized for the cells of `grid`.
-    pub(super) fn for_grid(grid: &Grid) -> Sorting {
-        let [cx, cy] = grid.cells();
-        Sorting {
-            counts: vec![0; cx * cy + 1],
-            ..Sorting::default()
-        }
-    }
-}
-
-/// Counting sort of the particles by the first node of their stencils under `shape` (row-major
-/// over the cells; particles the operators would refuse last), allocation-free: particles that
-/// share a stencil come together, and so do the stencils that start on one grid line, which
-/// the transfers take four at a time.
-fn sort_particles(grid: &Grid, shape: ShapeFunction, p: &mut Particles, s: &mut Sorting, work: &mut Vec<f64>) {
-    let np = p.len();
-    let [cx, cy] = grid.cells();
-    if u32::try_from(np).is_err() || u32::try_from(cx * cy + 1).is_err() {
-        return;
-    }
-    let frames = [shape.axis_frame(grid, 0), shape.axis_frame(grid, 1)];
-    s.keys.resize(np, 0);
-    s.order.resize(np, 0);
-    s.counts.iter_mut().for_each(|c| *c = 0);
-    for k in 0..np {
-        let first = |a: usize, v: f64| frames[a].accept(v).map(|t| frames[a].locate(t).first);
-        let key = match (first(0, p.x[k]), first(1, p.y[k])) {
-            (Some(i), Some(j)) => j * cx + i,
-            _ => cx * cy,
-        };
-        s.keys[k] = key.min(cx * cy) as u32;
-        s.counts[s.keys[k] as usize] += 1;
-    }
-    let mut start = 0;
-    for c in s.counts.iter_mut() {
-        let n = *c;
-        *c = start;
-        start += n;
-    }
-    for k in 0..np {
-        let key = s.keys[k] as usize;
-        s.order[s.counts[key] as usize] = k as u32;
-        s.counts[key] += 1;
-    }
-    p.permute_u32(&s.order, work);
 }
