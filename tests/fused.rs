@@ -5,6 +5,8 @@
 //! (AVX2) and eight (AVX-512), and on 1, 2 and 3 threads. The lane switch is process-wide, so
 //! this file holds one test.
 
+mod common;
+
 use sparse_mpm::bench::{problem, BenchSpec};
 use sparse_mpm::kernels::{kernel_lanes, set_kernel_lanes};
 use sparse_mpm::mass::MassScheme;
@@ -12,57 +14,23 @@ use sparse_mpm::operators::{Operator, Operators};
 use sparse_mpm::simulation::{StepReport, Transfer, UpdateScheme};
 use sparse_mpm::ShapeFunction;
 
-/// Every particle field, the operators' columns and every report's energies and momenta, as
-/// bits, after 60 steps (or the error that stopped the run: it must be the same error).
+/// Every particle field, every report's energies and momenta ([`common::fingerprint`]) and the
+/// last step's grid mass and velocity, as bits, after 60 steps (or the error that stopped the
+/// run: it must be the same error).
 fn run(spec: &BenchSpec, lanes: usize) -> Result<Vec<u64>, String> {
     set_kernel_lanes(lanes);
-    // An odd count over three blocks of particles (three workers' ranges): the last particles of a block go eight, four, then one at a time.
+    // An odd count over three blocks of particles (three workers' ranges): the last particles
+    // of a block go eight, four, then one at a time.
     let mut sim = problem(9001, spec).expect("benchmark problem");
     let mut reports: Vec<StepReport> = Vec::new();
     // Past the sort of step 50, which the fused pass before it must not anticipate.
     for _ in 0..60 {
         reports.push(sim.step().map_err(|e| e.to_string())?);
     }
-    let p = sim.particles();
-    let mut bits: Vec<u64> = Vec::new();
-    for field in [
-        &p.x,
-        &p.y,
-        &p.vx,
-        &p.vy,
-        &p.sxx,
-        &p.syy,
-        &p.sxy,
-        &p.volume,
-        &p.fxx,
-        &p.fxy,
-        &p.fyx,
-        &p.fyy,
-        &p.affine_xx,
-        &p.affine_xy,
-        &p.affine_yx,
-        &p.affine_yy,
-    ] {
-        bits.extend(field.iter().map(|v| v.to_bits()));
-    }
+    let mut bits = common::fingerprint(sim.particles(), &reports);
     bits.extend(sim.lumped_mass().iter().map(|v| v.to_bits()));
     let w = sim.grid_velocity();
     bits.extend(w.x.iter().chain(&w.y).map(|v| v.to_bits()));
-    for r in &reports {
-        for v in [
-            r.dt,
-            r.kinetic_energy,
-            r.strain_energy,
-            r.grid_kinetic_energy_lumped,
-            r.grid_kinetic_energy_consistent,
-            r.momentum[0],
-            r.momentum[1],
-            r.angular_momentum,
-            r.grid_angular_momentum,
-        ] {
-            bits.push(v.to_bits());
-        }
-    }
     Ok(bits)
 }
 

@@ -2,55 +2,13 @@
 //! for every shape function, update scheme and transfer, lumped and consistent mass
 //! (`sparse_mpm::parallel` says why).
 
+mod common;
+
+use common::fingerprint;
 use sparse_mpm::bench::{problem, BenchSpec};
 use sparse_mpm::mass::MassScheme;
 use sparse_mpm::simulation::{StepReport, Transfer, UpdateScheme};
-use sparse_mpm::{Particles, ShapeFunction};
-
-/// Every particle field and every report field as bits.
-fn fingerprint(p: &Particles, reports: &[StepReport]) -> Vec<u64> {
-    let mut bits = Vec::new();
-    for field in [
-        &p.x,
-        &p.y,
-        &p.vx,
-        &p.vy,
-        &p.sxx,
-        &p.syy,
-        &p.sxy,
-        &p.volume,
-        &p.fxx,
-        &p.fxy,
-        &p.fyx,
-        &p.fyy,
-        &p.affine_xx,
-        &p.affine_xy,
-        &p.affine_yx,
-        &p.affine_yy,
-    ] {
-        bits.extend(field.iter().map(|v| v.to_bits()));
-    }
-    bits.extend(p.id.iter().map(|&i| i as u64));
-    for r in reports {
-        for v in [
-            r.dt,
-            r.kinetic_energy,
-            r.strain_energy,
-            r.potential_energy,
-            r.momentum[0],
-            r.momentum[1],
-            r.angular_momentum,
-            r.grid_angular_momentum,
-            r.grid_kinetic_energy_lumped,
-            r.grid_kinetic_energy_consistent,
-            r.transfer_loss,
-            r.max_speed,
-        ] {
-            bits.push(v.to_bits());
-        }
-    }
-    bits
-}
+use sparse_mpm::ShapeFunction;
 
 /// The fingerprint after `steps` steps, or the error that stopped the run (some combinations
 /// of the benchmark's fixed step are unstable; they must fail the same way).

@@ -4,13 +4,15 @@
 //! (`sparse_mpm::kernels::set_kernel_lanes`; the lanes module note says why). The switch is
 //! process-wide, so this file holds one test.
 
+mod common;
+
 use sparse_mpm::bench::{problem, BenchSpec};
 use sparse_mpm::kernels::{kernel_lanes, set_kernel_lanes};
 use sparse_mpm::simulation::{StepReport, Transfer, UpdateScheme};
 use sparse_mpm::ShapeFunction;
 
-/// Every particle field and every report's energies and momenta, as bits, after `steps` steps
-/// (or the error that stopped the run: it must be the same error).
+/// Every particle field and every report field as bits ([`common::fingerprint`]) after 55
+/// steps (or the error that stopped the run: it must be the same error).
 fn run(spec: &BenchSpec, lanes: usize) -> Result<Vec<u64>, String> {
     set_kernel_lanes(lanes);
     // An odd count: the last particles of a block go four, then one at a time.
@@ -19,38 +21,7 @@ fn run(spec: &BenchSpec, lanes: usize) -> Result<Vec<u64>, String> {
     for _ in 0..55 {
         reports.push(sim.step().map_err(|e| e.to_string())?);
     }
-    let p = sim.particles();
-    let mut bits: Vec<u64> = Vec::new();
-    for field in [
-        &p.x,
-        &p.y,
-        &p.vx,
-        &p.vy,
-        &p.sxx,
-        &p.syy,
-        &p.sxy,
-        &p.volume,
-        &p.fxx,
-        &p.fyy,
-        &p.affine_xx,
-        &p.affine_xy,
-        &p.affine_yx,
-        &p.affine_yy,
-    ] {
-        bits.extend(field.iter().map(|v| v.to_bits()));
-    }
-    for r in &reports {
-        for v in [
-            r.dt,
-            r.kinetic_energy,
-            r.strain_energy,
-            r.momentum[0],
-            r.momentum[1],
-            r.angular_momentum,
-        ] {
-            bits.push(v.to_bits());
-        }
-    }
+    let bits = common::fingerprint(sim.particles(), &reports);
     Ok(bits)
 }
 

@@ -419,3 +419,52 @@ pub fn random_particles(grid: &Grid, count: usize, seed: u64) -> Particles {
     let (x, y) = random_positions(grid, count, seed);
     random_particles_at(x, y, seed)
 }
+
+// ---------------------------------------------------------------------------------------------
+// Runs compared bit for bit
+// ---------------------------------------------------------------------------------------------
+
+/// Every particle field and every report field as bits.
+pub fn fingerprint(p: &Particles, reports: &[sparse_mpm::simulation::StepReport]) -> Vec<u64> {
+    let mut bits = Vec::new();
+    for field in [
+        &p.x,
+        &p.y,
+        &p.vx,
+        &p.vy,
+        &p.sxx,
+        &p.syy,
+        &p.sxy,
+        &p.volume,
+        &p.fxx,
+        &p.fxy,
+        &p.fyx,
+        &p.fyy,
+        &p.affine_xx,
+        &p.affine_xy,
+        &p.affine_yx,
+        &p.affine_yy,
+    ] {
+        bits.extend(field.iter().map(|v| v.to_bits()));
+    }
+    bits.extend(p.id.iter().map(|&i| i as u64));
+    for r in reports {
+        for v in [
+            r.dt,
+            r.kinetic_energy,
+            r.strain_energy,
+            r.potential_energy,
+            r.momentum[0],
+            r.momentum[1],
+            r.angular_momentum,
+            r.grid_angular_momentum,
+            r.grid_kinetic_energy_lumped,
+            r.grid_kinetic_energy_consistent,
+            r.transfer_loss,
+            r.max_speed,
+        ] {
+            bits.push(v.to_bits());
+        }
+    }
+    bits
+}
