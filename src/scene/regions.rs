@@ -29,7 +29,7 @@ use crate::material::Material;
 /// The most regions one body may have (every particle is tested against each).
 pub const MAX_REGIONS: usize = 64;
 
-/// A region of a body ([module docs](self)).
+/// A region of a body (`[[bodies.regions]]` of a scene, docs/simulation.md "Regions").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RegionSpec {
