@@ -55,7 +55,7 @@ pub struct BenchSpec {
     pub particles: Vec<usize>,
     /// Worker threads (1: serial).
     pub threads: usize,
-    /// The explicit step's fused pass ([`Options::fused_passes`]; `true` by default).
+    /// The explicit step's fused pass ([`Options::fused_passes`]; `false` by default).
     pub fused_passes: bool,
     /// Timed steps per repetition (`None`: the peers' rule, `max(20, min(2000, 2·10⁷ / N))`).
     pub steps: Option<usize>,
@@ -88,7 +88,7 @@ impl Default for BenchSpec {
             update: UpdateScheme::Usl,
             particles: PEER_SIZES.to_vec(),
             threads: 1,
-            fused_passes: true,
+            fused_passes: false,
             steps: None,
             reps: 5,
             seed: 1,

@@ -44,7 +44,7 @@
 //!
 //! [execution]
 //! threads = 1                    # worker threads (the results are the same bits for any count)
-//! fused_passes = true            # the explicit step's fused particle pass (the same bits either way)
+//! fused_passes = false           # the explicit step's fused particle pass (the same bits either way)
 //! ```
 //!
 //! Geometries ([`Geometry`]): `{ rectangle = { min = [x, y], max = [x, y] } }`, `{ disk = { center = [x, y],
@@ -250,7 +250,7 @@ impl Default for Schemes {
 pub struct Execution {
     /// Worker threads (1 to [`crate::parallel::MAX_THREADS`]; 1 runs serially).
     pub threads: usize,
-    /// The explicit step's fused pass ([`Options::fused_passes`]; `true`, the default).
+    /// The explicit step's fused pass ([`Options::fused_passes`]; `false`, the default).
     pub fused_passes: bool,
 }
 
@@ -258,7 +258,7 @@ impl Default for Execution {
     fn default() -> Self {
         Execution {
             threads: 1,
-            fused_passes: true,
+            fused_passes: false,
         }
     }
 }

@@ -39,11 +39,11 @@
 //! be followed from the signatures (`phases.rs`). The update scheme decides the order once
 //! ([`UpdateScheme::schedule`]); XPIC and FMPM share one interface (`series.rs`).
 //!
-//! **The fused pass.** Where the particles' stress is final once they have moved (USL updating
+//! **The fused pass** (opt-in, [`Options::fused_passes`]). Where the particles' stress is final once they have moved (USL updating
 //! it in the grid-to-particle pass, or USF before it) and nothing changes the columns between
 //! steps (no contact, no mirrored walls, no sort before the next step, the explicit
 //! integrator), the grid-to-particle pass of a step also does the next step's (1)–(5) for each
-//! batch of particles it has just moved ([`Options::fused_passes`]): the next step then starts
+//! batch of particles it has just moved: the next step then starts
 //! from the node pass of (2)–(5). The results are the same bits (`tests/fused.rs`); after such
 //! a step [`Simulation::operators`] holds the columns of the particles' present positions.
 //!

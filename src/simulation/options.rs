@@ -57,10 +57,15 @@ pub struct Options {
     /// Worker threads (1: serial). Results do not depend on it, to the last bit
     /// ([`crate::parallel`]).
     pub threads: usize,
-    /// The explicit step's fused pass (the default): the grid-to-particle pass of each step
-    /// also locates the moved particles and scatters the next step's particle-to-grid terms
+    /// The explicit step's fused pass: the grid-to-particle pass of each step also locates the
+    /// moved particles and scatters the next step's particle-to-grid terms
     /// ([`crate::kernels`], `fused`), where the schemes allow it. Results do not depend on it,
-    /// to the last bit; `false` runs the separate passes.
+    /// to the last bit. Off by default: it measured no faster on one thread (3–5% on two,
+    /// docs/performance.md), and between its steps [`Simulation::operators`] holds the
+    /// columns of the particles' present positions while the grid mass and fields are the last
+    /// step's.
+    ///
+    /// [`Simulation::operators`]: super::Simulation::operators
     pub fused_passes: bool,
     /// Explicit (the default) or implicit Newmark integration ([`crate::implicit`]).
     pub integrator: Integrator,
@@ -88,7 +93,7 @@ impl Default for Options {
             sort_interval: 50,
             stability_interval: DEFAULT_STABILITY_INTERVAL,
             threads: 1,
-            fused_passes: true,
+            fused_passes: false,
             integrator: Integrator::Explicit,
             damping: None,
             contact: None,

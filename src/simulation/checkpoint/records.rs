@@ -115,7 +115,8 @@ impl OptionsRecord {
             sort_interval,
             stability_interval,
             threads,
-            // An execution choice with the same bits either way, not kept: a resumed run fuses.
+            // An execution choice with the same bits either way, not kept: a resumed run takes
+            // the separate passes.
             fused_passes: _,
             integrator,
             damping,
@@ -174,7 +175,7 @@ impl OptionsRecord {
             sort_interval,
             stability_interval,
             threads,
-            fused_passes: true,
+            fused_passes: false,
             integrator,
             damping,
             contact,

@@ -62,11 +62,11 @@ pub(crate) struct BenchArgs {
     /// (AVX-512; the CPU may allow fewer). The same results, to the bit, for every width.
     #[arg(long, default_value_t = 8, value_parser = lanes)]
     lanes: usize,
-    /// Run the explicit step's particle passes separately (the grid-to-particle pass, then the
-    /// next step's assembly and particle-to-grid pass) instead of the fused pass: the same
-    /// results, to the bit; for comparing their speed.
+    /// Run the explicit step's fused pass (the grid-to-particle pass with the next step's
+    /// assembly and particle-to-grid scatter) instead of the separate passes: the same results,
+    /// to the bit; for comparing their speed.
     #[arg(long)]
-    separate_passes: bool,
+    fused_passes: bool,
 }
 
 /// Runs the benchmark of `args` and prints its rows, the memory peak, the estimates and the
@@ -86,7 +86,7 @@ pub(crate) fn bench(args: &BenchArgs) -> Result<(), String> {
         update: args.update,
         particles: args.particles.clone().unwrap_or(defaults.particles.clone()),
         threads: args.threads as usize,
-        fused_passes: !args.separate_passes,
+        fused_passes: args.fused_passes,
         steps: args.steps.map(|s| s as usize),
         reps: args.reps as usize,
         profile: args.profile,
