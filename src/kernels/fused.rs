@@ -83,8 +83,6 @@ pub(super) struct NextStats {
     above: Option<usize>,
     zero: bool,
     stopped: bool,
-    /// One past the highest line a stencil of the block reached so far.
-    reach: usize,
 }
 
 impl Default for NextStats {
@@ -98,7 +96,6 @@ impl Default for NextStats {
             above: None,
             zero: false,
             stopped: false,
-            reach: 0,
         }
     }
 }
@@ -167,7 +164,10 @@ pub(super) fn relocate_and_scatter<const S: usize, const V: usize>(
     if next.stats.stopped {
         return;
     }
-    next.clear_to(next.stats.reach);
+    // Every line the batch's stencils reach, zeroed before its first terms.
+    if next.stats.min_line != usize::MAX {
+        next.clear_to(next.stats.max_line + S);
+    }
     let (stress, volume): ([&[f64]; 3], &[f64]) = match (&out.stress, input.held) {
         (Some(s), _) => ([&*s.sigma[0], &*s.sigma[1], &*s.sigma[2]], &*s.volume),
         (None, Some(([xx, yy, xy], v))) => ([&xx[first..], &yy[first..], &xy[first..]], &v[first..]),
@@ -225,7 +225,6 @@ fn relocate_group<R: Real, const S: usize>(j: usize, out: &mut G2pOutput, next: 
         let node = layout.node_of(*f);
         (st.lo, st.hi) = (st.lo.min(node), st.hi.max(node));
         (st.min_line, st.max_line) = (st.min_line.min(line), st.max_line.max(line));
-        st.reach = st.reach.max(line + S);
         if line < band.start {
             st.below = Some(st.below.map_or(line, |b| b.min(line)));
         }
