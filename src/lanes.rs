@@ -52,7 +52,7 @@ pub(crate) fn lanes_available() -> usize {
         {
             return 8;
         }
-        if wanted >= 4 && std::arch::is_x86_feature_detected!("avx2") {
+        if wanted >= 4 && std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
             return 4;
         }
     }
@@ -79,13 +79,13 @@ macro_rules! dispatch {
         }
 
         #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2")]
+        #[target_feature(enable = "avx2,fma")]
         unsafe fn $avx2<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
             $body::<S $(, $c)?, 4>($($arg),*)
         }
 
         #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx512f,avx512vl")]
+        #[target_feature(enable = "avx512f,avx512vl,fma")]
         unsafe fn $avx512<const S: usize $(, const $c: usize)?>($($arg: $ty),*) -> $ret {
             $body::<S $(, $c)?, 8>($($arg),*)
         }
@@ -143,6 +143,9 @@ pub(crate) trait Real:
     fn floor_nonneg(self) -> Self;
     /// `√x`.
     fn sqrt(self) -> Self;
+    /// `self · a + b` rounded once (a fused multiply-add: the same bits in every lane of every
+    /// type, [`f64::mul_add`]).
+    fn mul_add(self, a: Self, b: Self) -> Self;
 }
 
 impl Real for f64 {
@@ -217,6 +220,10 @@ impl Real for f64 {
     #[inline(always)]
     fn sqrt(self) -> f64 {
         f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn mul_add(self, a: f64, b: f64) -> f64 {
+        f64::mul_add(self, a, b)
     }
 }
 
@@ -411,6 +418,12 @@ mod avx2 {
             // SAFETY: as above. sqrtpd rounds as f64::sqrt.
             F64x4(unsafe { _mm256_sqrt_pd(self.0) })
         }
+        #[inline(always)]
+        fn mul_add(self, a: F64x4, b: F64x4) -> F64x4 {
+            // SAFETY: as above (FMA comes with AVX2 here, checked by `lanes_available`, and
+            // with AVX-512F). One rounding, as f64::mul_add.
+            F64x4(unsafe { _mm256_fmadd_pd(self.0, a.0, b.0) })
+        }
     }
 }
 
@@ -555,6 +568,12 @@ mod avx512 {
             // SAFETY: as above. vsqrtpd rounds as f64::sqrt.
             F64x8(unsafe { _mm512_sqrt_pd(self.0) })
         }
+        #[inline(always)]
+        fn mul_add(self, a: F64x8, b: F64x8) -> F64x8 {
+            // SAFETY: as above (FMA comes with AVX2 here, checked by `lanes_available`, and
+            // with AVX-512F). One rounding, as f64::mul_add.
+            F64x8(unsafe { _mm512_fmadd_pd(self.0, a.0, b.0) })
+        }
     }
 
     impl F64x8 {
@@ -563,6 +582,18 @@ mod avx512 {
         pub(crate) fn join(lo: super::F64x4, hi: super::F64x4) -> F64x8 {
             // SAFETY: as above.
             F64x8(unsafe { _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(lo.0), hi.0) })
+        }
+
+        /// Lanes 0–3 and lanes 4–7.
+        #[inline(always)]
+        pub(crate) fn halves(self) -> (super::F64x4, super::F64x4) {
+            // SAFETY: as above.
+            unsafe {
+                (
+                    super::F64x4(_mm512_castpd512_pd256(self.0)),
+                    super::F64x4(_mm512_extractf64x4_pd::<1>(self.0)),
+                )
+            }
         }
     }
 }

@@ -144,41 +144,41 @@ pub(super) fn gather_sums<R: Gather, const S: usize, const W: usize>(
             }
             let u = unsafe { R::gather::<W>(packed, node) };
             for c in 0..2 {
-                aw[c] = aw[c] + wa[a] * u[c];
-                av[c] = av[c] + wa[a] * u[2 + c];
+                aw[c] = wa[a].mul_add(u[c], aw[c]);
+                av[c] = wa[a].mul_add(u[2 + c], av[c]);
                 if W == 8 {
-                    at_[c] = at_[c] + wa[a] * u[4 + c];
+                    at_[c] = wa[a].mul_add(u[4 + c], at_[c]);
                     if wanted.l {
-                        ag[c] = ag[c] + wa[a] * u[6 + c];
-                        dg[c] = dg[c] + dwa[a] * u[6 + c];
+                        ag[c] = wa[a].mul_add(u[6 + c], ag[c]);
+                        dg[c] = dwa[a].mul_add(u[6 + c], dg[c]);
                     }
                 }
                 if gradient_of_w {
-                    dw[c] = dw[c] + dwa[a] * u[c];
+                    dw[c] = dwa[a].mul_add(u[c], dw[c]);
                 }
                 if wanted.apic {
-                    xw[c] = xw[c] + wda[a] * u[c];
+                    xw[c] = wda[a].mul_add(u[c], xw[c]);
                 }
             }
         }
         let wdb = wb[b] * db[b];
         for c in 0..2 {
-            w[c] = w[c] + wb[b] * aw[c];
-            r[c] = r[c] + wb[b] * av[c];
+            w[c] = wb[b].mul_add(aw[c], w[c]);
+            r[c] = wb[b].mul_add(av[c], r[c]);
             if W == 8 {
-                t[c] = t[c] + wb[b] * at_[c];
+                t[c] = wb[b].mul_add(at_[c], t[c]);
                 if wanted.l {
-                    lg_a[c] = lg_a[c] + wb[b] * dg[c];
-                    lg_b[c] = lg_b[c] + dwb[b] * ag[c];
+                    lg_a[c] = wb[b].mul_add(dg[c], lg_a[c]);
+                    lg_b[c] = dwb[b].mul_add(ag[c], lg_b[c]);
                 }
             }
             if gradient_of_w {
-                lw_a[c] = lw_a[c] + wb[b] * dw[c];
-                lw_b[c] = lw_b[c] + dwb[b] * aw[c];
+                lw_a[c] = wb[b].mul_add(dw[c], lw_a[c]);
+                lw_b[c] = dwb[b].mul_add(aw[c], lw_b[c]);
             }
             if wanted.apic {
-                b_a[c] = b_a[c] + wb[b] * xw[c];
-                b_b[c] = b_b[c] + wdb * aw[c];
+                b_a[c] = wb[b].mul_add(xw[c], b_a[c]);
+                b_b[c] = wdb.mul_add(aw[c], b_b[c]);
             }
         }
     }

@@ -5,9 +5,9 @@ use super::columns::Columns;
 use super::{apic_affine, ApicInertia, GridState, P2gTerms, Stress};
 use crate::fields::VectorField;
 use crate::lanes::dispatch;
-#[cfg(target_arch = "x86_64")]
-use crate::lanes::F64x4;
 use crate::lanes::Real;
+#[cfg(target_arch = "x86_64")]
+use crate::lanes::{F64x4, F64x8};
 use crate::operators::{ColumnView, Operators, Stencil};
 use crate::parallel::Workers;
 use crate::particles::Particles;
@@ -247,6 +247,11 @@ pub(crate) fn p2g_columns_body<const S: usize, const V: usize>(
     while k < range.end {
         #[cfg(target_arch = "x86_64")]
         {
+            if V >= 8 && k + 8 <= range.end && (k..k + 8).all(inside) {
+                p2g_lanes8::<S>(source, apic, internal, k, acc, base);
+                k += 8;
+                continue;
+            }
             if V >= 4 && k + 4 <= range.end && (k..k + 4).all(inside) {
                 p2g_lanes::<F64x4, S>(source, apic, internal, k, acc, base);
                 k += 4;
@@ -291,6 +296,36 @@ fn p2g_lanes<R: Scatter, const S: usize>(
             *run = group.run(b);
         }
         R::scatter_lanes(&all, &group.cols, acc, base);
+    }
+}
+
+/// Particles `k … k + 7` (all stencils in the band), their terms formed eight side by side and
+/// added as two groups of four ([`F64x4`]'s scatter, lane after lane: particle order at every
+/// node, as [`p2g_lanes`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn p2g_lanes8<const S: usize>(
+    source: &P2gSource,
+    apic: Option<ApicInertia>,
+    internal: f64,
+    k: usize,
+    acc: &mut [[f64; 5]],
+    base: usize,
+) {
+    let group = Group::<F64x8, S>::new(source, apic, internal, k);
+    let mut halves = [[[[F64x4::splat(0.0); 5]; S]; S]; 2];
+    for b in 0..S {
+        let run = group.run(b);
+        for a in 0..S {
+            for c in 0..5 {
+                (halves[0][b][a][c], halves[1][b][a][c]) = run[a][c].halves();
+            }
+        }
+    }
+    let first = group.cols.first;
+    for (h, terms) in halves.iter().enumerate() {
+        let at = [first[4 * h], first[4 * h + 1], first[4 * h + 2], first[4 * h + 3]];
+        F64x4::scatter_lanes_at(terms, at, group.cols.run_stride, acc, base);
     }
 }
 
@@ -411,10 +446,14 @@ impl<R: Real, const S: usize> Group<R, S> {
         } = self;
         let wb = cols.wb[b];
         let mwb = *m * wb;
-        let pb = [mv[0] + c_rows[0].1 * cols.db[b], mv[1] + c_rows[1].1 * cols.db[b]];
+        // (Fused multiply-adds: one rounding each, the same in every lane of every width.)
+        let pb = [
+            c_rows[0].1.mul_add(cols.db[b], mv[0]),
+            c_rows[1].1.mul_add(cols.db[b], mv[1]),
+        ];
         let fb = [
-            wb * mb[0] - cols.dwb[b] * s_rows[0].1,
-            wb * mb[1] - cols.dwb[b] * s_rows[1].1,
+            (-cols.dwb[b]).mul_add(s_rows[0].1, wb * mb[0]),
+            (-cols.dwb[b]).mul_add(s_rows[1].1, wb * mb[1]),
         ];
         let gb = [wb * s_rows[0].0, wb * s_rows[1].0];
         let mut terms = [[R::splat(0.0); 5]; S];
@@ -425,8 +464,8 @@ impl<R: Real, const S: usize> Group<R, S> {
                 wa * mwb,
                 n * (pb[0] + q[0][a]),
                 n * (pb[1] + q[1][a]),
-                wa * fb[0] - cols.dwa[a] * gb[0],
-                wa * fb[1] - cols.dwa[a] * gb[1],
+                (-cols.dwa[a]).mul_add(gb[0], wa * fb[0]),
+                (-cols.dwa[a]).mul_add(gb[1], wa * fb[1]),
             ];
         }
         terms
@@ -547,6 +586,23 @@ impl Scatter for F64x4 {
         acc: &mut [[f64; 5]],
         base: usize,
     ) {
+        let at = [cols.first[0], cols.first[1], cols.first[2], cols.first[3]];
+        F64x4::scatter_lanes_at(terms, at, cols.run_stride, acc, base);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl F64x4 {
+    /// [`Scatter::scatter_lanes`] for lanes whose stencils start at nodes `first`, runs
+    /// `run_stride` nodes apart.
+    #[inline(always)]
+    fn scatter_lanes_at<const S: usize>(
+        terms: &[[[F64x4; 5]; S]; S],
+        first: [usize; 4],
+        run_stride: usize,
+        acc: &mut [[f64; 5]],
+        base: usize,
+    ) {
         let mut quads = [[[F64x4::splat(0.0).0; 4]; S]; S];
         let mut fy = [[[0.0; 4]; S]; S];
         for b in 0..S {
@@ -554,7 +610,7 @@ impl Scatter for F64x4 {
         }
         for l in 0..4 {
             for b in 0..S {
-                F64x4::add_run(&quads[b], &fy[b], l, cols.run_start(l, b) - base, acc);
+                F64x4::add_run(&quads[b], &fy[b], l, first[l] + b * run_stride - base, acc);
             }
         }
     }
