@@ -9,7 +9,7 @@ use super::fused::{relocate_and_scatter, NextBand, FUSED_BATCH};
 use super::gather::{gather_sums, Gather, Wanted};
 use super::particle::{update_stress, Partials, StressInput, StressOutput, StressPartials, SumInput, SumPartials};
 use super::{ApicInertia, GridField, GridState, KineticEnergies, ParticleScratch};
-use crate::lanes::dispatch;
+use crate::lanes::{dispatch, Real};
 #[cfg(target_arch = "x86_64")]
 use crate::lanes::{F64x4, F64x8};
 use crate::operators::{ColumnView, Layout, Operators};
@@ -444,27 +444,58 @@ fn g2p_block_body<const S: usize, const W: usize, const V: usize>(
 ) -> G2pBlock {
     let np = out.len();
     let mut block = G2pBlock::default();
-    // The fused pass relocates and scatters a batch of particles after updating them, while
-    // they are in cache (each phase's code in a loop of its own).
-    let batch = if next.is_some() { FUSED_BATCH } else { np.max(1) };
+    // A batch of particles at a time, each phase's code in a loop of its own: their sums and
+    // updates, then (USL) their stress updates from the gradients kept in `gradients` (a
+    // short loop, whose particles the CPU overlaps; inside the long one their chains of
+    // dependent operations would not), then (the fused pass) their relocation and scatter,
+    // while they are in cache. Every particle sees the same operations as one after another.
+    let mut gradients = [[0.0; FUSED_BATCH]; 4];
     let mut start = 0;
     while start < np {
-        let end = (start + batch).min(np);
+        let end = (start + FUSED_BATCH).min(np);
+        let mut batch = Batch {
+            start,
+            gradients: &mut gradients,
+        };
         let mut j = start;
         #[cfg(target_arch = "x86_64")]
         {
             while V >= 8 && j + 8 <= end {
-                update_group::<F64x8, S, W>(input, first, j, &mut out, &mut block);
+                update_group::<F64x8, S, W>(input, first, j, &mut out, &mut block, &mut batch);
                 j += 8;
             }
             while V >= 4 && j + 4 <= end {
-                update_group::<F64x4, S, W>(input, first, j, &mut out, &mut block);
+                update_group::<F64x4, S, W>(input, first, j, &mut out, &mut block, &mut batch);
                 j += 4;
             }
         }
         while j < end {
-            update_group::<f64, S, W>(input, first, j, &mut out, &mut block);
+            update_group::<f64, S, W>(input, first, j, &mut out, &mut block, &mut batch);
             j += 1;
+        }
+        if let (Some(materials), Some(stress)) = (input.stress, out.stress.as_mut()) {
+            let stress_input = StressInput {
+                materials,
+                body: input.body,
+                mass: input.mass,
+                dt: input.dt,
+            };
+            let mut j = start;
+            #[cfg(target_arch = "x86_64")]
+            {
+                while V >= 8 && j + 8 <= end {
+                    stress_group::<F64x8>(&stress_input, first, j, &batch, stress, &mut block.stress);
+                    j += 8;
+                }
+                while V >= 4 && j + 4 <= end {
+                    stress_group::<F64x4>(&stress_input, first, j, &batch, stress, &mut block.stress);
+                    j += 4;
+                }
+            }
+            while j < end {
+                stress_group::<f64>(&stress_input, first, j, &batch, stress, &mut block.stress);
+                j += 1;
+            }
         }
         if let Some(next) = next.as_deref_mut() {
             relocate_and_scatter::<S, V>(input, first, start..end, &mut out, next);
@@ -474,9 +505,38 @@ fn g2p_block_body<const S: usize, const W: usize, const V: usize>(
     block
 }
 
+/// The particles of a batch from block entry `start`: the velocity gradients of their stress
+/// update (entry `j − start`).
+struct Batch<'a> {
+    start: usize,
+    gradients: &'a mut [[f64; FUSED_BATCH]; 4],
+}
+
+/// (12)–(13) for particles `first + j …` (`R::LANES` of them) from the gradients of `batch`.
+#[inline(always)]
+fn stress_group<R: Real>(
+    input: &StressInput,
+    first: usize,
+    j: usize,
+    batch: &Batch,
+    out: &mut StressOutput,
+    sums: &mut StressPartials,
+) {
+    let at = j - batch.start;
+    let g = &batch.gradients;
+    let l = [
+        R::load(&g[0], at),
+        R::load(&g[1], at),
+        R::load(&g[2], at),
+        R::load(&g[3], at),
+    ];
+    update_stress(input, l, first + j, j, out, sums);
+}
+
 /// Particles `first + j …` (`R::LANES` of them): their sums, then their new velocities, APIC
-/// moments, velocity gradients or stress update, position increments or positions, and their
-/// kinetic energies (and report sums), added to `block` in particle order.
+/// moments, velocity gradients (into the scratch, or into `batch` for the stress update that
+/// follows), position increments or positions, and their kinetic energies (and report sums),
+/// added to `block` in particle order.
 #[inline(always)]
 fn update_group<R: Gather, const S: usize, const W: usize>(
     input: &G2pInput,
@@ -484,6 +544,7 @@ fn update_group<R: Gather, const S: usize, const W: usize>(
     j: usize,
     out: &mut G2pOutput,
     block: &mut G2pBlock,
+    batch: &mut Batch,
 ) {
     let k = first + j;
     let rule = input.rule;
@@ -552,14 +613,10 @@ fn update_group<R: Gather, const S: usize, const W: usize>(
         Transfer::Pic | Transfer::Flip | Transfer::Blend { .. } | Transfer::Apic => (vx, vy),
     };
     let (dx, dy) = (c(input.dt) * ux, c(input.dt) * uy);
-    if let (Some(materials), Some(stress)) = (input.stress, out.stress.as_mut()) {
-        let stress_input = StressInput {
-            materials,
-            body: input.body,
-            mass: input.mass,
-            dt: input.dt,
-        };
-        update_stress(&stress_input, g.l, k, j, stress, &mut block.stress);
+    if out.stress.is_some() {
+        for c in 0..4 {
+            g.l[c].store(&mut batch.gradients[c], j - batch.start);
+        }
     }
     match (out.displacement.as_mut(), input.gravity) {
         (Some(d), _) => {
