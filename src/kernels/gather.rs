@@ -75,6 +75,13 @@ impl Gather for F64x8 {
     /// Lanes 0–3 and lanes 4–7 as [`F64x4`] gathers them, joined.
     #[inline(always)]
     unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [F64x8; W] {
+        if W == 4 {
+            // SAFETY: as below.
+            let four = unsafe { gather_four(packed, at) };
+            let mut out = [F64x8::splat(0.0); W];
+            out.copy_from_slice(&four[..W]);
+            return out;
+        }
         let hi = [at[4], at[5], at[6], at[7], 0, 0, 0, 0];
         // SAFETY: the caller's contract covers every lane.
         let (lo, hi) = unsafe { (F64x4::gather::<W>(packed, at), F64x4::gather::<W>(packed, hi)) };
@@ -199,5 +206,36 @@ pub(super) fn gather_sums<R: Gather, const S: usize, const W: usize>(
         l: if W == 4 { lw } else { xy(lg_a, lg_b) },
         lw,
         b: xy(b_a, b_b),
+    }
+}
+
+/// The four values from each lane's `packed[at_l ..]` in lanes, with 512-bit shuffles: rows
+/// `l` and `l + 4` side by side in one register, pairs interleaved within each 128-bit part,
+/// then each value's eight lanes picked from two registers.
+///
+/// # Safety
+/// `at_l + 4 ≤ packed.len()` for every lane; the CPU has AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn gather_four(packed: &[f64], at: [usize; 8]) -> [F64x8; 4] {
+    use std::arch::x86_64::*;
+    let base = packed.as_ptr();
+    // SAFETY: every row is in bounds by the caller's contract; AVX-512F as the caller says.
+    unsafe {
+        let row = |l: usize| _mm256_loadu_pd(base.add(at[l]));
+        let pair = |l: usize| _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(l)), row(l + 4));
+        let (z0, z1, z2, z3) = (pair(0), pair(1), pair(2), pair(3));
+        // [r0.0, r1.0, r0.2, r1.2 | r4.0, r5.0, r4.2, r5.2] and the like.
+        let (t0, t1) = (_mm512_unpacklo_pd(z0, z1), _mm512_unpackhi_pd(z0, z1));
+        let (t2, t3) = (_mm512_unpacklo_pd(z2, z3), _mm512_unpackhi_pd(z2, z3));
+        // Lanes 0–7 of values 0 and 2 from (t0, t2), of values 1 and 3 from (t1, t3).
+        let even = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+        let odd = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+        [
+            F64x8(_mm512_permutex2var_pd(t0, even, t2)),
+            F64x8(_mm512_permutex2var_pd(t1, even, t3)),
+            F64x8(_mm512_permutex2var_pd(t0, odd, t2)),
+            F64x8(_mm512_permutex2var_pd(t1, odd, t3)),
+        ]
     }
 }
