@@ -577,13 +577,6 @@ mod avx512 {
     }
 
     impl F64x8 {
-        /// The vector of lanes `lo` then `hi`.
-        #[inline(always)]
-        pub(crate) fn join(lo: super::F64x4, hi: super::F64x4) -> F64x8 {
-            // SAFETY: as above.
-            F64x8(unsafe { _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(lo.0), hi.0) })
-        }
-
         /// Lanes 0–3 and lanes 4–7.
         #[inline(always)]
         pub(crate) fn halves(self) -> (super::F64x4, super::F64x4) {

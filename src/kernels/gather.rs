@@ -72,22 +72,19 @@ impl Gather for F64x4 {
 
 #[cfg(target_arch = "x86_64")]
 impl Gather for F64x8 {
-    /// Lanes 0–3 and lanes 4–7 as [`F64x4`] gathers them, joined.
+    /// Four values at a time ([`gather_four`]; a node holds 4 or 8).
     #[inline(always)]
     unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [F64x8; W] {
-        if W == 4 {
-            // SAFETY: as below.
-            let four = unsafe { gather_four(packed, at) };
-            let mut out = [F64x8::splat(0.0); W];
-            out.copy_from_slice(&four[..W]);
-            return out;
-        }
-        let hi = [at[4], at[5], at[6], at[7], 0, 0, 0, 0];
-        // SAFETY: the caller's contract covers every lane.
-        let (lo, hi) = unsafe { (F64x4::gather::<W>(packed, at), F64x4::gather::<W>(packed, hi)) };
+        debug_assert!(W % 4 == 0, "packed nodes hold 4 or 8 values");
         let mut out = [F64x8::splat(0.0); W];
-        for c in 0..W {
-            out[c] = F64x8::join(lo[c], hi[c]);
+        for half in 0..W / 4 {
+            let mut from = at;
+            for a in from.iter_mut() {
+                *a += 4 * half;
+            }
+            // SAFETY: the caller's contract covers every lane's W values.
+            let four = unsafe { gather_four(packed, from) };
+            out[4 * half..4 * half + 4].copy_from_slice(&four);
         }
         out
     }
