@@ -2,14 +2,17 @@
 //!
 //! The per-particle formulas of the transfers (the 1D weights, the terms of a node, a particle's
 //! sums, the stress update) are generic over [`Real`]: `f64` runs them for one particle, and
-//! [`F64x4`] (x86-64 with AVX2) for four, one per lane of a 4-wide vector. Every operation of
-//! the trait is one IEEE operation per lane with the scalar operation's rounding (`+ − × ÷`,
-//! `√`, `|·|`, and `max`/`min` written as the comparisons `a > b`, `a < b`), and `ln` is the
-//! scalar `f64::ln` of each lane, so a formula gives the same bits in either form: the
-//! vectorised kernels equal the scalar ones to the last bit by construction (`tests/simd.rs`).
-//! No fused multiply-add is formed (Rust does not contract `a·b + c`).
+//! [`F64x4`] (x86-64 with AVX2 and FMA) for four, one per lane of a 4-wide vector, and `F64x8`
+//! (AVX-512) for eight. Every operation of the trait is one IEEE operation per lane with the
+//! scalar operation's rounding (`+ − × ÷`, `√`, `|·|`, `max`/`min` written as the comparisons
+//! `a > b`, `a < b`, and [`Real::mul_add`], a fused multiply-add rounded once, as
+//! `f64::mul_add`), and `ln` is the scalar `f64::ln` of each lane, so a formula gives the same
+//! bits in either form: the vectorised kernels equal the scalar ones to the last bit by
+//! construction (`tests/simd.rs`). Fused multiply-adds appear only where a formula calls
+//! `mul_add` (Rust does not contract `a·b + c` on its own): the sums of the grid-to-particle
+//! gathers and the terms of the particle-to-grid scatter.
 //!
-//! The AVX2 build of a kernel is chosen at run time ([`avx2`], the [`dispatch!`] macro): the
+//! The vector builds of a kernel are chosen at run time ([`avx2`], the [`dispatch!`] macro): the
 //! baseline build runs the scalar form, and either gives the same results on any machine and
 //! for any thread count (`tests/simd.rs`), for runs without NaN (a NaN's payload bits are not
 //! specified by the compiler in either build).
@@ -35,7 +38,7 @@ pub fn set_kernel_lanes(lanes: usize) {
 
 /// The most particles side by side that the CPU and [`set_kernel_lanes`] allow: 8 with AVX-512F
 /// and AVX-512VL (the four-lane kernels of that build then have 32 vector registers), 4 with
-/// AVX2, 1 otherwise.
+/// AVX2 and FMA, 1 otherwise.
 pub fn kernel_lanes() -> usize {
     lanes_available()
 }
@@ -146,6 +149,15 @@ pub(crate) trait Real:
     /// `self · a + b` rounded once (a fused multiply-add: the same bits in every lane of every
     /// type, [`f64::mul_add`]).
     fn mul_add(self, a: Self, b: Self) -> Self;
+    /// The smallest lane (of lanes holding no NaN).
+    fn min_lane(self) -> f64;
+    /// The largest lane (of lanes holding no NaN).
+    fn max_lane(self) -> f64;
+    /// `out[l] = [i_l, k_l]` for each lane `l`, of lanes holding integers in `[0, 2³¹)`.
+    ///
+    /// # Panics
+    /// If `out` does not hold one pair per lane.
+    fn store_index_pairs(i: Self, k: Self, out: &mut [[u32; 2]]);
 }
 
 impl Real for f64 {
@@ -224,6 +236,19 @@ impl Real for f64 {
     #[inline(always)]
     fn mul_add(self, a: f64, b: f64) -> f64 {
         f64::mul_add(self, a, b)
+    }
+    #[inline(always)]
+    fn min_lane(self) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn max_lane(self) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn store_index_pairs(i: f64, k: f64, out: &mut [[u32; 2]]) {
+        assert_eq!(out.len(), 1, "one pair per lane");
+        out[0] = [i as u32, k as u32];
     }
 }
 
@@ -424,6 +449,36 @@ mod avx2 {
             // with AVX-512F). One rounding, as f64::mul_add.
             F64x4(unsafe { _mm256_fmadd_pd(self.0, a.0, b.0) })
         }
+        #[inline(always)]
+        fn min_lane(self) -> f64 {
+            // SAFETY: AVX as above.
+            unsafe {
+                let a = _mm256_min_pd(self.0, _mm256_permute2f128_pd::<1>(self.0, self.0));
+                let h = _mm256_castpd256_pd128(a);
+                _mm_cvtsd_f64(_mm_min_pd(h, _mm_unpackhi_pd(h, h)))
+            }
+        }
+        #[inline(always)]
+        fn max_lane(self) -> f64 {
+            // SAFETY: AVX as above.
+            unsafe {
+                let a = _mm256_max_pd(self.0, _mm256_permute2f128_pd::<1>(self.0, self.0));
+                let h = _mm256_castpd256_pd128(a);
+                _mm_cvtsd_f64(_mm_max_pd(h, _mm_unpackhi_pd(h, h)))
+            }
+        }
+        #[inline(always)]
+        fn store_index_pairs(i: F64x4, k: F64x4, out: &mut [[u32; 2]]) {
+            assert_eq!(out.len(), 4, "one pair per lane");
+            // SAFETY: `out` holds 8 u32 (checked); AVX as above. Truncation to i32 gives the
+            // integer itself below 2³¹, as `as u32` does.
+            unsafe {
+                let (a, b) = (_mm256_cvttpd_epi32(i.0), _mm256_cvttpd_epi32(k.0));
+                let p = out.as_mut_ptr().cast::<__m128i>();
+                _mm_storeu_si128(p, _mm_unpacklo_epi32(a, b));
+                _mm_storeu_si128(p.add(1), _mm_unpackhi_epi32(a, b));
+            }
+        }
     }
 }
 
@@ -573,6 +628,29 @@ mod avx512 {
             // SAFETY: as above (FMA comes with AVX2 here, checked by `lanes_available`, and
             // with AVX-512F). One rounding, as f64::mul_add.
             F64x8(unsafe { _mm512_fmadd_pd(self.0, a.0, b.0) })
+        }
+        #[inline(always)]
+        fn min_lane(self) -> f64 {
+            // SAFETY: as above.
+            unsafe { _mm512_reduce_min_pd(self.0) }
+        }
+        #[inline(always)]
+        fn max_lane(self) -> f64 {
+            // SAFETY: as above.
+            unsafe { _mm512_reduce_max_pd(self.0) }
+        }
+        #[inline(always)]
+        fn store_index_pairs(i: F64x8, k: F64x8, out: &mut [[u32; 2]]) {
+            assert_eq!(out.len(), 8, "one pair per lane");
+            // SAFETY: `out` holds 16 u32 (checked); AVX-512F (with AVX2) as above. Truncation
+            // to i32 gives the integer itself below 2³¹, as `as u32` does.
+            unsafe {
+                let (a, b) = (_mm512_cvttpd_epi32(i.0), _mm512_cvttpd_epi32(k.0));
+                let (lo, hi) = (_mm256_unpacklo_epi32(a, b), _mm256_unpackhi_epi32(a, b));
+                let p = out.as_mut_ptr().cast::<__m256i>();
+                _mm256_storeu_si256(p, _mm256_permute2x128_si256::<0x20>(lo, hi));
+                _mm256_storeu_si256(p.add(1), _mm256_permute2x128_si256::<0x31>(lo, hi));
+            }
         }
     }
 

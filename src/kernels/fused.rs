@@ -216,21 +216,19 @@ fn relocate_group<R: Real, const S: usize>(j: usize, out: &mut G2pOutput, next: 
     }
     st.zero |= found.zero;
     let (band, prepared) = (&next.band.lines, &next.prepared);
-    for f in &firsts[j..j + R::LANES] {
-        let line = layout.line_of(*f);
-        if line < prepared.start || line + S > prepared.end {
-            st.stopped = true;
-            return;
-        }
-        let node = layout.node_of(*f);
-        (st.lo, st.hi) = (st.lo.min(node), st.hi.max(node));
-        (st.min_line, st.max_line) = (st.min_line.min(line), st.max_line.max(line));
-        if line < band.start {
-            st.below = Some(st.below.map_or(line, |b| b.min(line)));
-        }
-        if line + S > band.end {
-            st.above = Some(st.above.map_or(line + S, |a| a.max(line + S)));
-        }
+    // The lanes' lowest and highest lines and nodes decide everything noted.
+    let ([low, high], [lo, hi]) = (found.lines, found.nodes);
+    if low < prepared.start || high + S > prepared.end {
+        st.stopped = true;
+        return;
+    }
+    (st.lo, st.hi) = (st.lo.min(lo), st.hi.max(hi));
+    (st.min_line, st.max_line) = (st.min_line.min(low), st.max_line.max(high));
+    if low < band.start {
+        st.below = Some(st.below.map_or(low, |b| b.min(low)));
+    }
+    if high + S > band.end {
+        st.above = Some(st.above.map_or(high + S, |a| a.max(high + S)));
     }
 }
 

@@ -247,7 +247,16 @@ impl GridMass {
         let lumped = &self.lumped[nodes.clone()];
         let mut maxima = std::mem::take(&mut self.block_counts);
         workers.blocks(lumped.len(), &mut maxima, |range| {
-            let max = lumped[range].iter().cloned().fold(0.0, f64::max);
+            // Eight running maxima side by side (the maximum does not depend on the order).
+            let mut lanes = [0.0f64; 8];
+            let chunks = lumped[range].chunks_exact(8);
+            let rest = chunks.remainder();
+            for chunk in chunks {
+                for (m, &v) in lanes.iter_mut().zip(chunk) {
+                    *m = m.max(v);
+                }
+            }
+            let max = rest.iter().chain(&lanes).cloned().fold(0.0, f64::max);
             [max.to_bits() as usize, 0]
         });
         let max = maxima.iter().map(|b| f64::from_bits(b[0] as u64)).fold(0.0, f64::max);

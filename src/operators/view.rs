@@ -28,12 +28,6 @@ impl Layout {
             i as usize
         }
     }
-
-    /// The node number of a first node `[i, j]`.
-    #[inline(always)]
-    pub(crate) fn node_of(&self, [i, j]: [u32; 2]) -> usize {
-        i as usize * self.strides[0] + j as usize * self.strides[1]
-    }
 }
 
 /// The columns of a range of particles: entry `k` of each array is particle `first + k`'s
@@ -58,11 +52,14 @@ impl ColumnView<'_> {
 }
 
 /// What the relocation of particles `j …` (one per lane) found: whether every lane was
-/// accepted by the grid and unshifted, whether a weight may be zero.
+/// accepted by the grid and unshifted, whether a weight may be zero, and (when usable) the
+/// lowest and highest first line and first node of the lanes' stencils.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Relocated {
     pub(crate) usable: bool,
     pub(crate) zero: bool,
+    pub(crate) lines: [usize; 2],
+    pub(crate) nodes: [usize; 2],
 }
 
 /// Locates the particles at `(x, y)` (one per lane, [`AxisFrame::locate_lanes`], the same
@@ -82,17 +79,23 @@ pub(crate) fn relocate<R: Real>(
     let (ok_x, first_x, t_x, shifted_x, zero_x) = fx.locate_lanes(x);
     let (ok_y, first_y, t_y, shifted_y, zero_y) = fy.locate_lanes(y);
     let usable = ok_x && ok_y && !shifted_x && !shifted_y;
+    let (mut lines, mut nodes) = ([0; 2], [0; 2]);
     if usable {
-        let (i, k) = (first_x.lanes(), first_y.lanes());
-        for l in 0..R::LANES {
-            first[j + l] = [i[l] as u32, k[l] as u32];
-        }
+        R::store_index_pairs(first_x, first_y, &mut first[j..j + R::LANES]);
         t_x.store(tx, j);
         t_y.store(ty, j);
+        // Lines and node numbers as exact integers in f64 (below 2⁵³), reduced over the lanes.
+        let [sx, sy] = layout.strides;
+        let line = if sx == 1 { first_y } else { first_x };
+        let node = first_x * R::splat(sx as f64) + first_y * R::splat(sy as f64);
+        lines = [line.min_lane() as usize, line.max_lane() as usize];
+        nodes = [node.min_lane() as usize, node.max_lane() as usize];
     }
     Relocated {
         usable,
         zero: zero_x || zero_y,
+        lines,
+        nodes,
     }
 }
 
