@@ -75,7 +75,7 @@ impl Gather for F64x8 {
     /// Four values at a time ([`gather_four`]; a node holds 4 or 8).
     #[inline(always)]
     unsafe fn gather<const W: usize>(packed: &[f64], at: [usize; 8]) -> [F64x8; W] {
-        debug_assert!(W % 4 == 0, "packed nodes hold 4 or 8 values");
+        debug_assert!(W.is_multiple_of(4), "packed nodes hold 4 or 8 values");
         let mut out = [F64x8::splat(0.0); W];
         for half in 0..W / 4 {
             let mut from = at;
