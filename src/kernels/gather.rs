@@ -61,7 +61,7 @@ impl Gather for F64x4 {
             // SAFETY: each row is in bounds by the caller's contract; F64x4 runs only where the
             // CPU has AVX2.
             let row = |l: usize| unsafe { _mm256_loadu_pd(base.add(at[l] + 4 * half)) };
-            let t = super::p2g::transpose([row(0), row(1), row(2), row(3)]);
+            let t = super::scatter::transpose([row(0), row(1), row(2), row(3)]);
             for c in 0..4 {
                 out[4 * half + c] = F64x4(t[c]);
             }

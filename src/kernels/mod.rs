@@ -32,6 +32,7 @@ mod gradient;
 mod grid;
 mod p2g;
 mod particle;
+mod scatter;
 mod stiffness;
 
 pub use crate::lanes::{kernel_lanes, set_kernel_lanes, set_scalar_kernels};

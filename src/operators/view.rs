@@ -81,7 +81,10 @@ pub(crate) fn relocate<R: Real>(
     let usable = ok_x && ok_y && !shifted_x && !shifted_y;
     let (mut lines, mut nodes) = ([0; 2], [0; 2]);
     if usable {
-        R::store_index_pairs(first_x, first_y, &mut first[j..j + R::LANES]);
+        let (i, k) = (first_x.lanes(), first_y.lanes());
+        for l in 0..R::LANES {
+            first[j + l] = [i[l] as u32, k[l] as u32];
+        }
         t_x.store(tx, j);
         t_y.store(ty, j);
         // Lines and node numbers as exact integers in f64 (below 2⁵³), reduced over the lanes.

@@ -60,10 +60,10 @@ pub struct Options {
     /// The explicit step's fused pass: the grid-to-particle pass of each step also locates the
     /// moved particles and scatters the next step's particle-to-grid terms
     /// ([`crate::kernels`], `fused`), where the schemes allow it. Results do not depend on it,
-    /// to the last bit. Off by default: it measured no faster on one thread (3–5% on two,
-    /// docs/performance.md), and between its steps [`Simulation::operators`] holds the
-    /// columns of the particles' present positions while the grid mass and fields are the last
-    /// step's.
+    /// to the last bit; on the benchmark it is 7–8% faster than the separate passes with
+    /// quadratic B-splines and 20–22% with linear shape functions (docs/performance.md). Off by
+    /// default: between its steps [`Simulation::operators`] holds the columns of the particles'
+    /// present positions while the grid mass and fields are the last step's.
     ///
     /// [`Simulation::operators`]: super::Simulation::operators
     pub fused_passes: bool,
