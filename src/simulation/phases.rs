@@ -206,6 +206,17 @@ fn lumped_only(plan: &StepPlan) -> bool {
     plan.mass.velocity == MassScheme::Lumped && plan.mass.acceleration == MassScheme::Lumped
 }
 
+/// The nodes that may carry grid mass: the operators' span, or every node when walls fold
+/// mass across them (mirrored or slip walls).
+pub(super) fn massive_span(setup: &Setup, ops: &Operators) -> std::ops::Range<usize> {
+    let prescribed = &setup.prescribed;
+    if prescribed.mirror.is_empty() && prescribed.slip.is_empty() {
+        ops.node_span()
+    } else {
+        0..ops.num_nodes()
+    }
+}
+
 /// The grid mass of the particles `p` (whose `m_L` p2g left in `mass`) with the mass options
 /// `choice` (the step's, or a body's own under contact): one matrix per component from the
 /// folded operators `each` when slip walls are mirrored (simulation/walls.rs), one matrix
@@ -219,13 +230,9 @@ pub(super) fn prepare_mass(
     p: &Particles,
     mass: &mut GridMass,
 ) -> Result<()> {
-    let (mirror, slip, workers) = (&setup.prescribed.mirror, &setup.prescribed.slip, &setup.workers);
+    let (slip, workers) = (&setup.prescribed.slip, &setup.workers);
     let constraints = &setup.prescribed.constraints;
-    let span = if mirror.is_empty() && slip.is_empty() {
-        ops.node_span()
-    } else {
-        0..ops.num_nodes()
-    };
+    let span = massive_span(setup, ops);
     if slip.is_empty() || lumped_only(plan) {
         return mass.prepare_with(ops, &p.mass, choice, constraints, span, workers);
     }

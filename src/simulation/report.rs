@@ -215,14 +215,7 @@ pub(super) fn report(
         ..
     } = t;
     let (m_l, w) = (mass.lumped(), &nodes.updated);
-    // The nodes that may carry mass: the operators' span, or every node with walls that fold
-    // mass across them.
-    let prescribed = &setup.prescribed;
-    let span = if prescribed.mirror.is_empty() && prescribed.slip.is_empty() {
-        cache.ops.node_span()
-    } else {
-        0..m_l.len()
-    };
+    let span = super::phases::massive_span(setup, &cache.ops);
     // In fixed blocks of nodes, added in order; in each block eight partial sums (node i into
     // partial i mod 8), added in order. Blocks outside the span hold no mass: 0.
     setup.workers.blocks(m_l.len(), &mut scratch.grid_blocks, |range| {
