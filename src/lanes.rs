@@ -153,6 +153,27 @@ pub(crate) trait Real:
     fn min_lane(self) -> f64;
     /// The largest lane (of lanes holding no NaN).
     fn max_lane(self) -> f64;
+    /// The first nodes `firsts[k …]` (one `[i, j]` per lane): `[i, j]` as values, and the node
+    /// numbers `i s_x + j s_y` (with `strides = [s_x, s_y]`; entries past [`Real::LANES`] are
+    /// 0). Exact: every index is an integer below 2³².
+    fn first_nodes(firsts: &[[u32; 2]], k: usize, strides: [usize; 2]) -> ([Self; 2], [usize; 8]);
+}
+
+/// [`Real::first_nodes`] one lane at a time, for `lanes` lanes.
+#[inline(always)]
+fn first_nodes_by_lane(firsts: &[[u32; 2]], k: usize, [sx, sy]: [usize; 2], lanes: usize) -> [usize; 8] {
+    let mut n = [0; 8];
+    for (l, n) in n.iter_mut().enumerate().take(lanes) {
+        let [i, j] = firsts[k + l];
+        *n = i as usize * sx + j as usize * sy;
+    }
+    n
+}
+
+/// Whether both node-number strides fit in 32 bits (the vector builds' 32 × 32-bit products).
+#[inline(always)]
+fn strides_fit(strides: [usize; 2]) -> bool {
+    strides.iter().all(|&s| u32::try_from(s).is_ok())
 }
 
 impl Real for f64 {
@@ -239,6 +260,11 @@ impl Real for f64 {
     #[inline(always)]
     fn max_lane(self) -> f64 {
         self
+    }
+    #[inline(always)]
+    fn first_nodes(firsts: &[[u32; 2]], k: usize, strides: [usize; 2]) -> ([f64; 2], [usize; 8]) {
+        let [i, j] = firsts[k];
+        ([f64::from(i), f64::from(j)], first_nodes_by_lane(firsts, k, strides, 1))
     }
 }
 
@@ -419,5 +445,55 @@ mod tests {
     fn eight(a: [f64; 8], b: [f64; 8]) -> [[f64; 8]; 9] {
         let (va, vb) = (super::F64x8::load(&a, 0), super::F64x8::load(&b, 0));
         ops(va, vb).map(|v| v.lanes())
+    }
+
+    /// The vector builds' first nodes (their index values and node numbers) are the scalar
+    /// ones, for indices up to 2³² − 1 and for strides that do not fit in 32 bits.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn first_nodes_of_four_and_eight_lanes_are_the_scalar_ones() {
+        let firsts: Vec<[u32; 2]> = (0..16u32)
+            .map(|l| [l.wrapping_mul(0x9e37_79b9) | (l % 2) << 31, u32::MAX - 7 * l])
+            .collect();
+        let small: Vec<[u32; 2]> = (0..16u32).map(|l| [3 * l + 1, 1000 - l]).collect();
+        let cases = [(&firsts, [1, 1025]), (&firsts, [2049, 1]), (&small, [1, 1 << 33])];
+        for (firsts, strides) in cases {
+            for k in 0..8 {
+                let mut widths = vec![];
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2 (checked above).
+                    widths.push((4, unsafe { nodes_four(firsts, k, strides) }));
+                }
+                if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl") {
+                    // SAFETY: the CPU has AVX-512F and VL (checked above).
+                    widths.push((8, unsafe { nodes_eight(firsts, k, strides) }));
+                }
+                for (lanes, ([i, j], nodes)) in widths {
+                    for l in 0..8 {
+                        let ([ei, ej], en) = f64::first_nodes(firsts, k + l, strides);
+                        let expected = if l < lanes { (ei, ej, en[0]) } else { (0.0, 0.0, 0) };
+                        assert_eq!(
+                            (i[l], j[l], nodes[l]),
+                            expected,
+                            "{lanes} lanes, {strides:?}, k {k}, lane {l}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn nodes_four(firsts: &[[u32; 2]], k: usize, strides: [usize; 2]) -> ([[f64; 8]; 2], [usize; 8]) {
+        let ([i, j], nodes) = super::F64x4::first_nodes(firsts, k, strides);
+        ([i.lanes(), j.lanes()], nodes)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    fn nodes_eight(firsts: &[[u32; 2]], k: usize, strides: [usize; 2]) -> ([[f64; 8]; 2], [usize; 8]) {
+        let ([i, j], nodes) = super::F64x8::first_nodes(firsts, k, strides);
+        ([i.lanes(), j.lanes()], nodes)
     }
 }

@@ -20,7 +20,7 @@ pub(crate) struct Columns<R, const S: usize> {
     pub wb: [R; S],
     pub dwb: [R; S],
     pub db: [R; S],
-    /// Each lane's first node.
+    /// Each lane's first node (0 past `R::LANES`).
     pub first: [usize; 8],
     /// Node-number distance between runs, and whether runs go along x (`α = x`).
     pub run_stride: usize,
@@ -45,7 +45,6 @@ impl<R: Real, const S: usize> Columns<R, S> {
     pub(crate) fn load_view(view: &ColumnView, k: usize, xp: R, yp: R) -> Columns<R, S> {
         let layout = &view.layout;
         assert!(S == layout.support, "stencil size must equal the support");
-        let firsts = &view.first[k..k + R::LANES];
         let zero = R::splat(0.0);
         let (mut wx, mut dwx, mut wy, mut dwy) = ([zero; S], [zero; S], [zero; S], [zero; S]);
         if let Some(factors) = view.factors {
@@ -64,14 +63,8 @@ impl<R: Real, const S: usize> Columns<R, S> {
         }
         let [sx, sy] = layout.strides;
         let ([ox, oy], [hx, hy]) = (layout.origin, layout.cell_size);
-        let lane = |l: usize| firsts[l.min(R::LANES - 1)];
-        let mut first = [0; 8];
-        for (l, f) in first.iter_mut().enumerate() {
-            let [i, j] = lane(l);
-            *f = i as usize * sx + j as usize * sy;
-        }
+        let ([i0, j0], first) = R::first_nodes(view.first, k, [sx, sy]);
         // x_{i0+a} = x₀ + (i0 + a) h, with (i0 + a) an exact integer in either form.
-        let (i0, j0) = (R::from_fn(|l| lane(l)[0] as f64), R::from_fn(|l| lane(l)[1] as f64));
         let (mut dx, mut dy) = ([zero; S], [zero; S]);
         for a in 0..S {
             let a_f = R::splat(a as f64);

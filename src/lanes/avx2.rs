@@ -154,4 +154,31 @@ impl Real for F64x4 {
             _mm_cvtsd_f64(_mm_max_pd(h, _mm_unpackhi_pd(h, h)))
         }
     }
+    #[inline(always)]
+    fn first_nodes(firsts: &[[u32; 2]], k: usize, strides: [usize; 2]) -> ([F64x4; 2], [usize; 8]) {
+        let v = &firsts[k..k + 4];
+        let mut nodes = [0usize; 8];
+        // SAFETY: `v` holds 4 pairs of u32 (32 bytes); AVX2 as above. u32 to f64 exactly:
+        // 2⁵² + x holds x in its mantissa.
+        let (i, j) = unsafe {
+            let raw = _mm256_loadu_si256(v.as_ptr().cast());
+            let split = _mm256_permutevar8x32_epi32(raw, _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7));
+            let i = _mm256_cvtepu32_epi64(_mm256_castsi256_si128(split));
+            let j = _mm256_cvtepu32_epi64(_mm256_extracti128_si256::<1>(split));
+            if super::strides_fit(strides) {
+                let [sx, sy] = strides.map(|s| _mm256_set1_epi64x(s as i64));
+                let n = _mm256_add_epi64(_mm256_mul_epu32(i, sx), _mm256_mul_epu32(j, sy));
+                _mm256_storeu_si256(nodes.as_mut_ptr().cast(), n);
+            } else {
+                nodes = super::first_nodes_by_lane(firsts, k, strides, 4);
+            }
+            let (magic, two52) = (
+                _mm256_set1_epi64x(super::TWO_52 as i64),
+                _mm256_set1_pd(4_503_599_627_370_496.0),
+            );
+            let exact = |x: __m256i| _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(x, magic)), two52);
+            (exact(i), exact(j))
+        };
+        ([F64x4(i), F64x4(j)], nodes)
+    }
 }

@@ -152,6 +152,28 @@ impl Real for F64x8 {
         // SAFETY: as above.
         unsafe { _mm512_reduce_max_pd(self.0) }
     }
+    #[inline(always)]
+    fn first_nodes(firsts: &[[u32; 2]], k: usize, strides: [usize; 2]) -> ([F64x8; 2], [usize; 8]) {
+        let v = &firsts[k..k + 8];
+        let mut nodes = [0usize; 8];
+        // SAFETY: `v` holds 8 pairs of u32 (64 bytes); AVX-512 as above.
+        let (i, j) = unsafe {
+            let raw = _mm512_loadu_si512(v.as_ptr().cast());
+            let order = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 1, 3, 5, 7, 9, 11, 13, 15);
+            let split = _mm512_permutexvar_epi32(order, raw);
+            let (i, j) = (_mm512_castsi512_si256(split), _mm512_extracti64x4_epi64::<1>(split));
+            if super::strides_fit(strides) {
+                let [sx, sy] = strides.map(|s| _mm512_set1_epi64(s as i64));
+                let (i64, j64) = (_mm512_cvtepu32_epi64(i), _mm512_cvtepu32_epi64(j));
+                let n = _mm512_add_epi64(_mm512_mul_epu32(i64, sx), _mm512_mul_epu32(j64, sy));
+                _mm512_storeu_si512(nodes.as_mut_ptr().cast(), n);
+            } else {
+                nodes = super::first_nodes_by_lane(firsts, k, strides, 8);
+            }
+            (_mm512_cvtepu32_pd(i), _mm512_cvtepu32_pd(j))
+        };
+        ([F64x8(i), F64x8(j)], nodes)
+    }
 }
 
 impl F64x8 {
