@@ -157,6 +157,9 @@ pub(crate) trait Real:
     /// numbers `i s_x + j s_y` (with `strides = [s_x, s_y]`; entries past [`Real::LANES`] are
     /// 0). Exact: every index is an integer below 2³².
     fn first_nodes(firsts: &[[u32; 2]], k: usize, strides: [usize; 2]) -> ([Self; 2], [usize; 8]);
+    /// Writes `[i, j]` of each lane to `pairs[k …]` as `u32`: the inverse of
+    /// [`Real::first_nodes`]'s values, for lanes holding integers in `[0, 2³²)`.
+    fn store_pairs(i: Self, j: Self, pairs: &mut [[u32; 2]], k: usize);
 }
 
 /// [`Real::first_nodes`] one lane at a time, for `lanes` lanes.
@@ -265,6 +268,10 @@ impl Real for f64 {
     fn first_nodes(firsts: &[[u32; 2]], k: usize, strides: [usize; 2]) -> ([f64; 2], [usize; 8]) {
         let [i, j] = firsts[k];
         ([f64::from(i), f64::from(j)], first_nodes_by_lane(firsts, k, strides, 1))
+    }
+    #[inline(always)]
+    fn store_pairs(i: f64, j: f64, pairs: &mut [[u32; 2]], k: usize) {
+        pairs[k] = [i as u32, j as u32];
     }
 }
 
@@ -468,7 +475,17 @@ mod tests {
                     // SAFETY: the CPU has AVX-512F and VL (checked above).
                     widths.push((8, unsafe { nodes_eight(firsts, k, strides) }));
                 }
-                for (lanes, ([i, j], nodes)) in widths {
+                for (lanes, ([i, j], nodes)) in widths.clone() {
+                    // Written back as pairs, the values give the same entries.
+                    let mut back = firsts.clone();
+                    back[k..k + lanes].fill([0, 0]);
+                    // SAFETY: as above (the width was only measured where the CPU has it).
+                    unsafe { store_back(&mut back, k, lanes, i, j) };
+                    assert_eq!(
+                        &back[k..k + lanes],
+                        &firsts[k..k + lanes],
+                        "{lanes} lanes stored back, k {k}"
+                    );
                     for l in 0..8 {
                         let ([ei, ej], en) = f64::first_nodes(firsts, k + l, strides);
                         let expected = if l < lanes { (ei, ej, en[0]) } else { (0.0, 0.0, 0) };
@@ -495,5 +512,27 @@ mod tests {
     fn nodes_eight(firsts: &[[u32; 2]], k: usize, strides: [usize; 2]) -> ([[f64; 8]; 2], [usize; 8]) {
         let ([i, j], nodes) = super::F64x8::first_nodes(firsts, k, strides);
         ([i.lanes(), j.lanes()], nodes)
+    }
+
+    /// [`Real::store_pairs`] of `lanes` (4 or 8) lanes from the values `i`, `j`.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn store_back(pairs: &mut [[u32; 2]], k: usize, lanes: usize, i: [f64; 8], j: [f64; 8]) {
+        if lanes == 4 {
+            store_back_four(pairs, k, i, j)
+        } else {
+            store_back_eight(pairs, k, i, j)
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn store_back_four(pairs: &mut [[u32; 2]], k: usize, i: [f64; 8], j: [f64; 8]) {
+        super::F64x4::store_pairs(super::F64x4::load(&i, 0), super::F64x4::load(&j, 0), pairs, k);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    fn store_back_eight(pairs: &mut [[u32; 2]], k: usize, i: [f64; 8], j: [f64; 8]) {
+        super::F64x8::store_pairs(super::F64x8::load(&i, 0), super::F64x8::load(&j, 0), pairs, k);
     }
 }

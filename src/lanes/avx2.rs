@@ -181,4 +181,17 @@ impl Real for F64x4 {
         };
         ([F64x4(i), F64x4(j)], nodes)
     }
+    #[inline(always)]
+    fn store_pairs(i: F64x4, j: F64x4, pairs: &mut [[u32; 2]], k: usize) {
+        let v = &mut pairs[k..k + 4];
+        // SAFETY: `v` holds 4 pairs of u32 (32 bytes); AVX2 as above. For an integer x in
+        // [0, 2³²), the bits of 2⁵² + x end in x: lane l's 64 bits become [i_l, j_l].
+        unsafe {
+            let two52 = _mm256_set1_pd(4_503_599_627_370_496.0);
+            let low = |x: __m256d| _mm256_castpd_si256(_mm256_add_pd(x, two52));
+            let mask = _mm256_set1_epi64x(0xffff_ffff);
+            let both = _mm256_or_si256(_mm256_and_si256(low(i.0), mask), _mm256_slli_epi64::<32>(low(j.0)));
+            _mm256_storeu_si256(v.as_mut_ptr().cast(), both);
+        }
+    }
 }

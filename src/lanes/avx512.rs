@@ -174,6 +174,18 @@ impl Real for F64x8 {
         };
         ([F64x8(i), F64x8(j)], nodes)
     }
+    #[inline(always)]
+    fn store_pairs(i: F64x8, j: F64x8, pairs: &mut [[u32; 2]], k: usize) {
+        let v = &mut pairs[k..k + 8];
+        // SAFETY: `v` holds 8 pairs of u32 (64 bytes); AVX-512F as above. As F64x4's.
+        unsafe {
+            let two52 = _mm512_set1_pd(4_503_599_627_370_496.0);
+            let low = |x: __m512d| _mm512_castpd_si512(_mm512_add_pd(x, two52));
+            let mask = _mm512_set1_epi64(0xffff_ffff);
+            let both = _mm512_or_si512(_mm512_and_si512(low(i.0), mask), _mm512_slli_epi64::<32>(low(j.0)));
+            _mm512_storeu_si512(v.as_mut_ptr().cast(), both);
+        }
+    }
 }
 
 impl F64x8 {

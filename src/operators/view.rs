@@ -81,10 +81,9 @@ pub(crate) fn relocate<R: Real>(
     let usable = ok_x && ok_y && !shifted_x && !shifted_y;
     let (mut lines, mut nodes) = ([0; 2], [0; 2]);
     if usable {
-        let (i, k) = (first_x.lanes(), first_y.lanes());
-        for l in 0..R::LANES {
-            first[j + l] = [i[l] as u32, k[l] as u32];
-        }
+        // One store, which the transfers' one load of the same entries then reads
+        // (`Real::first_nodes`).
+        R::store_pairs(first_x, first_y, first, j);
         t_x.store(tx, j);
         t_y.store(ty, j);
         // Lines and node numbers as exact integers in f64 (below 2⁵³), reduced over the lanes.
