@@ -332,3 +332,118 @@ fn uniform_spacing(lines: &[f64], all: &[f64], axis: &str) -> Result<f64> {
     }
     Ok(h)
 }
+
+/// Calls `f` on each range of nodes of the box (`span`, `columns`) outside the box
+/// (`new_span`, `new_columns`): a box being the nodes of a range of node numbers whose index
+/// along their line (`line_len` nodes per line; columns beyond it are clamped) lies in a range.
+pub(crate) fn outside_box(
+    (span, columns): (&std::ops::Range<usize>, &std::ops::Range<usize>),
+    (new_span, new_columns): (&std::ops::Range<usize>, &std::ops::Range<usize>),
+    line_len: usize,
+    mut f: impl FnMut(std::ops::Range<usize>),
+) {
+    if span.is_empty() || line_len == 0 {
+        return;
+    }
+    let segment = |line: usize, span: &std::ops::Range<usize>, columns: &std::ops::Range<usize>| {
+        let at = line * line_len;
+        let (a, b) = (at + columns.start.min(line_len), at + columns.end.min(line_len));
+        a.max(span.start)..b.min(span.end)
+    };
+    for line in span.start / line_len..(span.end - 1) / line_len + 1 {
+        let old = segment(line, span, columns);
+        let new = segment(line, new_span, new_columns);
+        if new.start >= new.end {
+            if old.start < old.end {
+                f(old);
+            }
+            continue;
+        }
+        for part in [old.start..old.end.min(new.start), old.start.max(new.end)..old.end] {
+            if part.start < part.end {
+                f(part);
+            }
+        }
+    }
+}
+
+/// Calls `f(range, along, line)` on each run of the nodes `start .. start + len` whose index
+/// along their line (`line_len` nodes per line) lies in `columns`: `range` the run's offsets
+/// from `start`, `along` the index of its first node along line `line`.
+#[inline(always)]
+pub(crate) fn column_runs(
+    start: usize,
+    len: usize,
+    line_len: usize,
+    columns: &std::ops::Range<usize>,
+    mut f: impl FnMut(std::ops::Range<usize>, usize, usize),
+) {
+    let end = start + len;
+    if len == 0 || line_len == 0 {
+        return;
+    }
+    let (c0, c1) = (columns.start.min(line_len), columns.end.min(line_len));
+    for line in start / line_len..(end - 1) / line_len + 1 {
+        let at = line * line_len;
+        let (a, b) = ((at + c0).max(start), (at + c1).min(end));
+        if a < b {
+            f(a - start..b - start, a - at, line);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{column_runs, outside_box};
+    use std::ops::Range;
+
+    /// Whether node `i` lies in the box (`span`, `columns`) of lines of `len` nodes.
+    fn inside(i: usize, span: &Range<usize>, columns: &Range<usize>, len: usize) -> bool {
+        span.contains(&i) && columns.contains(&(i % len))
+    }
+
+    #[test]
+    fn boxes_and_runs_are_the_nodes_counted_one_by_one() {
+        let len = 7;
+        let n = 8 * len;
+        let mut seed = 12345u64;
+        let mut draw = |m: usize| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 33) as usize % m
+        };
+        for _ in 0..2000 {
+            let mut range = |m: usize| {
+                let (a, b) = (draw(m + 1), draw(m + 1));
+                a.min(b)..a.max(b)
+            };
+            let (span, columns) = (range(n), range(len));
+            let (new_span, new_columns) = (range(n), range(len));
+            let mut marked = vec![0; n];
+            outside_box((&span, &columns), (&new_span, &new_columns), len, |r| {
+                r.for_each(|i| marked[i] += 1)
+            });
+            for (i, &m) in marked.iter().enumerate() {
+                let expected = inside(i, &span, &columns, len) && !inside(i, &new_span, &new_columns, len);
+                assert_eq!(
+                    m,
+                    usize::from(expected),
+                    "node {i} of {span:?} {columns:?} -> {new_span:?} {new_columns:?}"
+                );
+            }
+            let (start, count) = (span.start, span.len());
+            let mut seen = vec![0; n];
+            column_runs(start, count, len, &columns, |run, along, line| {
+                assert_eq!((start + run.start) % len, along);
+                assert_eq!((start + run.start) / len, line);
+                run.for_each(|j| seen[start + j] += 1)
+            });
+            for (i, &s) in seen.iter().enumerate() {
+                assert_eq!(
+                    s,
+                    usize::from(inside(i, &span, &columns, len)),
+                    "node {i} of {span:?} {columns:?}"
+                );
+            }
+        }
+    }
+}

@@ -78,6 +78,8 @@ pub(super) struct NextStats {
     hi: usize,
     min_line: usize,
     max_line: usize,
+    /// Lowest and highest first node's index along the lines.
+    along: [usize; 2],
     /// The lowest line below the band, and one past the highest line above it, of a skipped run.
     below: Option<usize>,
     above: Option<usize>,
@@ -92,6 +94,7 @@ impl Default for NextStats {
             hi: 0,
             min_line: usize::MAX,
             max_line: 0,
+            along: [usize::MAX, 0],
             below: None,
             above: None,
             zero: false,
@@ -103,8 +106,9 @@ impl Default for NextStats {
 /// What a block of the fused pass scatters into: its worker's band of the next accumulator.
 pub(crate) struct NextBand<'a> {
     band: Band<'a>,
-    /// The lines the whole next accumulator covers.
+    /// The lines the whole next accumulator covers, and the indices along them it zeroes.
     prepared: std::ops::Range<usize>,
+    columns: std::ops::Range<usize>,
     terms: NextTerms,
     stats: NextStats,
     /// The band's lines below this one are zeroed (the rest is zeroed as the particles reach
@@ -121,7 +125,14 @@ impl NextBand<'_> {
         let line = line.min(self.band.lines.end);
         if line > self.cleared_to {
             let (first, len) = (self.band.lines.start, self.line_len);
-            self.band.acc[(self.cleared_to - first) * len..(line - first) * len].fill([0.0; 5]);
+            let (c0, c1) = (self.columns.start, self.columns.end);
+            if c1 - c0 == len {
+                self.band.acc[(self.cleared_to - first) * len..(line - first) * len].fill([0.0; 5]);
+            } else {
+                for l in self.cleared_to - first..line - first {
+                    self.band.acc[l * len + c0..l * len + c1].fill([0.0; 5]);
+                }
+            }
             self.cleared_to = line;
         }
     }
@@ -215,14 +226,16 @@ fn relocate_group<R: Real, const S: usize>(j: usize, out: &mut G2pOutput, next: 
         return;
     }
     st.zero |= found.zero;
-    let (band, prepared) = (&next.band.lines, &next.prepared);
-    // The lanes' lowest and highest lines and nodes decide everything noted.
-    let ([low, high], [lo, hi]) = (found.lines, found.nodes);
-    if low < prepared.start || high + S > prepared.end {
+    let (band, prepared, columns) = (&next.band.lines, &next.prepared, &next.columns);
+    // The lanes' lowest and highest lines, nodes and indices along the lines decide everything
+    // noted.
+    let ([low, high], [lo, hi], [left, right]) = (found.lines, found.nodes, found.along);
+    if low < prepared.start || high + S > prepared.end || left < columns.start || right + S > columns.end {
         st.stopped = true;
         return;
     }
     (st.lo, st.hi) = (st.lo.min(lo), st.hi.max(hi));
+    st.along = [st.along[0].min(left), st.along[1].max(right)];
     (st.min_line, st.max_line) = (st.min_line.min(low), st.max_line.max(high));
     if low < band.start {
         st.below = Some(st.below.map_or(low, |b| b.min(low)));
@@ -271,6 +284,10 @@ pub(crate) fn g2p_then_p2g(
     let all_lines = ops.num_nodes() / line_len;
     let now = ops.line_span();
     let prepared = now.start.saturating_sub(MARGIN)..(now.end + MARGIN).min(all_lines);
+    // The indices along the lines the next accumulator zeroes: [`MARGIN`] around the columns
+    // this step's node pass read (all of each line when it read whole lines).
+    let (c0, c1) = (grid.columns.start.min(line_len), grid.columns.end);
+    let zeroed = c0.saturating_sub(MARGIN)..c1.saturating_add(MARGIN).min(line_len);
     let count = np.div_ceil(REDUCTION_BLOCK);
     let tasks = workers.threads().min(count).max(1);
     let task_block = |t: usize| t * count / tasks;
@@ -343,7 +360,14 @@ pub(crate) fn g2p_then_p2g(
     }
     let width = rule.packed_width();
     workers.chunks(&mut parts, 1, |_, task| {
-        run_task(&input, &mut task[0], prepared.clone(), terms, width, line_len);
+        run_task(
+            &input,
+            &mut task[0],
+            [prepared.clone(), zeroed.clone()],
+            terms,
+            width,
+            line_len,
+        );
     });
     drop((parts, out, input));
     let stats = &next.stats;
@@ -394,7 +418,10 @@ pub(crate) fn g2p_then_p2g(
     let (lo, hi, zero) = stats.iter().fold((usize::MAX, 0, false), |(lo, hi, z), s| {
         (lo.min(s.lo), hi.max(s.hi), z | s.zero)
     });
-    ops.finish_relocation(lo, hi, zero);
+    let along = stats
+        .iter()
+        .fold([usize::MAX, 0], |[a, b], s| [a.min(s.along[0]), b.max(s.along[1])]);
+    ops.finish_relocation([lo, hi], along, zero);
     next.base = next_base;
     next.ready = np > 0;
     next.ready
@@ -405,7 +432,7 @@ pub(crate) fn g2p_then_p2g(
 fn run_task(
     input: &G2pInput,
     task: &mut Task,
-    prepared: std::ops::Range<usize>,
+    [prepared, columns]: [std::ops::Range<usize>; 2],
     terms: NextTerms,
     width: usize,
     line_len: usize,
@@ -424,6 +451,7 @@ fn run_task(
                 lines: task.band.lines.clone(),
             },
             prepared: prepared.clone(),
+            columns: columns.clone(),
             terms,
             stats: NextStats::default(),
             cleared_to,

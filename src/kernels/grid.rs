@@ -29,40 +29,44 @@ pub(crate) fn update_lumped_grid(
     prescribed: &Prescribed,
     workers: &Workers,
 ) {
-    let span = grid.span.clone();
+    let (span, columns) = (grid.span.clone(), grid.columns.clone());
     let previous = std::mem::replace(&mut grid.lumped_span, span.clone());
+    let previous_columns = std::mem::replace(&mut grid.lumped_columns, columns.clone());
     let n = grid.updated.len();
     assert!(
         inverse.len() == n && is_active.len() == n,
         "one mass and one flag per node"
     );
-    // What the last pass left outside the new span.
-    let below = previous.start..previous.end.min(span.start);
-    let above = previous.start.max(span.end)..previous.end;
-    for range in [below, above].into_iter().filter(|r| r.start < r.end) {
+    let line_len = grid.line_len;
+    // What the last pass left outside the new box (the nodes p2g wrote).
+    crate::grid::outside_box((&previous, &previous_columns), (&span, &columns), line_len, |range| {
         grid.updated.x[range.clone()].fill(0.0);
         grid.updated.y[range].fill(0.0);
-    }
+    });
     let [gx, gy] = gravity;
     let base = grid.base;
     let out = (
         [&mut grid.updated.x[span.clone()], &mut grid.updated.y[span.clone()]],
         &mut grid.accumulator[span.start - base..span.end - base],
     );
-    // Blocks of nodes in parallel: every node on its own, `[w, v]` over its accumulator.
+    // Blocks of nodes in parallel: every node on its own, `[w, v]` over its accumulator. The
+    // nodes outside p2g's columns hold no mass (`w = 0`, as written before): skipped.
     let mut none: Vec<()> = Vec::new();
     workers.split_blocks(out, &mut none, |first, ([wx, wy], acc)| {
-        for j in 0..wx.len() {
-            let i = span.start + first + j;
-            let [m, qx, qy, fx, fy] = acc[j];
-            let inv = inverse[i];
-            let (vx, vy) = (qx * inv, qy * inv);
-            let (ax, ay) = ((fx + m * gx) * inv, (fy + m * gy) * inv);
-            let s = if is_active[i] { 1.0 } else { 0.0 };
-            let (w_x, w_y) = (s * (vx + dt * ax), s * (vy + dt * ay));
-            (wx[j], wy[j]) = (w_x, w_y);
-            acc[j] = [w_x, w_y, vx, vy, m];
-        }
+        let start = span.start + first;
+        crate::grid::column_runs(start, wx.len(), line_len, &columns, |run, _, _| {
+            for j in run {
+                let i = start + j;
+                let [m, qx, qy, fx, fy] = acc[j];
+                let inv = inverse[i];
+                let (vx, vy) = (qx * inv, qy * inv);
+                let (ax, ay) = ((fx + m * gx) * inv, (fy + m * gy) * inv);
+                let s = if is_active[i] { 1.0 } else { 0.0 };
+                let (w_x, w_y) = (s * (vx + dt * ax), s * (vy + dt * ay));
+                (wx[j], wy[j]) = (w_x, w_y);
+                acc[j] = [w_x, w_y, vx, vy, m];
+            }
+        });
     });
     for (component, i, value) in prescribed.each() {
         let w = if component == 0 {

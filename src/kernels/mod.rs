@@ -44,7 +44,7 @@ pub use gradient::{velocity_gradient_into, velocity_gradient_layered};
 pub(crate) use grid::update_lumped_grid;
 pub(crate) use p2g::subtract_particle_force;
 pub use p2g::{add_internal_force, p2g, reproject_momentum};
-pub(crate) use p2g::{p2g_prepared, p2g_with};
+pub(crate) use p2g::{p2g_prepared, p2g_with, NodeWrites};
 pub(crate) use particle::{update_stress, StressInput, StressOutput, SumInput};
 pub use particle::{Partials, ParticleSums, StressPartials, StressSums, SumPartials};
 pub(crate) use stiffness::subtract_tangent_forces;
@@ -94,6 +94,10 @@ pub struct GridState {
     /// Nodes outside this range hold zero mass, momentum and force ([`Operators::node_span`]
     /// at the last [`p2g`]).
     pub span: std::ops::Range<usize>,
+    /// Within `span`, nodes whose index along their line lies outside this range hold zero
+    /// mass, momentum and force too ([`Operators::column_span`] at the last [`p2g`], or the
+    /// whole line), and their entries of the accumulator are not read.
+    columns: std::ops::Range<usize>,
     /// Per node of the lines of `span`, what [`p2g`] accumulates, `[m_L, q_x, q_y, f_x, f_y]`
     /// (`f` without gravity), interleaved so that one particle's contributions to a node land
     /// together; from node `base`.
@@ -102,6 +106,10 @@ pub struct GridState {
     /// The nodes whose updated velocity the last lumped grid pass wrote
     /// ([`update_lumped_grid`]; all of them at first).
     lumped_span: std::ops::Range<usize>,
+    /// The columns of `lumped_span` it wrote.
+    lumped_columns: std::ops::Range<usize>,
+    /// Nodes per grid line ([`Operators::line_length`]).
+    line_len: usize,
     /// The angular momentum of each block of nodes of the last [`p2g`].
     angular_blocks: Vec<f64>,
     /// The next step's particle terms, scattered by the fused pass ([`fused`]).
@@ -124,14 +132,26 @@ impl GridState {
             frame: (grid.origin(), grid.cell_size()),
             angular_momentum: 0.0,
             span: 0..n,
+            columns: 0..usize::MAX,
             // Reserved for the whole grid (address space only: pages are touched as the span
             // needs them), so that a growing span never reallocates.
             accumulator: Vec::with_capacity(n),
             base: 0,
             lumped_span: 0..n,
+            lumped_columns: 0..usize::MAX,
+            line_len: {
+                let [sx, sy] = grid.strides();
+                sx.max(sy).max(1)
+            },
             angular_blocks: Vec::new(),
             next: fused::NextScatter::with_capacity(n),
         }
+    }
+
+    /// The nodes the last [`p2g`] wrote: its node span, and the indices along the grid lines
+    /// within it (outside them every node holds zero mass, momentum and force).
+    pub(crate) fn node_box(&self) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+        (self.span.clone(), self.columns.clone())
     }
 
     /// Whether the fused pass of the last step left this step's particle terms

@@ -32,12 +32,25 @@ pub fn p2g(
     grid: &mut GridState,
     workers: &Workers,
 ) {
-    p2g_with(ops, p, terms, lumped, grid, workers, true);
+    let writes = NodeWrites {
+        fields: true,
+        boxed: false,
+    };
+    p2g_with(ops, p, terms, lumped, grid, workers, writes);
 }
 
-/// [`p2g`], writing `grid.momentum` and `grid.force` when `fields` (otherwise only `m_L` and
-/// the angular momentum: the lumped grid pass, [`super::update_lumped_grid`], reads the rest
-/// from the accumulator).
+/// What the node pass of (2)–(5) writes: `q` and `f` as well as `m_L` (`fields`), and over
+/// which nodes of the operators' node span: those in their column span
+/// ([`Operators::column_span`], `boxed`; the others are left at the zero they hold) or all.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct NodeWrites {
+    pub fields: bool,
+    pub boxed: bool,
+}
+
+/// [`p2g`], writing `grid.momentum` and `grid.force` when `writes.fields` (otherwise only
+/// `m_L` and the angular momentum: the lumped grid pass, [`super::update_lumped_grid`], reads
+/// the rest from the accumulator), over the nodes of [`NodeWrites`].
 pub(crate) fn p2g_with(
     ops: &Operators,
     p: &Particles,
@@ -45,7 +58,7 @@ pub(crate) fn p2g_with(
     lumped: &mut [f64],
     grid: &mut GridState,
     workers: &Workers,
-    fields: bool,
+    writes: NodeWrites,
 ) {
     let P2gTerms { apic, gravity, stress } = terms;
     let internal = if stress == Stress::Include { 1.0 } else { 0.0 };
@@ -56,7 +69,7 @@ pub(crate) fn p2g_with(
         crate::with_support!(ops, p2g_columns::<S>(&source, 0..np, apic, internal, target))
     });
     grid.base = base;
-    p2g_nodes(ops, gravity, lumped, grid, workers, fields);
+    p2g_nodes(ops, gravity, lumped, grid, workers, writes);
 }
 
 /// The node pass of [`p2g_with`] after the fused pass of the last step scattered this step's
@@ -67,43 +80,48 @@ pub(crate) fn p2g_prepared(
     lumped: &mut [f64],
     grid: &mut GridState,
     workers: &Workers,
-    fields: bool,
+    writes: NodeWrites,
 ) {
     grid.take_next();
-    p2g_nodes(ops, gravity, lumped, grid, workers, fields);
+    p2g_nodes(ops, gravity, lumped, grid, workers, writes);
 }
 
 /// What (2)–(5) write per node from the accumulator of the particles' terms: `m_L`, `q` and
-/// `f` (with gravity `m_L g`; only `m_L` without `fields`) over the operators' node span, zero
-/// outside it, and the angular momentum `Σ_I x_I × q_I`.
+/// `f` (with gravity `m_L g`; only `m_L` without `fields`) over the nodes of `writes`, zero
+/// outside them, and the angular momentum `Σ_I x_I × q_I`.
 fn p2g_nodes(
     ops: &Operators,
     gravity: [f64; 2],
     lumped: &mut [f64],
     grid: &mut GridState,
     workers: &Workers,
-    fields: bool,
+    writes: NodeWrites,
 ) {
+    let fields = writes.fields;
+    let columns = if writes.boxed {
+        ops.column_span()
+    } else {
+        0..ops.line_length()
+    };
     let n = ops.num_nodes();
     assert!(
         lumped.len() == n && grid.momentum.len() == n,
         "grid mass and state sized for the operators' nodes"
     );
     let span = ops.node_span();
-    // Zero what the last p2g left outside the new span.
-    let old = grid.span.clone();
-    let below = old.start..old.end.min(span.start);
-    let above = old.start.max(span.end)..old.end;
-    for range in [below, above].into_iter().filter(|r| r.start < r.end) {
+    let line_len = ops.line_length().max(1);
+    // Zero what the last p2g left outside the new box.
+    let old = (&grid.span, &grid.columns);
+    crate::grid::outside_box(old, (&span, &columns), line_len, |range| {
         lumped[range.clone()].fill(0.0);
         // (Without `fields` they are never written, so never need clearing.)
         for field in [&mut grid.momentum, &mut grid.force].into_iter().filter(|_| fields) {
             field.x[range.clone()].fill(0.0);
             field.y[range.clone()].fill(0.0);
         }
-    }
+    });
     let [gx, gy] = gravity;
-    let (line_len, ([ox, oy], [hx, hy])) = (ops.line_length().max(1), grid.frame);
+    let ([ox, oy], [hx, hy]) = grid.frame;
     let runs_along_x = ops.strides()[0] == 1;
     let GridState {
         momentum,
@@ -123,33 +141,32 @@ fn p2g_nodes(
             &mut force.y[span.clone()],
         ],
     );
-    // Blocks of nodes in parallel; the angular momentum in fixed blocks, added in order.
+    // Blocks of nodes in parallel; the angular momentum in fixed blocks, added in order. The
+    // nodes outside the columns hold zeros, added as such before: skipped.
     workers.split_blocks(out, angular_blocks, |first, (lumped, [qx, qy, fx, fy])| {
         let start = span.start + first;
         let mut angular = 0.0;
-        // Node i's index along its line and its line, counted up with i.
-        let (mut along, mut across) = (start % line_len, start / line_len);
-        for (j, m) in lumped.iter_mut().enumerate() {
-            let r = acc[start + j - base];
-            *m = r[0];
-            if fields {
-                (qx[j], qy[j]) = (r[1], r[2]);
-                (fx[j], fy[j]) = (r[3] + r[0] * gx, r[4] + r[0] * gy);
+        crate::grid::column_runs(start, lumped.len(), line_len, &columns, |run, along, across| {
+            for (k, j) in run.enumerate() {
+                let r = acc[start + j - base];
+                lumped[j] = r[0];
+                if fields {
+                    (qx[j], qy[j]) = (r[1], r[2]);
+                    (fx[j], fy[j]) = (r[3] + r[0] * gx, r[4] + r[0] * gy);
+                }
+                // Grid::node_position of node i, formed as it forms it.
+                let along = along + k;
+                let (ix, iy) = if runs_along_x { (along, across) } else { (across, along) };
+                let (xi, yi) = (ox + ix as f64 * hx, oy + iy as f64 * hy);
+                angular += xi * r[2] - yi * r[1];
             }
-            // Grid::node_position of node i, formed as it forms it.
-            let (ix, iy) = if runs_along_x { (along, across) } else { (across, along) };
-            let (xi, yi) = (ox + ix as f64 * hx, oy + iy as f64 * hy);
-            angular += xi * r[2] - yi * r[1];
-            along += 1;
-            if along == line_len {
-                (along, across) = (0, across + 1);
-            }
-        }
+        });
         angular
     });
     let angular = grid.angular_blocks.iter().sum();
     grid.angular_momentum = angular;
     grid.span = span;
+    grid.columns = columns;
 }
 
 /// A deterministic scatter into the interleaved accumulator: zeroes it over the operators'

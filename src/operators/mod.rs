@@ -61,9 +61,9 @@ use crate::particles::Particles;
 use crate::shape::{AxisFrame, ShapeFunction};
 use crate::with_support;
 use locate::fill_local_body;
-use locate::LocalBlock;
 #[cfg(target_arch = "x86_64")]
 use locate::{fill_local_avx2, fill_local_avx512};
+use locate::{BlockSpan, LocalBlock};
 use products::{column_entries, fill_csc};
 
 /// Why particle `p` at `position` is not accepted by `shape` on `grid`.
@@ -139,12 +139,14 @@ pub struct Operators {
     factors: Vec<f64>,
     /// Node numbers from the lowest to one past the highest node any stencil touches.
     span: std::ops::Range<usize>,
+    /// Indices along the grid lines from the lowest to one past the highest any stencil touches.
+    columns: std::ops::Range<usize>,
     /// The CSC arrays, built from the factors on first use after an assembly.
     csc: OnceLock<Csc>,
     /// Per block of particles, whether all were accepted, and their lowest and highest first
     /// nodes and whether a stencil was shifted (work arrays of the assembly).
     block_flags: Vec<bool>,
-    block_spans: Vec<(usize, usize, bool, bool)>,
+    block_spans: Vec<BlockSpan>,
 }
 
 /// The compressed sparse column arrays of N, Gx, Gy (shared pattern).
@@ -270,7 +272,6 @@ impl Operators {
     fn fill_local(&mut self, x: &[f64], y: &[f64], workers: &Workers) -> (bool, bool) {
         let [sx, sy] = self.strides;
         let frames = self.frames;
-        let s = self.support;
         let mut spans = std::mem::take(&mut self.block_spans);
         let [tx, ty] = &mut self.local;
         let out = (&mut self.first[..], [&mut tx[..], &mut ty[..]]);
@@ -291,19 +292,10 @@ impl Operators {
             }
             fill_local_body::<1>(&block, firsts, t)
         });
-        let (lo, hi, shifted, zero) = spans
-            .iter()
-            .fold((usize::MAX, 0, false, false), |(lo, hi, sh, z), &(l, h, s, w)| {
-                (lo.min(l), hi.max(h), sh | s, z | w)
-            });
+        let found = spans.iter().fold(BlockSpan::default(), |a, &b| a.join(b));
         self.block_spans = spans;
-        // The last node of a stencil is (S − 1)(sx + sy) after its first.
-        self.span = if x.is_empty() {
-            0..0
-        } else {
-            lo..hi + (s - 1) * (sx + sy) + 1
-        };
-        (shifted, zero)
+        self.set_span(x.is_empty(), found);
+        (found.shifted, found.zero)
     }
 
     /// Writes every particle's first node and factors from its position (as
@@ -315,30 +307,39 @@ impl Operators {
         let mut spans = std::mem::take(&mut self.block_spans);
         let out = (&mut self.first[..], Strided(&mut self.factors[..], 4 * S));
         workers.split_blocks(out, &mut spans, |start, (firsts, Strided(factors, _))| {
-            let (mut lo, mut hi) = (usize::MAX, 0);
+            let mut found = BlockSpan {
+                shifted: true,
+                zero: true,
+                ..BlockSpan::default()
+            };
             for (j, (first, f)) in firsts.iter_mut().zip(factors.chunks_exact_mut(4 * S)).enumerate() {
                 let p = start + j;
                 let wx = fx.weights(fx.accept(x[p]).expect(accepted));
                 let wy = fy.weights(fy.accept(y[p]).expect(accepted));
-                let node = wx.first * sx + wy.first * sy;
-                (lo, hi) = (lo.min(node), hi.max(node));
+                found = found.join(BlockSpan::of_first(wx.first, wy.first, [sx, sy]));
                 *first = [wx.first as u32, wy.first as u32];
                 f[..S].copy_from_slice(&wx.value[..S]);
                 f[S..2 * S].copy_from_slice(&wx.derivative[..S]);
                 f[2 * S..3 * S].copy_from_slice(&wy.value[..S]);
                 f[3 * S..].copy_from_slice(&wy.derivative[..S]);
             }
-            (lo, hi, true, true)
+            found
         });
-        let (lo, hi) = spans
-            .iter()
-            .fold((usize::MAX, 0), |(lo, hi), &(l, h, _, _)| (lo.min(l), hi.max(h)));
+        let found = spans.iter().fold(BlockSpan::default(), |a, &b| a.join(b));
         self.block_spans = spans;
+        self.set_span(x.is_empty(), found);
+    }
+
+    /// The node span and the column span from what the assembly `found`.
+    fn set_span(&mut self, empty: bool, found: BlockSpan) {
+        let [sx, sy] = self.strides;
+        let s = self.support;
         // The last node of a stencil is (S − 1)(sx + sy) after its first.
-        self.span = if x.is_empty() {
-            0..0
+        (self.span, self.columns) = if empty {
+            (0..0, 0..0)
         } else {
-            lo..hi + (S - 1) * (sx + sy) + 1
+            let [a, b] = found.along;
+            (found.lo..found.hi + (s - 1) * (sx + sy) + 1, a..b + s)
         };
     }
 
@@ -401,6 +402,14 @@ impl Operators {
     /// every row of N, Gx, Gy outside this range is empty. (Empty before the first assembly.)
     pub fn node_span(&self) -> std::ops::Range<usize> {
         self.span.clone()
+    }
+
+    /// The indices along the grid lines (see [`Operators::line_length`]) from the lowest to one
+    /// past the highest any particle's support touches: within [`Operators::node_span`], every
+    /// row of N, Gx, Gy whose node's index along its line lies outside this range is empty.
+    /// (Empty before the first assembly.)
+    pub fn column_span(&self) -> std::ops::Range<usize> {
+        self.columns.clone()
     }
 
     /// Node-number strides along x and y.
@@ -492,12 +501,11 @@ impl Operators {
             f(p, first, factors);
         }
         self.csc.take();
-        let [sx, sy] = self.strides;
-        let (lo, hi) = self.first.iter().fold((usize::MAX, 0), |(lo, hi), &[i, j]| {
-            let node = i as usize * sx + j as usize * sy;
-            (lo.min(node), hi.max(node))
+        let strides = self.strides;
+        let found = self.first.iter().fold(BlockSpan::default(), |a, &[i, j]| {
+            a.join(BlockSpan::of_first(i as usize, j as usize, strides))
         });
-        self.span = lo..hi + (s - 1) * (sx + sy) + 1;
+        self.set_span(self.first.is_empty(), found);
     }
 
     /// The CSC arrays, built from the factors on first use after an assembly.

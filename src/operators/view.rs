@@ -60,6 +60,8 @@ pub(crate) struct Relocated {
     pub(crate) zero: bool,
     pub(crate) lines: [usize; 2],
     pub(crate) nodes: [usize; 2],
+    /// The lanes' lowest and highest first node's index along the lines.
+    pub(crate) along: [usize; 2],
 }
 
 /// Locates the particles at `(x, y)` (one per lane, [`AxisFrame::locate_lanes`], the same
@@ -79,7 +81,7 @@ pub(crate) fn relocate<R: Real>(
     let (ok_x, first_x, t_x, shifted_x, zero_x) = fx.locate_lanes(x);
     let (ok_y, first_y, t_y, shifted_y, zero_y) = fy.locate_lanes(y);
     let usable = ok_x && ok_y && !shifted_x && !shifted_y;
-    let (mut lines, mut nodes) = ([0; 2], [0; 2]);
+    let (mut lines, mut nodes, mut along) = ([0; 2], [0; 2], [0; 2]);
     if usable {
         // One store, which the transfers' one load of the same entries then reads
         // (`Real::first_nodes`).
@@ -88,9 +90,14 @@ pub(crate) fn relocate<R: Real>(
         t_y.store(ty, j);
         // Lines and node numbers as exact integers in f64 (below 2⁵³), reduced over the lanes.
         let [sx, sy] = layout.strides;
-        let line = if sx == 1 { first_y } else { first_x };
+        let (line, index) = if sx == 1 {
+            (first_y, first_x)
+        } else {
+            (first_x, first_y)
+        };
         let node = first_x * R::splat(sx as f64) + first_y * R::splat(sy as f64);
         lines = [line.min_lane() as usize, line.max_lane() as usize];
+        along = [index.min_lane() as usize, index.max_lane() as usize];
         nodes = [node.min_lane() as usize, node.max_lane() as usize];
     }
     Relocated {
@@ -98,6 +105,7 @@ pub(crate) fn relocate<R: Real>(
         zero: zero_x || zero_y,
         lines,
         nodes,
+        along,
     }
 }
 
@@ -148,10 +156,12 @@ impl Operators {
     }
 
     /// After every column was rewritten by [`relocate`]: the node span from the lowest and
-    /// highest first node `lo`, `hi`, and whether some weight may be zero.
-    pub(crate) fn finish_relocation(&mut self, lo: usize, hi: usize, zero: bool) {
+    /// highest first node `lo`, `hi`, the column span from the lowest and highest first
+    /// node's index along the lines `along`, and whether some weight may be zero.
+    pub(crate) fn finish_relocation(&mut self, [lo, hi]: [usize; 2], along: [usize; 2], zero: bool) {
         let [sx, sy] = self.strides;
         self.span = lo..hi + (self.support - 1) * (sx + sy) + 1;
+        self.columns = along[0]..along[1] + self.support;
         self.zero_weights = zero;
         self.stores_factors = false;
         self.csc.take();

@@ -146,7 +146,10 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
     };
     let (ops, mass, nodes, each) = (&cache.ops, &mut cache.mass, &mut cache.nodes, &mut cache.component_ops);
     let mass = &mut *mass;
-    let fields = !plan.lumped_grid_pass;
+    let writes = kernels::NodeWrites {
+        fields: !plan.lumped_grid_pass,
+        boxed: !folds_mass(setup),
+    };
     timed(profile, Phase::P2g, || {
         let terms = P2gTerms {
             apic: plan.apic,
@@ -154,9 +157,9 @@ pub(super) fn prepare_grid(input: StepInput, out: StepOutput) -> Result<()> {
             stress,
         };
         if prepared {
-            kernels::p2g_prepared(ops, plan.gravity, mass.lumped_mut(), nodes, workers, fields);
+            kernels::p2g_prepared(ops, plan.gravity, mass.lumped_mut(), nodes, workers, writes);
         } else {
-            kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, fields);
+            kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, writes);
         }
         mirror.fold_lumped(grid, p, ops, mass.lumped_mut());
         walls::fold_lumped(slip, grid, mass.lumped_mut());
@@ -206,15 +209,26 @@ fn lumped_only(plan: &StepPlan) -> bool {
     plan.mass.velocity == MassScheme::Lumped && plan.mass.acceleration == MassScheme::Lumped
 }
 
-/// The nodes that may carry grid mass: the operators' span, or every node when walls fold
-/// mass across them (mirrored or slip walls).
-pub(super) fn massive_span(setup: &Setup, ops: &Operators) -> std::ops::Range<usize> {
-    let prescribed = &setup.prescribed;
-    if prescribed.mirror.is_empty() && prescribed.slip.is_empty() {
-        ops.node_span()
-    } else {
-        0..ops.num_nodes()
+/// The nodes that may carry grid mass, as a node span and the indices along the grid lines
+/// within it: the operators' ([`Operators::node_span`], [`Operators::column_span`]), or every
+/// node when walls fold mass across them (mirrored or slip walls).
+/// With `written`, the nodes its last p2g wrote in place of the operators'.
+pub(super) fn massive_box(
+    setup: &Setup,
+    ops: &Operators,
+    written: Option<&GridState>,
+) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+    match written {
+        _ if folds_mass(setup) => (0..ops.num_nodes(), 0..ops.line_length()),
+        Some(grid) => grid.node_box(),
+        None => (ops.node_span(), ops.column_span()),
     }
+}
+
+/// Whether walls fold mass across the operators' span (mirrored or slip walls).
+fn folds_mass(setup: &Setup) -> bool {
+    let prescribed = &setup.prescribed;
+    !(prescribed.mirror.is_empty() && prescribed.slip.is_empty())
 }
 
 /// The grid mass of the particles `p` (whose `m_L` p2g left in `mass`) with the mass options
@@ -232,12 +246,12 @@ pub(super) fn prepare_mass(
 ) -> Result<()> {
     let (slip, workers) = (&setup.prescribed.slip, &setup.workers);
     let constraints = &setup.prescribed.constraints;
-    let span = massive_span(setup, ops);
+    let nodes = massive_box(setup, ops, None);
     if slip.is_empty() || lumped_only(plan) {
-        return mass.prepare_with(ops, &p.mass, choice, constraints, span, workers);
+        return mass.prepare_with(ops, &p.mass, choice, constraints, nodes, workers);
     }
     let [x, y] = each;
-    mass.prepare_components([x, y], &p.mass, choice, constraints, span, workers)
+    mass.prepare_components([x, y], &p.mass, choice, constraints, nodes.0, workers)
 }
 
 /// (6)–(8b) and XPIC/FMPM's series velocity (USF: the stress update after (6)); the

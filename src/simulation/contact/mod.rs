@@ -141,7 +141,11 @@ pub(super) fn prepare_layers(setup: &Setup, plan: &StepPlan, state: &mut State, 
                 weight,
             } = layer;
             mass.lumped_mut().resize(ops.num_nodes(), 0.0);
-            kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, true);
+            let writes = kernels::NodeWrites {
+                fields: true,
+                boxed: false,
+            };
+            kernels::p2g_with(ops, p, terms, mass.lumped_mut(), nodes, workers, writes);
             mirror.fold_lumped(grid, p, ops, mass.lumped_mut());
             walls::fold_lumped(slip, grid, mass.lumped_mut());
             walls::fold(slip, grid, &mut nodes.momentum);
