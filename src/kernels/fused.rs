@@ -189,7 +189,7 @@ pub(super) fn relocate_and_scatter<const S: usize, const V: usize>(
         position: [&*out.position[0], &*out.position[1]],
         mass: &input.mass[first..],
         velocity: [&*out.velocity[0], &*out.velocity[1]],
-        force: [&input.force[0][first..], &input.force[1][first..]],
+        force: input.force.map(|[bx, by]| [&bx[first..], &by[first..]]),
         volume,
         stress,
         affine: [&*out.affine[0], &*out.affine[1], &*out.affine[2], &*out.affine[3]],

@@ -57,6 +57,8 @@ pub(crate) struct Fused<'a> {
     /// (9) `x_p ← x_p + Δx_p` and the report's particle sums under this gravity (instead of
     /// the position increments into the scratch).
     pub moves: Option<[f64; 2]>,
+    /// Every particle's body force is +0: zeros stand in for it, not read.
+    pub zero_body_force: bool,
 }
 
 /// What a fused pass returns per block of particles.
@@ -96,6 +98,7 @@ pub fn g2p(
     let fused = Fused {
         stress: None,
         moves: None,
+        zero_body_force: false,
     };
     let mut blocks = std::mem::take(&mut scratch.blocks);
     let width = rule.packed_width();
@@ -219,7 +222,7 @@ pub(super) fn split_pass<'a>(
         dt,
         mass: &p.mass,
         body: &p.body,
-        force: [&p.bx, &p.by],
+        force: (!fused.zero_body_force).then_some([&p.bx, &p.by]),
         stress: fused.stress,
         gravity: fused.moves,
         held,
@@ -265,7 +268,8 @@ pub(super) struct G2pInput<'a> {
     pub(super) dt: f64,
     pub(super) mass: &'a [f64],
     pub(super) body: &'a [usize],
-    pub(super) force: [&'a [f64]; 2],
+    /// The body forces (`None`: all +0).
+    pub(super) force: Option<[&'a [f64]; 2]>,
     pub(super) stress: Option<&'a [crate::material::Prepared]>,
     pub(super) gravity: Option<[f64; 2]>,
     /// `σxx, σyy, σxy` and `V` of every particle when the pass does not update them.
@@ -632,10 +636,20 @@ fn update_group<R: Gather, const S: usize, const W: usize>(
                     x: [x, y],
                     v: [new_x, new_y],
                     m: R::load(input.mass, k),
-                    b: [R::load(input.force[0], k), R::load(input.force[1], k)],
+                    b: body_force(input.force, k),
                 };
                 block.sums.add(j, k, sum, gravity);
             }
         }
+    }
+}
+
+/// Particles `k …`'s body forces, or zeros (the same operations follow on them) when `force`
+/// is `None`.
+#[inline(always)]
+pub(super) fn body_force<R: Real>(force: Option<[&[f64]; 2]>, k: usize) -> [R; 2] {
+    match force {
+        Some([bx, by]) => [R::load(bx, k), R::load(by, k)],
+        None => [R::splat(0.0), R::splat(0.0)],
     }
 }

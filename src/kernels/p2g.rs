@@ -206,7 +206,8 @@ pub(crate) struct P2gSource<'a> {
     pub position: [&'a [f64]; 2],
     pub mass: &'a [f64],
     pub velocity: [&'a [f64]; 2],
-    pub force: [&'a [f64]; 2],
+    /// The body forces (`None`: all +0, not read).
+    pub force: Option<[&'a [f64]; 2]>,
     pub volume: &'a [f64],
     /// `σxx`, `σyy`, `σxy`.
     pub stress: [&'a [f64]; 3],
@@ -222,7 +223,7 @@ impl<'a> P2gSource<'a> {
             position: [&p.x, &p.y],
             mass: &p.mass,
             velocity: [&p.vx, &p.vy],
-            force: [&p.bx, &p.by],
+            force: Some([&p.bx, &p.by]),
             volume: &p.volume,
             stress: [&p.sxx, &p.syy, &p.sxy],
             affine: [&p.affine_xx, &p.affine_xy, &p.affine_yx, &p.affine_yy],
@@ -422,7 +423,8 @@ impl<R: Real, const S: usize> Group<R, S> {
         let cols = Columns::<R, S>::load_view(&p.cols, k, R::load(x, k), R::load(y, k));
         let m = R::load(p.mass, k);
         let mv = [m * R::load(p.velocity[0], k), m * R::load(p.velocity[1], k)];
-        let mb = [m * R::load(p.force[0], k), m * R::load(p.force[1], k)];
+        let [bx, by] = super::g2p::body_force::<R>(p.force, k);
+        let mb = [m * bx, m * by];
         let v = R::splat(internal) * R::load(p.volume, k);
         // (Written out: a closure of `array::map` is not compiled for the vector build's CPU.)
         let [sxx, syy, sxy] = [

@@ -140,6 +140,7 @@ impl Simulation {
                 nodes,
                 component_ops: Default::default(),
                 layers: Default::default(),
+                zero_body_force: None,
             },
             profile: None,
         })

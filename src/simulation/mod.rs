@@ -182,6 +182,10 @@ struct Cache {
     component_ops: [Operators; 2],
     /// One grid per body, under contact ([`crate::contact`]; empty without).
     layers: contact::Layers,
+    /// Whether every particle's body force is exactly +0, so that the passes need not read it
+    /// (the same operations on zeros they would have read): found when first needed after the
+    /// body forces were last set.
+    zero_body_force: Option<bool>,
 }
 
 /// Work arrays of the phases, kept between steps.
@@ -341,6 +345,7 @@ impl Simulation {
     /// such as a manufactured solution's, call it before each step with the time in `b`.
     pub fn set_body_force(&mut self, mut b: impl FnMut(usize, [f64; 2]) -> [f64; 2]) {
         self.cache.nodes.discard_next();
+        self.cache.zero_body_force = None;
         let p = &mut self.state.particles;
         for k in 0..p.len() {
             [p.bx[k], p.by[k]] = b(p.id[k], [p.x[k], p.y[k]]);

@@ -334,8 +334,12 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
         mass,
         nodes,
         layers,
+        zero_body_force,
         ..
     } = cache;
+    let p = &state.particles;
+    // (+0 exactly: a −0 would give other zeros' signs than the zeros standing in for it.)
+    let zero_body_force = *zero_body_force.get_or_insert_with(|| p.bx.iter().chain(&p.by).all(|b| b.to_bits() == 0));
     let (series, stress_last) = (plan.series, plan.stress_last);
     let rule = G2pRule {
         transfer: plan.transfer,
@@ -351,6 +355,7 @@ pub(super) fn particle_phases(input: StepInput, out: StepOutput, dt: f64) -> Res
     let fused = Fused {
         stress: (stress_last == Some(StressFrom::Updated) && !plastic).then_some(&setup.materials[..]),
         moves: (stress_last != Some(StressFrom::Reprojected)).then_some(plan.gravity),
+        zero_body_force,
     };
     let next = super::fused::next_terms(input, state.steps, ops, &fused);
     let (p, workers) = (&mut state.particles, &setup.workers);
