@@ -55,16 +55,17 @@ pub(crate) fn update_lumped_grid(
     workers.split_blocks(out, &mut none, |first, ([wx, wy], acc)| {
         let start = span.start + first;
         crate::grid::column_runs(start, wx.len(), line_len, &columns, |run, _, _| {
-            for j in run {
-                let i = start + j;
-                let [m, qx, qy, fx, fy] = acc[j];
-                let inv = inverse[i];
+            let nodes = run.start + start..run.end + start;
+            let grid = (inverse[nodes.clone()].iter()).zip(&is_active[nodes]);
+            let w = wx[run.clone()].iter_mut().zip(&mut wy[run.clone()]);
+            for ((node, (&inv, &active)), (wx, wy)) in acc[run].iter_mut().zip(grid).zip(w) {
+                let [m, qx, qy, fx, fy] = *node;
                 let (vx, vy) = (qx * inv, qy * inv);
                 let (ax, ay) = ((fx + m * gx) * inv, (fy + m * gy) * inv);
-                let s = if is_active[i] { 1.0 } else { 0.0 };
+                let s = if active { 1.0 } else { 0.0 };
                 let (w_x, w_y) = (s * (vx + dt * ax), s * (vy + dt * ay));
-                (wx[j], wy[j]) = (w_x, w_y);
-                acc[j] = [w_x, w_y, vx, vy, m];
+                (*wx, *wy) = (w_x, w_y);
+                *node = [w_x, w_y, vx, vy, m];
             }
         });
     });

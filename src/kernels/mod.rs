@@ -148,12 +148,6 @@ impl GridState {
         }
     }
 
-    /// The nodes the last [`p2g`] wrote: its node span, and the indices along the grid lines
-    /// within it (outside them every node holds zero mass, momentum and force).
-    pub(crate) fn node_box(&self) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
-        (self.span.clone(), self.columns.clone())
-    }
-
     /// Whether the fused pass of the last step left this step's particle terms
     /// ([`fused::g2p_then_p2g`]).
     pub(crate) fn next_ready(&self) -> bool {

@@ -147,18 +147,22 @@ fn p2g_nodes(
         let start = span.start + first;
         let mut angular = 0.0;
         crate::grid::column_runs(start, lumped.len(), line_len, &columns, |run, along, across| {
-            for (k, j) in run.enumerate() {
-                let r = acc[start + j - base];
-                lumped[j] = r[0];
-                if fields {
-                    (qx[j], qy[j]) = (r[1], r[2]);
-                    (fx[j], fy[j]) = (r[3] + r[0] * gx, r[4] + r[0] * gy);
-                }
+            let nodes = &acc[start + run.start - base..start + run.end - base];
+            for (k, (r, m)) in nodes.iter().zip(&mut lumped[run.clone()]).enumerate() {
+                *m = r[0];
                 // Grid::node_position of node i, formed as it forms it.
                 let along = along + k;
                 let (ix, iy) = if runs_along_x { (along, across) } else { (across, along) };
                 let (xi, yi) = (ox + ix as f64 * hx, oy + iy as f64 * hy);
                 angular += xi * r[2] - yi * r[1];
+            }
+            if fields {
+                let out = (qx[run.clone()].iter_mut().zip(&mut qy[run.clone()]))
+                    .zip(fx[run.clone()].iter_mut().zip(&mut fy[run.clone()]));
+                for (r, ((qx, qy), (fx, fy))) in nodes.iter().zip(out) {
+                    (*qx, *qy) = (r[1], r[2]);
+                    (*fx, *fy) = (r[3] + r[0] * gx, r[4] + r[0] * gy);
+                }
             }
         });
         angular

@@ -60,9 +60,8 @@ impl GridMass {
             fixed_x: every,
             fixed_y: constraints.fixed_y.clone(),
         };
-        let whole = 0..each[0].line_length();
-        self.prepare_with(each[0], m, options, &x_only, (nodes.clone(), whole.clone()), workers)?;
-        y.prepare_with(each[1], m, options, &y_only, (nodes, whole), workers)?;
+        self.prepare_with(each[0], m, options, &x_only, nodes.clone(), workers)?;
+        y.prepare_with(each[1], m, options, &y_only, nodes, workers)?;
         // What the solves write on prescribed components reads the real constraints.
         self.constraints.fixed_y.clone_from(&constraints.fixed_y);
         y.constraints.fixed_x.clone_from(&constraints.fixed_x);

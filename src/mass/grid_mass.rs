@@ -112,9 +112,8 @@ pub struct GridMass {
     every_massive_node_active: bool,
     /// Per block of nodes, work space of [`GridMass::prepare_with`].
     block_counts: Vec<[usize; 2]>,
-    /// The nodes whose active flag and `1/m_L` the last preparation wrote: a node span and the
-    /// indices along the grid lines within it.
-    prepared: (std::ops::Range<usize>, std::ops::Range<usize>),
+    /// The nodes whose active flag and `1/m_L` the last preparation wrote.
+    prepared: std::ops::Range<usize>,
     /// The prescribed degrees of freedom of the last update.
     pub(super) constraints: Constraints,
     /// Free degrees of freedom of the x and y components (schemes other than lumped).
@@ -208,22 +207,21 @@ impl GridMass {
         options: &MassOptions,
         constraints: &Constraints,
     ) -> Result<()> {
-        let all = (0..ops.num_nodes(), 0..ops.line_length());
+        let all = 0..ops.num_nodes();
         self.prepare_with(ops, m, options, constraints, all, &Workers::default())
     }
 
     /// [`GridMass::prepare`] for a lumped mass that is zero outside the nodes `nodes` (the
-    /// operators' node span and column span, for the time loop's particle-to-grid pass; see
-    /// [`crate::grid::outside_box`]): the active set and `1/m_L` written there only (and
-    /// cleared where the last call wrote them and this one does not), in blocks of nodes on
-    /// `workers`' threads (the result does not depend on them).
+    /// operators' node span, for the time loop's particle-to-grid pass): the active set and
+    /// `1/m_L` written there only (and cleared where the last call wrote them and this one does
+    /// not), in blocks of nodes on `workers`' threads (the result does not depend on them).
     pub(crate) fn prepare_with(
         &mut self,
         ops: &Operators,
         m: &[f64],
         options: &MassOptions,
         constraints: &Constraints,
-        (nodes, columns): (std::ops::Range<usize>, std::ops::Range<usize>),
+        nodes: std::ops::Range<usize>,
         workers: &Workers,
     ) -> Result<()> {
         let n = ops.num_nodes();
@@ -236,54 +234,43 @@ impl GridMass {
         self.constraints.fixed_y.clone_from(&constraints.fixed_y);
         if self.is_active.len() != n {
             // Zeroed pages, touched where the nodes need them.
-            (self.is_active, self.inverse, self.prepared) = (vec![false; n], vec![0.0; n], (0..0, 0..0));
+            (self.is_active, self.inverse, self.prepared) = (vec![false; n], vec![0.0; n], 0..0);
         }
-        let line_len = ops.line_length();
-        let (old, old_columns) = std::mem::replace(&mut self.prepared, (nodes.clone(), columns.clone()));
-        crate::grid::outside_box((&old, &old_columns), (&nodes, &columns), line_len, |range| {
-            self.is_active[range.clone()].fill(false);
-            self.inverse[range].fill(0.0);
-        });
+        let old = std::mem::replace(&mut self.prepared, nodes.clone());
+        for range in [old.start..old.end.min(nodes.start), old.start.max(nodes.end)..old.end] {
+            if range.start < range.end {
+                self.is_active[range.clone()].fill(false);
+                self.inverse[range].fill(0.0);
+            }
+        }
         // mark_active with 1/m_L beside it: the largest mass (order-free), then the flags.
         let lumped = &self.lumped[nodes.clone()];
         let mut maxima = std::mem::take(&mut self.block_counts);
         workers.blocks(lumped.len(), &mut maxima, |range| {
             // Eight running maxima side by side (the maximum does not depend on the order).
             let mut lanes = [0.0f64; 8];
-            let start = nodes.start + range.start;
-            crate::grid::column_runs(start, range.len(), line_len, &columns, |run, _, _| {
-                let run = &lumped[range.start + run.start..range.start + run.end];
-                let chunks = run.chunks_exact(8);
-                let rest = chunks.remainder();
-                for chunk in chunks {
-                    for (m, &v) in lanes.iter_mut().zip(chunk) {
-                        *m = m.max(v);
-                    }
-                }
-                for (m, &v) in lanes.iter_mut().zip(rest) {
+            let chunks = lumped[range].chunks_exact(8);
+            let rest = chunks.remainder();
+            for chunk in chunks {
+                for (m, &v) in lanes.iter_mut().zip(chunk) {
                     *m = m.max(v);
                 }
-            });
-            let max = lanes.iter().cloned().fold(0.0, f64::max);
+            }
+            let max = rest.iter().chain(&lanes).cloned().fold(0.0, f64::max);
             [max.to_bits() as usize, 0]
         });
         let max = maxima.iter().map(|b| f64::from_bits(b[0] as u64)).fold(0.0, f64::max);
         let threshold = options.active_tolerance * max;
-        let out = (&mut self.is_active[nodes.clone()], &mut self.inverse[nodes.clone()]);
-        // Nodes outside the columns hold no mass: inactive, `1/m_L = 0`, as left above.
+        let out = (&mut self.is_active[nodes.clone()], &mut self.inverse[nodes]);
         workers.split_blocks(out, &mut maxima, |first, (flags, inverse)| {
             let (mut active, mut positive) = (0, 0);
-            let start = nodes.start + first;
-            crate::grid::column_runs(start, flags.len(), line_len, &columns, |run, _, _| {
-                for j in run {
-                    let m = lumped[first + j];
-                    let flag = is_active_mass(m, threshold);
-                    flags[j] = flag;
-                    inverse[j] = if flag { 1.0 / m } else { 0.0 };
-                    active += usize::from(flag);
-                    positive += usize::from(m > 0.0);
-                }
-            });
+            for (j, (flag, inv)) in flags.iter_mut().zip(inverse.iter_mut()).enumerate() {
+                let m = lumped[first + j];
+                *flag = is_active_mass(m, threshold);
+                *inv = if *flag { 1.0 / m } else { 0.0 };
+                active += usize::from(*flag);
+                positive += usize::from(m > 0.0);
+            }
             [active, positive]
         });
         let [active, positive] = maxima.iter().fold([0, 0], |[a, p], b| [a + b[0], p + b[1]]);

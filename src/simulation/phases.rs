@@ -209,19 +209,14 @@ fn lumped_only(plan: &StepPlan) -> bool {
     plan.mass.velocity == MassScheme::Lumped && plan.mass.acceleration == MassScheme::Lumped
 }
 
-/// The nodes that may carry grid mass, as a node span and the indices along the grid lines
-/// within it: the operators' ([`Operators::node_span`], [`Operators::column_span`]), or every
-/// node when walls fold mass across them (mirrored or slip walls).
-/// With `written`, the nodes its last p2g wrote in place of the operators'.
-pub(super) fn massive_box(
-    setup: &Setup,
-    ops: &Operators,
-    written: Option<&GridState>,
-) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+/// The nodes that may carry grid mass: the operators' span ([`Operators::node_span`]; with
+/// `written`, the span its last p2g wrote in place of the operators'), or every node when walls
+/// fold mass across them (mirrored or slip walls).
+pub(super) fn massive_span(setup: &Setup, ops: &Operators, written: Option<&GridState>) -> std::ops::Range<usize> {
     match written {
-        _ if folds_mass(setup) => (0..ops.num_nodes(), 0..ops.line_length()),
-        Some(grid) => grid.node_box(),
-        None => (ops.node_span(), ops.column_span()),
+        _ if folds_mass(setup) => 0..ops.num_nodes(),
+        Some(grid) => grid.span.clone(),
+        None => ops.node_span(),
     }
 }
 
@@ -246,12 +241,13 @@ pub(super) fn prepare_mass(
 ) -> Result<()> {
     let (slip, workers) = (&setup.prescribed.slip, &setup.workers);
     let constraints = &setup.prescribed.constraints;
-    let nodes = massive_box(setup, ops, None);
+    // (The whole span: skipping the columns outside p2g's ran no faster.)
+    let span = massive_span(setup, ops, None);
     if slip.is_empty() || lumped_only(plan) {
-        return mass.prepare_with(ops, &p.mass, choice, constraints, nodes, workers);
+        return mass.prepare_with(ops, &p.mass, choice, constraints, span, workers);
     }
     let [x, y] = each;
-    mass.prepare_components([x, y], &p.mass, choice, constraints, nodes.0, workers)
+    mass.prepare_components([x, y], &p.mass, choice, constraints, span, workers)
 }
 
 /// (6)–(8b) and XPIC/FMPM's series velocity (USF: the stress update after (6)); the
