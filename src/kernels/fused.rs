@@ -17,10 +17,16 @@
 //! scattered again from every particle that reaches them, in order. With one worker the band
 //! is the whole accumulator and nothing is skipped.
 //!
+//! **Which nodes it zeroes.** The next accumulator covers [`MARGIN`] lines around the last
+//! step's, and within each line [`MARGIN`] nodes on either side of the columns the last node
+//! pass read ([`crate::operators::Operators::column_span`]); each line is zeroed over those
+//! columns just before its first terms. The next node pass reads the columns of the new
+//! stencils only, so entries outside the zeroed columns are never read.
+//!
 //! **When it stops.** A particle the grid does not accept, a stencil shifted at the grid's
-//! edge (uGIMP) or a stencil beyond the lines prepared ([`MARGIN`] lines around the last
-//! step's) stops the scatter: the pass still finishes the step, and the next step assembles
-//! and scatters as usual (reporting the particle where the grid does not accept it).
+//! edge (uGIMP) or a stencil beyond the lines or columns prepared stops the scatter: the pass
+//! still finishes the step, and the next step assembles and scatters as usual (reporting the
+//! particle where the grid does not accept it).
 
 use super::g2p::{g2p_block_next, split_pass, BlockColumns, Fused, G2pBlock, G2pInput, G2pOutput, G2pRule, Packed};
 use super::p2g::{p2g_columns, p2g_columns_body, Band, P2gSource};
@@ -30,8 +36,9 @@ use crate::operators::{relocate, Operators};
 use crate::parallel::{Splittable, Workers, REDUCTION_BLOCK};
 use crate::particles::Particles;
 
-/// Grid lines beyond the last step's line span that the next step's accumulator covers: a
-/// particle whose stencil moves further (more than a cell in a step) stops the fused scatter.
+/// Grid lines beyond the last step's line span that the next step's accumulator covers, and
+/// nodes beyond its column span within each line that it zeroes: a particle whose stencil
+/// moves further (more than a cell in a step) stops the fused scatter.
 pub const MARGIN: usize = 2;
 
 /// The next step's accumulator and what the fused pass found per block of particles.
